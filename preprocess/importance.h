@@ -1,0 +1,87 @@
+// Improved 3D Douglas-Peucker importance order (paper §2.1, §3.1; DESIGN.md "Improved 3D_DP").
+//
+// 1. Base plane: origin O, anchor A, floating point B (the pair of vectors from O with the
+//    largest cross product).
+// 2. Sequencing: nearest-neighbour chain over all unlocked points but O, from A, ending at B.
+// 3. Selection with threshold 0: recursive split of the chain at the point farthest from the
+//    current base plane (through O and the sub-chain's two end points). River points use the
+//    BAI pseudo distance (Eq. 2). Every point receives its own importance = its (pseudo) distance
+//    when it was selected, and the effective importance = min(own, parent's effective), so that
+//    the points with effective importance > t are exactly those plain 3D_DP with threshold t keeps.
+// Locked points take no part (paper §3.1). Details and degenerate cases: importance.cpp.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "bai.h"
+#include "points.h"
+
+namespace unilod {
+
+struct ImportanceOptions {
+    bool useBai = true;                    // false: plain 3D_DP (--no-bai)
+    BaiTable baiTable = BaiTable::paperDefault();
+    double baiRow = kDefaultBaiRow;        // simplification-threshold row of Table 1
+};
+
+struct ImportanceResult {
+    PointId origin = kNoPoint, anchor = kNoPoint, floating = kNoPoint;  // O, A, B
+    // Nearest-neighbour chain (point ids): A first, B last, every unlocked point but O once.
+    std::vector<PointId> chain;
+    // Per point id. Locked points: NaN. O, A, B: +infinity (always kept).
+    std::vector<double> ownImportance;
+    std::vector<double> importance;  // effective importance
+    std::vector<std::uint32_t> depth;  // depth in the split tree (O, A, B, locked: 0)
+    std::vector<float> baiFactor;      // C * BAI + 1 per point (1 with BAI off, and DEM points)
+    // Deletion order: every unlocked point once, ascending effective importance; ties: deeper
+    // split-tree depth first (descendants before ancestors), then lower id. O, A, B come last.
+    std::vector<PointId> order;
+};
+
+// Returns false with `error` set when the options are invalid (unknown BAI row).
+bool computeImportance(const PointSet& set, const ImportanceOptions& options,
+                       ImportanceResult& result, std::string& error);
+
+// --- Building blocks, exposed for tests and reference implementations -----------------------
+
+// Coordinates quantised to a fixed grid of kGridUnit metres relative to a common origin, so that
+// orientation / collinearity tests are exact integer arithmetic.
+inline constexpr double kGridUnit = 1e-3;  // 1 mm
+struct GridPoint {
+    std::int64_t x = 0, y = 0, z = 0;
+    bool operator==(const GridPoint&) const = default;
+};
+struct Quantizer {
+    double ox = 0, oy = 0, oz = 0;  // grid origin (metres)
+    static Quantizer forPoints(const std::vector<Point>& points);
+    GridPoint operator()(const Point& p) const;
+};
+
+// Distance from a point to the base plane through O, P (sub-chain start) and Q (end), in metres.
+// Degenerate cases: O, P, Q collinear with P != Q -> distance to line PQ; P == Q != O -> distance
+// to line OP; P == Q == O -> distance to O. Degeneracy is decided exactly on grid coordinates.
+class PlaneDistance {
+public:
+    PlaneDistance(const GridPoint& o, const GridPoint& p, const GridPoint& q);
+    double operator()(const GridPoint& x) const;
+    enum class Kind { Plane, Line, Point };
+    Kind kind() const { return kind_; }
+
+private:
+    Kind kind_;
+    double ax_, ay_, az_;  // plane: unit normal; line: anchor point
+    double dx_, dy_, dz_;  // line: unit direction
+    GridPoint base_;
+};
+
+// Selection tie-break shared by the implementation and reference checks: among interior chain
+// positions with equal (pseudo) distance, the one closest to the middle of [s, e], then the lower.
+inline bool preferSplit(std::int64_t k, std::int64_t best, std::int64_t s, std::int64_t e) {
+    const std::int64_t dk = k * 2 - (s + e), db = best * 2 - (s + e);
+    const std::int64_t ak = dk < 0 ? -dk : dk, ab = db < 0 ? -db : db;
+    return ak < ab || (ak == ab && k < best);
+}
+
+}  // namespace unilod

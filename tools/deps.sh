@@ -1,0 +1,32 @@
+# Sourced by tools/test.sh and tools/demo.sh: makes sure the Debian 12 packages unilod needs are
+# installed. Installs what is missing when it can (root, or password-less sudo); otherwise prints
+# the exact apt-get line and stops.
+UNILOD_DEBIAN_PACKAGES=(
+    build-essential cmake ninja-build pkg-config
+    libgdal-dev gdal-bin
+    nlohmann-json3-dev libcli11-dev
+    libgtest-dev
+)
+
+unilod_ensure_packages() {
+    local missing=() p
+    for p in "${UNILOD_DEBIAN_PACKAGES[@]}"; do
+        if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed'; then
+            missing+=("$p")
+        fi
+    done
+    [ ${#missing[@]} -eq 0 ] && return 0
+    echo "unilod: installing missing Debian packages: ${missing[*]}"
+    local sudo=()
+    if [ "$(id -u)" -ne 0 ]; then
+        if command -v sudo >/dev/null 2>&1 && sudo -n true 2>/dev/null; then
+            sudo=(sudo)
+        else
+            echo "unilod: cannot install packages (not root, no password-less sudo). Run:" >&2
+            echo "  sudo apt-get install -y ${missing[*]}" >&2
+            return 1
+        fi
+    fi
+    "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get update -q &&
+        "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}"
+}
