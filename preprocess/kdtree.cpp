@@ -1,0 +1,157 @@
+// kd-tree with deletions (see kdtree.h). Median splits on the widest axis of each node's box,
+// leaves of at most kLeafSize points. Coordinates are copied in leaf order so that a leaf scan is
+// a linear walk over memory.
+#include "kdtree.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+
+namespace unilod {
+
+namespace {
+constexpr std::uint32_t kLeafSize = 12;
+
+double boxDistance2(const double lo[3], const double hi[3], double qx, double qy, double qz) {
+    const double q[3] = {qx, qy, qz};
+    double d2 = 0;
+    for (int a = 0; a < 3; ++a) {
+        const double d = q[a] < lo[a] ? lo[a] - q[a] : (q[a] > hi[a] ? q[a] - hi[a] : 0.0);
+        d2 += d * d;
+    }
+    return d2;
+}
+}  // namespace
+
+KdTree::KdTree(std::span<const double> x, std::span<const double> y, std::span<const double> z) {
+    assert(x.size() == y.size() && y.size() == z.size());
+    const auto n = static_cast<std::uint32_t>(x.size());
+    id_.resize(n);
+    for (std::uint32_t i = 0; i < n; ++i) id_[i] = i;
+    if (n == 0) return;
+    nodes_.reserve(2 * (n / kLeafSize + 1));
+    const double* coord[3] = {x.data(), y.data(), z.data()};
+
+    // Iterative build: (node index, begin, end) work list; children are appended.
+    struct Work {
+        std::uint32_t node, begin, end;
+    };
+    std::vector<Work> work;
+    nodes_.push_back(Node{{0, 0, 0}, {0, 0, 0}, 0, n, n, kNone, kNone, kNone});
+    work.push_back({0, 0, n});
+    while (!work.empty()) {
+        const Work w = work.back();
+        work.pop_back();
+        Node& node = nodes_[w.node];
+        for (int a = 0; a < 3; ++a) {
+            node.lo[a] = HUGE_VAL;
+            node.hi[a] = -HUGE_VAL;
+        }
+        for (std::uint32_t k = w.begin; k < w.end; ++k) {
+            for (int a = 0; a < 3; ++a) {
+                node.lo[a] = std::min(node.lo[a], coord[a][id_[k]]);
+                node.hi[a] = std::max(node.hi[a], coord[a][id_[k]]);
+            }
+        }
+        if (w.end - w.begin <= kLeafSize) continue;
+        int axis = 0;
+        for (int a = 1; a < 3; ++a) {
+            if (node.hi[a] - node.lo[a] > node.hi[axis] - node.lo[axis]) axis = a;
+        }
+        const std::uint32_t mid = w.begin + (w.end - w.begin) / 2;
+        const double* c = coord[axis];
+        // Ties by id keep the build deterministic across standard libraries.
+        std::nth_element(id_.begin() + w.begin, id_.begin() + mid, id_.begin() + w.end,
+                         [c](std::uint32_t a, std::uint32_t b) {
+                             return c[a] < c[b] || (c[a] == c[b] && a < b);
+                         });
+        const auto left = static_cast<std::uint32_t>(nodes_.size());
+        const std::uint32_t parent = w.node;
+        nodes_[parent].left = left;
+        nodes_[parent].right = left + 1;
+        nodes_.push_back(Node{{0, 0, 0}, {0, 0, 0}, w.begin, mid, mid - w.begin, parent, kNone, kNone});
+        nodes_.push_back(Node{{0, 0, 0}, {0, 0, 0}, mid, w.end, w.end - mid, parent, kNone, kNone});
+        work.push_back({left + 1, mid, w.end});
+        work.push_back({left, w.begin, mid});
+    }
+
+    x_.resize(n);
+    y_.resize(n);
+    z_.resize(n);
+    pos_.resize(n);
+    leafOf_.resize(n);
+    alive_.assign(n, 1);
+    for (std::uint32_t k = 0; k < n; ++k) {
+        x_[k] = x[id_[k]];
+        y_[k] = y[id_[k]];
+        z_[k] = z[id_[k]];
+        pos_[id_[k]] = k;
+    }
+    for (std::uint32_t v = 0; v < nodes_.size(); ++v) {
+        if (nodes_[v].left != kNone) continue;
+        for (std::uint32_t k = nodes_[v].begin; k < nodes_[v].end; ++k) leafOf_[k] = v;
+    }
+}
+
+void KdTree::remove(std::uint32_t i) {
+    const std::uint32_t k = pos_[i];
+    assert(alive_[k]);
+    alive_[k] = 0;
+    for (std::uint32_t v = leafOf_[k]; v != kNone; v = nodes_[v].parent) --nodes_[v].alive;
+}
+
+std::uint32_t KdTree::nearest(double qx, double qy, double qz) const {
+    if (aliveCount() == 0) return kNone;
+    double bestD2 = HUGE_VAL;
+    std::uint32_t best = kNone;
+    // Depth-first, nearer child first. A node is skipped when it is empty or strictly farther than
+    // the best so far (not when equal: an equally near point with a lower index may be there).
+    struct Item {
+        std::uint32_t node;
+        double d2;
+    };
+    Item stack[128];
+    int top = 0;
+    stack[top++] = {0, 0.0};
+    while (top > 0) {
+        const Item it = stack[--top];
+        if (it.d2 > bestD2) continue;
+        const Node& node = nodes_[it.node];
+        if (node.alive == 0) continue;
+        if (node.left == kNone) {
+            for (std::uint32_t k = node.begin; k < node.end; ++k) {
+                if (!alive_[k]) continue;
+                const double dx = x_[k] - qx, dy = y_[k] - qy, dz = z_[k] - qz;
+                const double d2 = dx * dx + dy * dy + dz * dz;
+                if (d2 < bestD2 || (d2 == bestD2 && id_[k] < best)) {
+                    bestD2 = d2;
+                    best = id_[k];
+                }
+            }
+            continue;
+        }
+        const Node& l = nodes_[node.left];
+        const Node& r = nodes_[node.right];
+        const double dl = l.alive ? boxDistance2(l.lo, l.hi, qx, qy, qz) : HUGE_VAL;
+        const double dr = r.alive ? boxDistance2(r.lo, r.hi, qx, qy, qz) : HUGE_VAL;
+        // Push the farther first so the nearer is explored first.
+        if (dl <= dr) {
+            if (dr <= bestD2) stack[top++] = {node.right, dr};
+            if (dl <= bestD2) stack[top++] = {node.left, dl};
+        } else {
+            if (dl <= bestD2) stack[top++] = {node.left, dl};
+            if (dr <= bestD2) stack[top++] = {node.right, dr};
+        }
+        assert(top < 126);
+    }
+    return best;
+}
+
+std::size_t KdTree::memoryBytes() const {
+    return nodes_.capacity() * sizeof(Node) +
+           (x_.capacity() + y_.capacity() + z_.capacity()) * sizeof(double) +
+           (id_.capacity() + pos_.capacity() + leafOf_.capacity()) * sizeof(std::uint32_t) +
+           alive_.capacity();
+}
+
+}  // namespace unilod
