@@ -34,6 +34,7 @@
 #include <algorithm>
 #include <array>
 #include <cassert>
+#include <chrono>
 #include <cmath>
 #include <limits>
 
@@ -59,6 +60,19 @@ bool Quantizer::fits(const Point& p) const {
 }
 
 namespace {
+
+class Stopwatch {
+public:
+    double lap() {
+        const auto now = std::chrono::steady_clock::now();
+        const double s = std::chrono::duration<double>(now - last_).count();
+        last_ = now;
+        return s;
+    }
+
+private:
+    std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
 
 struct Cross {
     Int128 x, y, z;
@@ -106,7 +120,8 @@ std::uint32_t chooseOrigin(const std::vector<GridPoint>& g) {
 }
 
 // A and B as local indices (a < b), see the file comment.
-std::array<std::uint32_t, 2> chooseBasePair(const std::vector<GridPoint>& g, std::uint32_t o) {
+std::array<std::uint32_t, 2> chooseBasePair(const std::vector<GridPoint>& g, std::uint32_t o,
+                                            std::size_t& candidates) {
     const auto n = static_cast<std::uint32_t>(g.size());
     std::vector<double> r2(n);
     for (std::uint32_t i = 0; i < n; ++i) r2[i] = dist2(g[i], g[o]);
@@ -159,6 +174,7 @@ std::array<std::uint32_t, 2> chooseBasePair(const std::vector<GridPoint>& g, std
     for (std::uint32_t i = 0; i < n; ++i) {
         if (i != o && r2[i] * r2max * kSlack >= best) cand.push_back(i);
     }
+    candidates = cand.size();
     std::sort(cand.begin(), cand.end(), [&](std::uint32_t a, std::uint32_t b) {
         return r2[a] > r2[b] || (r2[a] == r2[b] && a < b);
     });
@@ -254,11 +270,10 @@ bool computeImportance(const PointSet& set, const ImportanceOptions& options,
         }
     }
 
+    Stopwatch watch;
+    ImportanceStats& stats = result.stats;
     const double inf = std::numeric_limits<double>::infinity();
     const double nan = std::numeric_limits<double>::quiet_NaN();
-    result.ownImportance.assign(n, nan);
-    result.importance.assign(n, nan);
-    result.depth.assign(n, 0);
     if (options.useBai) {
         const int row = options.baiTable.findRow(options.baiRow);
         if (row < 0) {
@@ -269,6 +284,7 @@ bool computeImportance(const PointSet& set, const ImportanceOptions& options,
     } else {
         result.baiFactor.assign(n, 1.0f);
     }
+    stats.baiSeconds = watch.lap();
 
     // Unlocked points in id order; from here on "local" indices refer to this list.
     std::vector<PointId> ids;
@@ -276,7 +292,13 @@ bool computeImportance(const PointSet& set, const ImportanceOptions& options,
         if (!pts[i].locked) ids.push_back(i);
     }
     const auto m = static_cast<std::uint32_t>(ids.size());
+    auto allocateResult = [&] {
+        result.ownImportance.assign(n, nan);
+        result.importance.assign(n, nan);
+        result.depth.assign(n, 0);
+    };
     if (m < 3) {
+        allocateResult();
         // Too few to span a base plane: all are kept, in id order.
         for (PointId id : ids) {
             result.ownImportance[id] = result.importance[id] = inf;
@@ -293,35 +315,31 @@ bool computeImportance(const PointSet& set, const ImportanceOptions& options,
     std::vector<GridPoint> g(m);
     for (std::uint32_t i = 0; i < m; ++i) g[i] = quantizer(pts[ids[i]]);
     const std::uint32_t o = chooseOrigin(g);
-    const auto [a, b] = chooseBasePair(g, o);
+    const auto [a, b] = chooseBasePair(g, o, stats.basePairCandidates);
     result.origin = ids[o];
     result.anchor = ids[a];
     result.floating = ids[b];
+    stats.basePlaneSeconds = watch.lap();
 
     // Nearest-neighbour chain A -> ... -> B over everything but O.
     std::vector<std::uint32_t> chain;  // local indices
     chain.reserve(m - 1);
     {
-        std::vector<double> x(m), y(m), z(m);
-        for (std::uint32_t i = 0; i < m; ++i) {
-            x[i] = double(g[i].x);
-            y[i] = double(g[i].y);
-            z[i] = double(g[i].z);
-        }
-        KdTree tree(x, y, z);
+        KdTree tree(g);
         tree.remove(o);
         tree.remove(a);
         tree.remove(b);
         std::uint32_t cur = a;
         chain.push_back(a);
         while (tree.aliveCount() > 0) {
-            const std::uint32_t next = tree.nearest(x[cur], y[cur], z[cur]);
+            const std::uint32_t next = tree.nearest(tree.x(cur), tree.y(cur), tree.z(cur));
             tree.remove(next);
             chain.push_back(next);
             cur = next;
         }
         chain.push_back(b);
     }
+    stats.chainSeconds = watch.lap();
 
     // Selection over the chain, with chain-ordered copies for linear scans.
     const auto c = static_cast<std::uint32_t>(chain.size());
@@ -331,6 +349,8 @@ bool computeImportance(const PointSet& set, const ImportanceOptions& options,
         cg[k] = g[chain[k]];
         cf[k] = result.baiFactor[ids[chain[k]]];
     }
+    const GridPoint origin = g[o];
+    std::vector<GridPoint>().swap(g);
     std::vector<double> own(c, inf), eff(c, inf);
     std::vector<std::uint32_t> depth(c, 0);
     struct Segment {
@@ -339,7 +359,6 @@ bool computeImportance(const PointSet& set, const ImportanceOptions& options,
         std::uint32_t depth;
     };
     std::vector<Segment> stack{{0, c - 1, inf, 1}};
-    const GridPoint origin = g[o];
     while (!stack.empty()) {
         const Segment seg = stack.back();
         stack.pop_back();
@@ -361,6 +380,11 @@ bool computeImportance(const PointSet& set, const ImportanceOptions& options,
         stack.push_back({seg.s, best, eff[best], seg.depth + 1});
     }
 
+    stats.selectionSeconds = watch.lap();
+    std::vector<GridPoint>().swap(cg);
+    std::vector<float>().swap(cf);
+
+    allocateResult();
     result.chain.resize(c);
     for (std::uint32_t k = 0; k < c; ++k) {
         const PointId id = ids[chain[k]];
@@ -368,7 +392,10 @@ bool computeImportance(const PointSet& set, const ImportanceOptions& options,
         result.ownImportance[id] = own[k];
         result.importance[id] = eff[k];
         result.depth[id] = depth[k];
+        stats.maxDepth = std::max(stats.maxDepth, depth[k]);
+        stats.meanDepth += double(depth[k]);
     }
+    stats.meanDepth /= double(c);
     result.ownImportance[ids[o]] = result.importance[ids[o]] = inf;
 
     // Deletion order: ascending effective importance, deeper first, then lower id.
@@ -389,6 +416,7 @@ bool computeImportance(const PointSet& set, const ImportanceOptions& options,
     });
     result.order.resize(m);
     for (std::uint32_t i = 0; i < m; ++i) result.order[i] = keys[i].id;
+    stats.orderSeconds = watch.lap();
     return true;
 }
 

@@ -28,6 +28,15 @@ struct ImportanceOptions {
     double baiRow = kDefaultBaiRow;        // simplification-threshold row of Table 1
 };
 
+// Where the time went and how the search behaved (for benchmarks and summaries).
+struct ImportanceStats {
+    double baiSeconds = 0, basePlaneSeconds = 0, chainSeconds = 0, selectionSeconds = 0,
+           orderSeconds = 0;
+    std::size_t basePairCandidates = 0;  // points left for the exact base-pair search
+    std::uint32_t maxDepth = 0;          // depth of the split tree
+    double meanDepth = 0;
+};
+
 struct ImportanceResult {
     PointId origin = kNoPoint, anchor = kNoPoint, floating = kNoPoint;  // O, A, B
     // Nearest-neighbour chain (point ids): A first, B last, every unlocked point but O once.
@@ -40,6 +49,7 @@ struct ImportanceResult {
     // Deletion order: every unlocked point once, ascending effective importance; ties: deeper
     // split-tree depth first (descendants before ancestors), then lower id. O, A, B come last.
     std::vector<PointId> order;
+    ImportanceStats stats;
 };
 
 // Returns false with `error` set when the options are invalid (unknown BAI row).

@@ -23,14 +23,31 @@ double boxDistance2(const double lo[3], const double hi[3], double qx, double qy
 }
 }  // namespace
 
-KdTree::KdTree(std::span<const double> x, std::span<const double> y, std::span<const double> z) {
+KdTree::KdTree(std::span<const double> x, std::span<const double> y, std::span<const double> z)
+    : x_(x.begin(), x.end()), y_(y.begin(), y.end()), z_(z.begin(), z.end()) {
     assert(x.size() == y.size() && y.size() == z.size());
-    const auto n = static_cast<std::uint32_t>(x.size());
+    build();
+}
+
+KdTree::KdTree(std::span<const GridPoint> points) {
+    x_.resize(points.size());
+    y_.resize(points.size());
+    z_.resize(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        x_[i] = double(points[i].x);
+        y_[i] = double(points[i].y);
+        z_[i] = double(points[i].z);
+    }
+    build();
+}
+
+void KdTree::build() {
+    const auto n = static_cast<std::uint32_t>(x_.size());
     id_.resize(n);
     for (std::uint32_t i = 0; i < n; ++i) id_[i] = i;
     if (n == 0) return;
     nodes_.reserve(2 * (n / kLeafSize + 1));
-    const double* coord[3] = {x.data(), y.data(), z.data()};
+    const double* coord[3] = {x_.data(), y_.data(), z_.data()};
 
     // Iterative build: (node index, begin, end) work list; children are appended.
     struct Work {
@@ -75,18 +92,16 @@ KdTree::KdTree(std::span<const double> x, std::span<const double> y, std::span<c
         work.push_back({left, w.begin, mid});
     }
 
-    x_.resize(n);
-    y_.resize(n);
-    z_.resize(n);
+    // Coordinates into leaf order, one axis at a time (one temporary array).
+    std::vector<double> tmp(n);
+    for (std::vector<double>* axis : {&x_, &y_, &z_}) {
+        for (std::uint32_t k = 0; k < n; ++k) tmp[k] = (*axis)[id_[k]];
+        axis->swap(tmp);
+    }
     pos_.resize(n);
     leafOf_.resize(n);
     alive_.assign(n, 1);
-    for (std::uint32_t k = 0; k < n; ++k) {
-        x_[k] = x[id_[k]];
-        y_[k] = y[id_[k]];
-        z_[k] = z[id_[k]];
-        pos_[id_[k]] = k;
-    }
+    for (std::uint32_t k = 0; k < n; ++k) pos_[id_[k]] = k;
     for (std::uint32_t v = 0; v < nodes_.size(); ++v) {
         if (nodes_[v].left != kNone) continue;
         for (std::uint32_t k = nodes_[v].begin; k < nodes_[v].end; ++k) leafOf_[k] = v;
