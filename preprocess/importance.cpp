@@ -332,7 +332,7 @@ bool computeImportance(const PointSet& set, const ImportanceOptions& options,
         std::uint32_t cur = a;
         chain.push_back(a);
         while (tree.aliveCount() > 0) {
-            const std::uint32_t next = tree.nearest(tree.x(cur), tree.y(cur), tree.z(cur));
+            const std::uint32_t next = tree.nearestTo(cur);
             tree.remove(next);
             chain.push_back(next);
             cur = next;

@@ -115,10 +115,21 @@ void KdTree::remove(std::uint32_t i) {
     for (std::uint32_t v = leafOf_[k]; v != kNone; v = nodes_[v].parent) --nodes_[v].alive;
 }
 
-std::uint32_t KdTree::nearest(double qx, double qy, double qz) const {
-    if (aliveCount() == 0) return kNone;
-    double bestD2 = HUGE_VAL;
-    std::uint32_t best = kNone;
+void KdTree::scanLeaf(const Node& leaf, double qx, double qy, double qz, std::uint32_t& best,
+                      double& bestD2) const {
+    for (std::uint32_t k = leaf.begin; k < leaf.end; ++k) {
+        if (!alive_[k]) continue;
+        const double dx = x_[k] - qx, dy = y_[k] - qy, dz = z_[k] - qz;
+        const double d2 = dx * dx + dy * dy + dz * dz;
+        if (d2 < bestD2 || (d2 == bestD2 && id_[k] < best)) {
+            bestD2 = d2;
+            best = id_[k];
+        }
+    }
+}
+
+void KdTree::search(std::uint32_t root, double qx, double qy, double qz, std::uint32_t& best,
+                    double& bestD2) const {
     // Depth-first, nearer child first. A node is skipped when it is empty or strictly farther than
     // the best so far (not when equal: an equally near point with a lower index may be there).
     struct Item {
@@ -127,22 +138,14 @@ std::uint32_t KdTree::nearest(double qx, double qy, double qz) const {
     };
     Item stack[128];
     int top = 0;
-    stack[top++] = {0, 0.0};
+    stack[top++] = {root, 0.0};
     while (top > 0) {
         const Item it = stack[--top];
         if (it.d2 > bestD2) continue;
         const Node& node = nodes_[it.node];
         if (node.alive == 0) continue;
         if (node.left == kNone) {
-            for (std::uint32_t k = node.begin; k < node.end; ++k) {
-                if (!alive_[k]) continue;
-                const double dx = x_[k] - qx, dy = y_[k] - qy, dz = z_[k] - qz;
-                const double d2 = dx * dx + dy * dy + dz * dz;
-                if (d2 < bestD2 || (d2 == bestD2 && id_[k] < best)) {
-                    bestD2 = d2;
-                    best = id_[k];
-                }
-            }
+            scanLeaf(node, qx, qy, qz, best, bestD2);
             continue;
         }
         const Node& l = nodes_[node.left];
@@ -151,13 +154,54 @@ std::uint32_t KdTree::nearest(double qx, double qy, double qz) const {
         const double dr = r.alive ? boxDistance2(r.lo, r.hi, qx, qy, qz) : HUGE_VAL;
         // Push the farther first so the nearer is explored first.
         if (dl <= dr) {
-            if (dr <= bestD2) stack[top++] = {node.right, dr};
-            if (dl <= bestD2) stack[top++] = {node.left, dl};
+            if (r.alive && dr <= bestD2) stack[top++] = {node.right, dr};
+            if (l.alive && dl <= bestD2) stack[top++] = {node.left, dl};
         } else {
-            if (dl <= bestD2) stack[top++] = {node.left, dl};
-            if (dr <= bestD2) stack[top++] = {node.right, dr};
+            if (l.alive && dl <= bestD2) stack[top++] = {node.left, dl};
+            if (r.alive && dr <= bestD2) stack[top++] = {node.right, dr};
         }
         assert(top < 126);
+    }
+}
+
+std::uint32_t KdTree::nearest(double qx, double qy, double qz) const {
+    std::uint32_t best = kNone;
+    double bestD2 = HUGE_VAL;
+    if (aliveCount() > 0) search(0, qx, qy, qz, best, bestD2);
+    return best;
+}
+
+std::uint32_t KdTree::nearestTo(std::uint32_t i) const {
+    if (aliveCount() == 0) return kNone;
+    const std::uint32_t k = pos_[i];
+    const double qx = x_[k], qy = y_[k], qz = z_[k];
+    std::uint32_t best = kNone;
+    double bestD2 = HUGE_VAL;
+    std::uint32_t node = leafOf_[k];
+    if (nodes_[node].alive) scanLeaf(nodes_[node], qx, qy, qz, best, bestD2);
+    // Walk up; at each level search the sibling subtree if it can hold something as near. Stop
+    // once the ball of radius sqrt(bestD2) around q lies strictly inside the current node's box:
+    // every point outside it then has a computed distance > bestD2 (coordinates are integers, so
+    // the per-axis differences are exact and rounding is monotone).
+    while (node != 0) {
+        const Node& cur = nodes_[node];
+        if (best != kNone) {
+            bool inside = true;
+            const double q[3] = {qx, qy, qz};
+            for (int a = 0; a < 3 && inside; ++a) {
+                const double lo = q[a] - cur.lo[a], hi = cur.hi[a] - q[a];
+                inside = lo * lo > bestD2 && hi * hi > bestD2;
+            }
+            if (inside) return best;
+        }
+        const std::uint32_t parent = cur.parent;
+        const std::uint32_t sibling = nodes_[parent].left == node ? nodes_[parent].right
+                                                                  : nodes_[parent].left;
+        const Node& sib = nodes_[sibling];
+        if (sib.alive && boxDistance2(sib.lo, sib.hi, qx, qy, qz) <= bestD2) {
+            search(sibling, qx, qy, qz, best, bestD2);
+        }
+        node = parent;
     }
     return best;
 }
