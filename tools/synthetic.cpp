@@ -359,7 +359,8 @@ bool addLine(SegmentIndex& index, const RiverLine& line, int id, SkipAtEnd skipA
 double pathLength(const RiverLine& line) {
     double len = 0;
     for (std::size_t i = 0; i + 1 < line.size(); ++i) {
-        len += std::hypot(line[i + 1].x - line[i].x, line[i + 1].y - line[i].y);
+        const double dx = line[i + 1].x - line[i].x, dy = line[i + 1].y - line[i].y;
+        len += std::sqrt(dx * dx + dy * dy);  // not std::hypot: sqrt is exactly rounded
     }
     return len;
 }
@@ -403,7 +404,6 @@ bool walkTributary(Rng& rng, const RiverPlan& plan, double vLow, const RiverLine
                    std::size_t j, int side, RiverLine& line) {
     MeanderStyle style{10, 28, 0.15, 0.8, 0.0, 0.0, 0.0};
     Walker walker{rng, style, 1.0};
-    walker.phase = 0;
     const double base = side * kHalfPi + rng.uniform(-0.6, 0.6);
     const double length = std::max(4.0, rng.uniform(0.2, 0.44) * plan.band);
     line.clear();
