@@ -287,3 +287,24 @@ TEST(CliSynth, WritesReadableFiles) {
         run("order " + q(out + "/dem.tif") + " " + q(out + "/rivers.geojson") + " --json");
     EXPECT_EQ(o.code, 0) << o.err;
 }
+
+TEST(CliOrder, BaiTableFromAFile) {
+    TempDir dir("table");
+    const std::string table = dir.file("table.txt");
+    std::ofstream(table) << "# test table\naltitudes 0 500 1000\n250 3 3 3\n";
+    const Result r = run("order " + q(kDem) + " " + q(kRivers) + " --stride 4 --bai-table " +
+                         q(table) + " --bai-row 250 --json");
+    ASSERT_EQ(r.code, 0) << r.err;
+    const nlohmann::json s = nlohmann::json::parse(r.out);
+    ASSERT_FALSE(s["bends"]["top"].empty());
+    for (const auto& b : s["bends"]["top"])
+        EXPECT_EQ(b["c"].get<double>(), 3.0);
+    EXPECT_EQ(s["bai"]["table"].get<std::string>(), table);
+
+    // A row the file does not have: a data error naming the file (the default table's rows are
+    // checked while parsing instead, see UsageErrorsExitWith2).
+    const Result bad =
+        run("order " + q(kDem) + " " + q(kRivers) + " --bai-table " + q(table) + " --bai-row 500");
+    EXPECT_EQ(bad.code, 1);
+    EXPECT_NE(bad.err.find(table), std::string::npos) << bad.err;
+}
