@@ -16,6 +16,12 @@
 
 #include "gdal_errors.h"
 
+// Bilinear samples must be bit-identical on every platform (the synthetic data's river altitudes
+// are compared exactly): no fused multiply-add contraction. GCC does not contract in ISO mode.
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#endif
+
 namespace unilod {
 
 namespace {

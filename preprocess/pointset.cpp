@@ -45,8 +45,9 @@ double distanceSquaredToSegment(double px, double py, const RiverVertex& a, cons
 void indexRange(double from, double to, double origin, double step, int n, int& lo, int& hi) {
     double a = (from - origin) / step, b = (to - origin) / step;
     if (a > b) std::swap(a, b);
-    lo = static_cast<int>(std::max(0.0, std::ceil(a)));
-    hi = static_cast<int>(std::min(static_cast<double>(n - 1), std::floor(b)));
+    // Clamped in double before the conversion, which would overflow for far-away ranges.
+    lo = static_cast<int>(std::clamp(std::ceil(a), 0.0, static_cast<double>(n)));
+    hi = static_cast<int>(std::clamp(std::floor(b), -1.0, static_cast<double>(n - 1)));
 }
 
 // Marks in `drop` the cells whose centre is closer than `c` to segment ab. Walks only the rows

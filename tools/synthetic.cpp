@@ -165,10 +165,11 @@ std::vector<float> generateTerrain(int width, int height, std::uint64_t seed) {
         }
         float* out = z.data() + static_cast<std::size_t>(r) * width;
         for (int c = 0; c < width; ++c) {
-            // fBm clusters around 0.5: stretch it, then mix with the eastward ramp. e^2 keeps the
-            // low half (< 500 m) flat and makes the high end (> 1000 m, e > 0.71) steep.
+            // fBm clusters around 0.5: stretch it, then add the eastward ramp. e^2 keeps the
+            // west (e < 0.5: < 500 m) flat and the east (e > 0.71: > 1000 m) steep.
             const double n = std::clamp((acc[c] / amplitudeSum - 0.5) * 2.4 + 0.5, 0.0, 1.0);
-            const double e = 0.6 * ((c + 0.5) / width) + 0.4 * n;
+            const double e =
+                std::clamp(0.15 + 0.7 * ((c + 0.5) / width) + 0.5 * (n - 0.5), 0.0, 1.0);
             out[c] = static_cast<float>(2000.0 * e * e);
         }
     }
@@ -288,7 +289,7 @@ RiverPlan planRivers(int width, int height, int requested) {
     if (requested <= 0) n = std::clamp(n, 2, 24);
     // A band must hold a meander belt of the smallest wavelength plus tributaries.
     n = std::min(n, static_cast<int>(usable / 12.0));
-    if (width < 3 * kMinWavelength) n = 0;
+    if (width < 1.5 * kMinWavelength) n = 0;  // no room for a single meander
     plan.mains = std::max(n, 0);
     plan.band = plan.mains > 0 ? usable / plan.mains : 0;
     return plan;
@@ -358,7 +359,8 @@ bool addLine(SegmentIndex& index, const RiverLine& line, int id, SkipAtEnd skipA
 double pathLength(const RiverLine& line) {
     double len = 0;
     for (std::size_t i = 0; i + 1 < line.size(); ++i) {
-        len += std::hypot(line[i + 1].x - line[i].x, line[i + 1].y - line[i].y);
+        const double dx = line[i + 1].x - line[i].x, dy = line[i + 1].y - line[i].y;
+        len += std::sqrt(dx * dx + dy * dy);  // not std::hypot: sqrt is exactly rounded
     }
     return len;
 }
@@ -402,7 +404,6 @@ bool walkTributary(Rng& rng, const RiverPlan& plan, double vLow, const RiverLine
                    std::size_t j, int side, RiverLine& line) {
     MeanderStyle style{10, 28, 0.15, 0.8, 0.0, 0.0, 0.0};
     Walker walker{rng, style, 1.0};
-    walker.phase = 0;
     const double base = side * kHalfPi + rng.uniform(-0.6, 0.6);
     const double length = std::max(4.0, rng.uniform(0.2, 0.44) * plan.band);
     line.clear();

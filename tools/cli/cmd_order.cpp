@@ -222,10 +222,10 @@ int runOrder(const OrderOptions& o) {
     if (!loadDem(o.dem, dlo, dem, error)) return fail(error);
     seconds["dem"] = secondsSince(t);
     const std::string crs = crsName(dem.wkt);
-    progress("load DEM", seconds["dem"],
-             std::to_string(dem.width) + " x " + std::to_string(dem.height) + " cells of " +
-                 json(std::abs(dem.cellX)).dump() + " x " + json(std::abs(dem.cellY)).dump() +
-                 ", " + crs);
+    char cells[160];
+    std::snprintf(cells, sizeof cells, "%d x %d cells of %.2f x %.2f, ", dem.width, dem.height,
+                  std::abs(dem.cellX), std::abs(dem.cellY));
+    progress("load DEM", seconds["dem"], cells + crs);
 
     t = Clock::now();
     RiverLines lines;
