@@ -1,9 +1,9 @@
 // River-constrained Delaunay triangulation (paper §3.3). Construction: Bowyer-Watson insertion
 // in Hilbert-curve order with a visibility walk from the last created triangle, ghost triangles
 // closing the convex hull (the "vertex at infinity" idea of Shewchuk's Triangle and CGAL), then
-// every river segment inserted by removing the triangles it crosses and re-triangulating the two
-// pseudo-polygons beside it. Cavities are re-triangulated by ear clipping with exact predicates
-// and then made constrained Delaunay by Lawson flips (a non-locally-Delaunay, non-constraint edge
+// every river segment inserted by flipping away the edges it crosses (Sloan 1993). The hole of a
+// deleted vertex is re-triangulated by ear clipping with exact predicates. Both are then made
+// constrained Delaunay by Lawson flips (a non-locally-Delaunay, non-constraint edge
 // is always flippable and every flip strictly improves the triangulation, so this terminates in
 // the constrained Delaunay triangulation; Lawson 1977, Chew 1989).
 #include "cdt.h"
@@ -338,85 +338,41 @@ bool Cdt::insertSegment(PointId a, PointId b, std::vector<PointId>& path, std::s
             cur = end;
             continue;
         }
-        // Cavity: the triangles crossed by cur-end; left / right chains of their vertices.
-        const std::vector<std::uint32_t>& crossed = trace_.crossed;
-        cavity_.clear();
-        cavity_.push_back(crossed[0] / 3);
-        left_.clear();
-        right_.clear();
-        for (std::uint32_t e : crossed) {
-            cavity_.push_back(tn[e] / 3);
-            const PointId p = origin(e), q = destination(e);
-            if (right_.empty() || right_.back() != p) right_.push_back(p);
-            if (left_.empty() || left_.back() != q) left_.push_back(q);
-        }
-        if (mark_.size() < triangleSlots()) mark_.resize(triangleSlots(), 0);
-        ++markStamp_;
-        for (std::uint32_t t : cavity_)
-            mark_[t] = markStamp_;
-        // Boundary half-edges of the cavity, keyed by origin (unique on each side).
-        boundary_.clear();
-        for (std::uint32_t t : cavity_) {
-            for (std::uint32_t i = 0; i < 3; ++i) {
-                if (mark_[tn[3 * t + i] / 3] != markStamp_) boundary_.push_back(3 * t + i);
+        // Flip the crossed edges away (Sloan 1993): an edge whose quadrilateral is strictly
+        // convex is flipped, and its new diagonal goes back to the queue while it still crosses
+        // cur-end; a non-convex one waits at the back of the queue. This terminates with cur-end
+        // an edge. (Re-triangulating the crossed region as two pseudo-polygons is not enough on
+        // its own: a vertex beside the segment can have its whole star crossed.)
+        queue_.clear();
+        for (std::uint32_t e : trace_.crossed)
+            queue_.push_back({origin(e), destination(e)});
+        touched_.clear();
+        for (std::size_t head = 0; head < queue_.size(); ++head) {
+            const auto [u, w] = queue_[head];
+            const std::uint32_t e = findEdge(u, w);
+            assert(e != kNone);
+            const PointId p = tv[e], q = tv[tn[e]];
+            const std::int64_t su = orient(p, q, u), sw = orient(p, q, w);
+            if (!((su > 0 && sw < 0) || (su < 0 && sw > 0))) {
+                queue_.push_back({u, w});
+                continue;
+            }
+            touched_.push_back(e / 3);
+            touched_.push_back(tn[e] / 3);
+            flip(e);
+            const std::int64_t sp = orient(cur, end, p), sq = orient(cur, end, q);
+            if ((sp > 0 && sq < 0) || (sp < 0 && sq > 0)) queue_.push_back({p, q});
+            if (queue_.size() > 4096 && head > queue_.size() / 2) {
+                queue_.erase(queue_.begin(), queue_.begin() + std::ptrdiff_t(head) + 1);
+                head = std::size_t(-1);
             }
         }
-        auto outerOf = [&](PointId u, PointId v, std::uint32_t& he, std::uint8_t& c) {
-            for (std::uint32_t e : boundary_) {
-                if (origin(e) == u) {
-                    assert(destination(e) == v);
-                    (void)v;
-                    he = tn[e];
-                    c = isConstrained(e) ? 1 : 0;
-                    return;
-                }
-            }
-            assert(false);
-        };
-        // Left polygon (cur, end, L_m .. L_1): its first edge is the new constraint.
-        poly_.clear();
-        poly_.push_back(cur);
-        poly_.push_back(end);
-        for (auto it = left_.rbegin(); it != left_.rend(); ++it)
-            poly_.push_back(*it);
-        const std::size_t kl = poly_.size();
-        outer_.assign(kl, kNone);
-        cons_.assign(kl, 0);
-        for (std::size_t i = 1; i < kl; ++i) {
-            outerOf(poly_[i], poly_[(i + 1) % kl], outer_[i], cons_[i]);
-        }
-        cons_[0] = 1;
-        // Outer half-edges are read before the cavity is destroyed.
-        std::vector<PointId> leftPoly = poly_;
-        std::vector<std::uint32_t> leftOuter = outer_;
-        std::vector<std::uint8_t> leftCons = cons_;
-        poly_.clear();
-        poly_.push_back(cur);
-        for (PointId r : right_)
-            poly_.push_back(r);
-        poly_.push_back(end);
-        const std::size_t kr = poly_.size();
-        outer_.assign(kr, kNone);
-        cons_.assign(kr, 0);
-        for (std::size_t i = 0; i + 1 < kr; ++i) {
-            outerOf(poly_[i], poly_[i + 1], outer_[i], cons_[i]);
-        }
-        cons_[kr - 1] = 1;
-        for (std::uint32_t t : cavity_)
-            destroyTriangle(t);
-        created_.clear();
-        std::uint32_t open = kNone;
-        bool ok = triangulatePolygon(leftPoly, leftOuter, leftCons, created_, open);
-        outer_[kr - 1] = open;
-        ok = ok && triangulatePolygon(poly_, outer_, cons_, created_, open);
-        assert(ok);
-        if (!ok) {
-            error = "internal error: cavity re-triangulation failed";
-            return false;
-        }
+        const std::uint32_t e = findEdge(cur, end);
+        assert(e != kNone);
+        setConstrained(e, true);
         ++constraintEdgeCount;
         legal_.clear();
-        for (std::uint32_t t : created_) {
+        for (std::uint32_t t : touched_) {
             legal_.push_back(3 * t);
             legal_.push_back(3 * t + 1);
             legal_.push_back(3 * t + 2);

@@ -165,9 +165,10 @@ private:
     std::uint32_t step_ = 0;
     std::uint32_t lastTriangle_ = 0;
     // Scratch buffers reused across operations.
-    std::vector<std::uint32_t> cavity_, boundary_, legal_, created_, mark_;
+    std::vector<std::uint32_t> cavity_, boundary_, legal_, created_, mark_, touched_;
+    std::vector<std::pair<PointId, PointId>> queue_;
     std::uint32_t markStamp_ = 0;
-    std::vector<PointId> poly_, left_, right_;
+    std::vector<PointId> poly_;
     std::vector<std::uint32_t> outer_, starTris_;
     std::vector<std::uint8_t> cons_;
     std::vector<std::uint32_t> earPrev_, earNext_, earEdge_;
