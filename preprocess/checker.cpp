@@ -322,20 +322,7 @@ bool checkCdt(const Cdt& cdt, const CheckReference& ref, const std::vector<River
         return fail("constraintEdgeCount is " + std::to_string(cdt.constraintEdgeCount) +
                     " but the mesh has " + std::to_string(constrained) + " constraint edges");
     }
-    // 4. Constrained Delaunay.
-    for (std::uint32_t h = 0; h < cdt.tv.size(); ++h) {
-        const std::uint32_t t = h / 3;
-        if (!cdt.triangleAlive(t) || cdt.isConstrained(h) || cdt.isGhost(t)) continue;
-        const std::uint32_t g = cdt.tn[h];
-        if (cdt.isGhost(g / 3) || cdt.origin(h) > cdt.destination(h)) continue;
-        const PointId a = cdt.tv[h], b = cdt.origin(h), c = cdt.destination(h), d = cdt.tv[g];
-        if (incircle(cdt.gx[a], cdt.gy[a], cdt.gx[b], cdt.gy[b], cdt.gx[c], cdt.gy[c], cdt.gx[d],
-                     cdt.gy[d]) > 0) {
-            return fail("edge " + edgeName(b, c) + " is not locally Delaunay: vertex " +
-                        std::to_string(d) + " lies inside the circumcircle of " + triName(t));
-        }
-    }
-    // 5. River structure.
+    // 4. River structure.
     RiverGraph graph;
     graph.build(n, edges);
     std::vector<PointId> junctions;
@@ -418,6 +405,19 @@ bool checkCdt(const Cdt& cdt, const CheckReference& ref, const std::vector<River
         if (!matched[c]) {
             return fail("original river chain " +
                         edgeName(refChains[c].front(), refChains[c].back()) + " is broken");
+        }
+    }
+    // 5. Constrained Delaunay.
+    for (std::uint32_t h = 0; h < cdt.tv.size(); ++h) {
+        const std::uint32_t t = h / 3;
+        if (!cdt.triangleAlive(t) || cdt.isConstrained(h) || cdt.isGhost(t)) continue;
+        const std::uint32_t g = cdt.tn[h];
+        if (cdt.isGhost(g / 3) || cdt.origin(h) > cdt.destination(h)) continue;
+        const PointId a = cdt.tv[h], b = cdt.origin(h), c = cdt.destination(h), d = cdt.tv[g];
+        if (incircle(cdt.gx[a], cdt.gy[a], cdt.gx[b], cdt.gy[b], cdt.gx[c], cdt.gy[c], cdt.gx[d],
+                     cdt.gy[d]) > 0) {
+            return fail("edge " + edgeName(b, c) + " is not locally Delaunay: vertex " +
+                        std::to_string(d) + " lies inside the circumcircle of " + triName(t));
         }
     }
     return true;

@@ -10,11 +10,11 @@
 //   2. locked points are vertices;
 //   3. no two river edges cross or overlap (exact segment tests), every river edge is a
 //      constraint edge of the mesh and there are no other constraint edges;
-//   4. constrained Delaunay: every non-constraint edge between two real triangles is locally
-//      Delaunay (exact in-circle <= 0);
-//   5. river structure: the same junction vertices (river degree != 2) as the reference, and
+//   4. river structure: the same junction vertices (river degree != 2) as the reference, and
 //      every reference chain between two junctions is still exactly one chain between the same
-//      junctions, through a subsequence of its original vertices in the original order.
+//      junctions, through a subsequence of its original vertices in the original order;
+//   5. constrained Delaunay: every non-constraint edge between two real triangles is locally
+//      Delaunay (exact in-circle <= 0).
 // Each check returns the first violation as a precise message.
 #pragma once
 

@@ -14,6 +14,17 @@ bool containsPoint(const Cdt& cdt, std::uint32_t t, PointId m) {
     const PointId a = cdt.tv[3 * t], b = cdt.tv[3 * t + 1], c = cdt.tv[3 * t + 2];
     return cdt.orient(a, b, m) >= 0 && cdt.orient(b, c, m) >= 0 && cdt.orient(c, a, m) >= 0;
 }
+// A real (non-ghost) triangle at vertex v.
+std::uint32_t realTriangleAt(const Cdt& cdt, PointId v) {
+    std::uint32_t t = cdt.vertexTriangle[v];
+    while (cdt.isGhost(t)) {
+        std::uint32_t i = 0;
+        while (cdt.tv[3 * t + i] != v)
+            ++i;
+        t = cdt.tn[3 * t + (i + 1) % 3] / 3;
+    }
+    return t;
+}
 }  // namespace
 
 double surfaceHeight(const PointSet& set, const Cdt& cdt, std::uint32_t t, PointId m) {
@@ -42,7 +53,7 @@ void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool 
         bucketHead_.assign(cdt.triangleSlots(), kNil);
         bucketNext_.assign(n, kNil);
         for (PointId m = 0; m < n; ++m) {
-            const std::uint32_t t = cdt.vertexTriangle[cdt.representative[m]];
+            const std::uint32_t t = realTriangleAt(cdt, cdt.representative[m]);
             bucketNext_[m] = bucketHead_[t];
             bucketHead_[t] = m;
             if (cdt.representative[m] != m) {
