@@ -289,6 +289,11 @@ bool validateBlockImpl(const Block& b, std::uint32_t metrics, std::string& error
                     std::to_string(n - 1 - s);
             return false;
         }
+        if ((b.vertices[n - 1 - s].flags & kVertexLocked) != 0) {
+            error =
+                "step " + std::to_string(s) + " deletes locked vertex " + std::to_string(n - 1 - s);
+            return false;
+        }
     }
 
     if (!checkOffsets(b.removedTriangleOffset, stepCount, b.removedTriangles.size(),

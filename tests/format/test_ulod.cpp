@@ -710,6 +710,10 @@ TEST_F(UlodValidateError, StepCountsInconsistent) {
     block = makeBlock(1, 0, kMetricMax | kMetricPaper, true);
     block.steps[0].vertex = 4;  // retention order: step 0 deletes the last vertex
     EXPECT_NE(check(block).find("step 0 deletes vertex 4"), std::string::npos) << check(block);
+    block = makeBlock(1, 0, kMetricMax | kMetricPaper, true);
+    block.vertices[4].flags |= kVertexLocked;  // deleted by step 1
+    EXPECT_NE(check(block).find("step 1 deletes locked vertex 4"), std::string::npos)
+        << check(block);
 }
 
 TEST_F(UlodValidateError, LevelVertexCountAndErrors) {
