@@ -54,9 +54,12 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
     block.maxX = hi[0];
     block.maxY = hi[1];
     block.maxZ = hi[2];
-    // Vertex x, y are floats relative to the block centre: sub-millimetre for blocks of tens of km.
-    block.originX = (lo[0] + hi[0]) / 2;
-    block.originY = (lo[1] + hi[1]) / 2;
+    // The CDT's grid origin (the centre of the points' bounding box): vertex x, y are floats
+    // relative to it (sub-millimetre for blocks of tens of km) and the exact grid coordinates
+    // stored beside them are relative to it too.
+    static_assert(format::kGridUnit == 1e-3);
+    block.originX = cdt.originX;
+    block.originY = cdt.originY;
 
     in.cdt = &cdt;
     in.points = &set;

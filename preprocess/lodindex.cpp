@@ -134,6 +134,7 @@ bool buildLodIndex(const LodIndexInput& in, format::Block& block, std::string& e
     for (std::uint32_t s = steps; s-- > 0;) order.push_back(rec.steps[s].vertex);
     const auto vertexCount = static_cast<std::uint32_t>(order.size());
     block.vertices.resize(vertexCount);
+    block.grid.resize(vertexCount);
     for (std::uint32_t i = 0; i < vertexCount; ++i) {
         const PointId id = order[i];
         if (index[id] != kAlive) {
@@ -145,6 +146,7 @@ bool buildLodIndex(const LodIndexInput& in, format::Block& block, std::string& e
         block.vertices[i] = {float(p.x - in.originX), float(p.y - in.originY), float(p.z),
                              (p.kind == PointKind::River ? format::kVertexRiver : 0u) |
                                  (cdt.locked[id] ? format::kVertexLocked : 0u)};
+        block.grid[i] = {cdt.gx[id], cdt.gy[id]};
     }
     auto tri = [&](const TriangleTriple& t) {
         return format::Triangle{index[t.v[0]], index[t.v[1]], index[t.v[2]]};

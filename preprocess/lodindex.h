@@ -34,7 +34,7 @@ struct LodIndexInput {
     std::vector<TriangleTriple> initialTriangles;  // collectTriangles before the deletion
     std::vector<RiverEdge> initialEdges;           // collectRiverEdges before the deletion
     const DeletionRecords* records = nullptr;
-    double originX = 0, originY = 0;  // block origin for vertex coordinates
+    double originX = 0, originY = 0;  // block origin for vertex coordinates (the CDT grid origin)
     double ratio = kLodTriangleRatio;
 };
 

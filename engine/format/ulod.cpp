@@ -90,11 +90,11 @@ struct BlockHeader {
     std::uint32_t levelCount;
     std::uint32_t terrainTriangleCount;
     std::uint32_t riverEdgeCount;
-    std::uint32_t reserved;  // 0
+    std::uint32_t gridCount;
 };
 static_assert(sizeof(BlockHeader) == 136);
 static_assert(offsetof(BlockHeader, vertexCount) == 72);
-static_assert(offsetof(BlockHeader, reserved) == 132);
+static_assert(offsetof(BlockHeader, gridCount) == 132);
 
 constexpr std::uint64_t alignUp(std::uint64_t n) {
     return (n + kAlign - 1) / kAlign * kAlign;
@@ -127,17 +127,18 @@ void forEachArray(B& b, F&& f) {
     f(b.levels);
     f(b.terrainIndices);
     f(b.riverIndices);
+    f(b.grid);
 }
 
 // The counts of a block header in the same order as forEachArray.
 std::uint32_t* blockCounts(BlockHeader& h) {
     return &h.vertexCount;
 }
-constexpr int kArrayCount = 15;
-static_assert(offsetof(BlockHeader, riverEdgeCount) ==
+constexpr int kArrayCount = 16;
+static_assert(offsetof(BlockHeader, gridCount) ==
               offsetof(BlockHeader, vertexCount) + (kArrayCount - 1) * sizeof(std::uint32_t));
 
-// Byte size of a block from its header's counts; 64-bit, cannot overflow (15 arrays of at most
+// Byte size of a block from its header's counts; 64-bit, cannot overflow (16 arrays of at most
 // 2^32 - 1 elements of at most 32 bytes each).
 std::uint64_t blockByteSize(const BlockHeader& h) {
     const std::uint64_t elementSizes[kArrayCount] = {sizeof(Vertex),
@@ -154,7 +155,8 @@ std::uint64_t blockByteSize(const BlockHeader& h) {
                                                      4,
                                                      sizeof(Level),
                                                      sizeof(Triangle),
-                                                     sizeof(Edge)};
+                                                     sizeof(Edge),
+                                                     sizeof(GridXY)};
     const std::uint32_t* counts = &h.vertexCount;
     std::uint64_t size = sizeof(BlockHeader);
     for (int i = 0; i < kArrayCount; ++i)
@@ -264,6 +266,11 @@ bool validateBlockImpl(const Block& b, std::uint32_t metrics, std::string& error
 
     const std::uint64_t n = b.vertices.size();
     const std::uint64_t stepCount = b.steps.size();
+    if (!b.grid.empty() && b.grid.size() != n) {
+        error = "grid has " + std::to_string(b.grid.size()) + " entries for " + std::to_string(n) +
+                " vertices";
+        return false;
+    }
     for (std::uint64_t i = 0; i < n; ++i) {
         const Vertex& v = b.vertices[i];
         if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) {
@@ -848,7 +855,6 @@ bool Reader::readBlock(std::size_t index, Block& block, std::string& error) cons
 
     BlockHeader h;
     std::memcpy(&h, bytes.data(), sizeof(h));
-    if (h.reserved != 0) return fail("reserved field not 0");
     if (h.col != info.col || h.row != info.row) {
         return fail("block header says " + blockName(h.col, h.row));
     }

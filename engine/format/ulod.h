@@ -26,6 +26,15 @@ struct Vertex {
 };
 static_assert(sizeof(Vertex) == 16);
 
+// Exact position of a vertex on the block's fixed grid: units of kGridUnit metres relative to the
+// block origin. The constrained Delaunay triangulation was computed on these integers, so
+// `unilod check` re-runs every predicate exactly.
+inline constexpr double kGridUnit = 1e-3;
+struct GridXY {
+    std::int32_t x, y;
+};
+static_assert(sizeof(GridXY) == 8);
+
 struct Triangle {
     std::uint32_t a, b, c;  // vertex indices (retention order), counter-clockwise
 };
@@ -81,6 +90,9 @@ struct Block {
     std::vector<Level> levels;
     std::vector<Triangle> terrainIndices;
     std::vector<Edge> riverIndices;
+
+    // One per vertex (same order), or empty.
+    std::vector<GridXY> grid;
 };
 
 struct Header {

@@ -97,6 +97,10 @@ Block makeBlock(std::uint32_t col, std::uint32_t row, std::uint32_t metrics, boo
     addLevel(0, full, riverFull);
     if (allLevels) addLevel(1, afterStep0, river0);
     addLevel(2, afterStep1, river1);
+    for (std::size_t i = 0; i < b.vertices.size(); ++i) {
+        b.grid.push_back({static_cast<std::int32_t>(b.vertices[i].x * 1000) - 7,
+                          static_cast<std::int32_t>(b.vertices[i].y * 1000) + int(i)});
+    }
     return b;
 }
 
@@ -159,6 +163,8 @@ void expectSameBlock(const Block& a, const Block& b) {
     EXPECT_TRUE(sameBytes(a.levels, b.levels));
     EXPECT_TRUE(sameBytes(a.terrainIndices, b.terrainIndices));
     EXPECT_TRUE(sameBytes(a.riverIndices, b.riverIndices));
+    EXPECT_TRUE(sameBytes(a.grid, b.grid));
+    EXPECT_FALSE(a.grid.empty());
 }
 
 std::vector<char> readBytes(const std::string& path) {
@@ -549,10 +555,12 @@ TEST_F(UlodHostile, ShiftedCountsRejected) {
 }
 
 TEST_F(UlodHostile, IndexOutOfRangeInFileRejected) {
-    // The last river index of the block (level 2's edge (0,2)): make it (0,200).
+    // The last river index of the block (level 2's edge (0,2)): make it (0,200). The grid array
+    // (8 bytes per vertex) follows the river indices.
     const auto offset = load<std::uint64_t>(bytes, entry(0) + 56);
     const auto size = load<std::uint64_t>(bytes, entry(0) + 64);
-    store<std::uint32_t>(bytes, offset + size - 4, 200);
+    const auto vertexCount = load<std::uint32_t>(bytes, offset + 72);
+    store<std::uint32_t>(bytes, offset + size - 8 * std::uint64_t(vertexCount) - 4, 200);
     resealBlock(0);
     const std::string error = failure();
     EXPECT_NE(error.find("level 2 river"), std::string::npos) << error;
