@@ -8,5 +8,7 @@ namespace unilod::cli {
 
 void addSynthCommand(CLI::App& app, int& exitCode);
 void addOrderCommand(CLI::App& app, int& exitCode);
+void addBuildCommand(CLI::App& app, int& exitCode);
+void addInfoCommand(CLI::App& app, int& exitCode);
 
 }  // namespace unilod::cli

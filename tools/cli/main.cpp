@@ -18,6 +18,8 @@ int main(int argc, char** argv) {
     int exitCode = 0;
     unilod::cli::addSynthCommand(app, exitCode);
     unilod::cli::addOrderCommand(app, exitCode);
+    unilod::cli::addBuildCommand(app, exitCode);
+    unilod::cli::addInfoCommand(app, exitCode);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
