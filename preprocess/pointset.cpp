@@ -14,10 +14,6 @@ namespace unilod {
 
 namespace {
 
-struct Vertex {
-    double x, y, z;
-};
-
 // Exact coordinate key: the bit patterns of x and y (+0.0 folds -0.0 into 0.0, so that the two
 // zeros, which compare equal, also merge).
 struct CoordKey {
@@ -35,7 +31,7 @@ CoordKey keyOf(double x, double y) {
     return {std::bit_cast<std::uint64_t>(x + 0.0), std::bit_cast<std::uint64_t>(y + 0.0)};
 }
 
-double distanceSquaredToSegment(double px, double py, const Vertex& a, const Vertex& b) {
+double distanceSquaredToSegment(double px, double py, const RiverVertex& a, const RiverVertex& b) {
     const double dx = b.x - a.x, dy = b.y - a.y;
     const double len2 = dx * dx + dy * dy;
     double t = len2 > 0 ? ((px - a.x) * dx + (py - a.y) * dy) / len2 : 0.0;
@@ -57,7 +53,7 @@ void indexRange(double from, double to, double origin, double step, int n, int& 
 // Marks in `drop` the cells whose centre is closer than `c` to segment ab. Walks only the rows
 // the segment passes within c of, and in each row only the columns near its crossing, so that a
 // long diagonal segment costs its length in cells, not its bounding box.
-void markNearSegment(const DemGrid& dem, const Vertex& a, const Vertex& b, double c,
+void markNearSegment(const DemGrid& dem, const RiverVertex& a, const RiverVertex& b, double c,
                      std::vector<std::uint8_t>& drop) {
     const double c2 = c * c;
     int r0, r1;
@@ -92,15 +88,10 @@ void markNearSegment(const DemGrid& dem, const Vertex& a, const Vertex& b, doubl
 
 }  // namespace
 
-PointSet buildPointSet(const DemGrid& dem, const RiverLines& rivers,
-                       const PointSetOptions& options) {
-    assert(options.stride >= 1);
-    assert(options.riverClearance >= 0);
-    assert(dem.z.size() == static_cast<std::size_t>(dem.width) * dem.height);
-
-    // River pieces: runs of vertices with a finite DEM altitude, consecutive duplicates removed.
-    std::vector<std::vector<Vertex>> pieces;
-    std::vector<Vertex> current;
+std::vector<RiverPiece> sampleRiverPieces(const DemGrid& dem, const RiverLines& rivers) {
+    // Runs of vertices with a finite DEM altitude, consecutive duplicates removed.
+    std::vector<RiverPiece> pieces;
+    RiverPiece current;
     auto flush = [&] {
         if (current.size() >= 2) pieces.push_back(std::move(current));
         current.clear();
@@ -117,44 +108,33 @@ PointSet buildPointSet(const DemGrid& dem, const RiverLines& rivers,
         }
         flush();
     }
+    return pieces;
+}
 
+std::vector<std::uint8_t> riverClearanceMask(const DemGrid& dem,
+                                             const std::vector<RiverPiece>& pieces,
+                                             double clearance) {
     std::vector<std::uint8_t> drop;
-    if (options.riverClearance > 0) {
-        drop.assign(dem.z.size(), 0);
-        for (const auto& piece : pieces) {
-            for (std::size_t i = 0; i + 1 < piece.size(); ++i) {
-                markNearSegment(dem, piece[i], piece[i + 1], options.riverClearance, drop);
-            }
+    if (clearance <= 0) return drop;
+    drop.assign(dem.z.size(), 0);
+    for (const auto& piece : pieces) {
+        for (std::size_t i = 0; i + 1 < piece.size(); ++i) {
+            markNearSegment(dem, piece[i], piece[i + 1], clearance, drop);
         }
     }
+    return drop;
+}
 
-    PointSet set;
-    const int stride = options.stride;
-    const int lastRow = (dem.height - 1) / stride * stride;
-    const int lastCol = (dem.width - 1) / stride * stride;
-    for (int r = 0; r < dem.height; r += stride) {
-        for (int c = 0; c < dem.width; c += stride) {
-            const std::size_t cell = static_cast<std::size_t>(r) * dem.width + c;
-            if (std::isnan(dem.z[cell]) || (!drop.empty() && drop[cell])) continue;
-            Point p;
-            p.x = dem.centreX(c);
-            p.y = dem.centreY(r);
-            p.z = dem.z[cell];
-            p.kind = PointKind::Dem;
-            p.locked = options.lockBorder && (r == 0 || r == lastRow || c == 0 || c == lastCol);
-            set.points.push_back(p);
-        }
-    }
-
+void appendRiverPieces(const std::vector<RiverPiece>& pieces, PointSet& set) {
     // River points, one id per distinct (x, y).
     std::unordered_map<CoordKey, PointId, CoordKeyHash> ids;
     std::vector<std::uint32_t> uses;  // per river point (offset by the first river id)
     const std::size_t firstRiver = set.points.size();
-    set.rivers.reserve(pieces.size());
+    set.rivers.reserve(set.rivers.size() + pieces.size());
     for (const auto& piece : pieces) {
         Polyline& line = set.rivers.emplace_back();
         line.reserve(piece.size());
-        for (const Vertex& v : piece) {
+        for (const RiverVertex& v : piece) {
             auto [it, inserted] = ids.try_emplace(keyOf(v.x, v.y), kNoPoint);
             if (inserted) {
                 assert(set.points.size() < kNoPoint);
@@ -176,6 +156,36 @@ PointSet buildPointSet(const DemGrid& dem, const RiverLines& rivers,
     for (std::size_t i = 0; i < uses.size(); ++i) {
         if (uses[i] > 1) set.points[firstRiver + i].locked = true;
     }
+}
+
+PointSet buildPointSet(const DemGrid& dem, const RiverLines& rivers,
+                       const PointSetOptions& options) {
+    assert(options.stride >= 1);
+    assert(options.riverClearance >= 0);
+    assert(dem.z.size() == static_cast<std::size_t>(dem.width) * dem.height);
+
+    const std::vector<RiverPiece> pieces = sampleRiverPieces(dem, rivers);
+    const std::vector<std::uint8_t> drop = riverClearanceMask(dem, pieces, options.riverClearance);
+
+    PointSet set;
+    const int stride = options.stride;
+    const int lastRow = (dem.height - 1) / stride * stride;
+    const int lastCol = (dem.width - 1) / stride * stride;
+    for (int r = 0; r < dem.height; r += stride) {
+        for (int c = 0; c < dem.width; c += stride) {
+            const std::size_t cell = static_cast<std::size_t>(r) * dem.width + c;
+            if (std::isnan(dem.z[cell]) || (!drop.empty() && drop[cell])) continue;
+            Point p;
+            p.x = dem.centreX(c);
+            p.y = dem.centreY(r);
+            p.z = dem.z[cell];
+            p.kind = PointKind::Dem;
+            p.locked = options.lockBorder && (r == 0 || r == lastRow || c == 0 || c == lastCol);
+            set.points.push_back(p);
+        }
+    }
+
+    appendRiverPieces(pieces, set);
     return set;
 }
 

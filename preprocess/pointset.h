@@ -6,6 +6,9 @@
 // rivers shorter than a minimum length) comes with `unilod build` later; lines are taken as given.
 #pragma once
 
+#include <cstdint>
+#include <vector>
+
 #include "dem.h"
 #include "points.h"
 #include "rivers.h"
@@ -30,5 +33,26 @@ struct PointSetOptions {
 // Locked: first and last vertex of every polyline, and every id used more than once (junctions).
 PointSet buildPointSet(const DemGrid& dem, const RiverLines& rivers,
                        const PointSetOptions& options);
+
+// --- Building blocks shared with the block partition (blocks.h) ------------------------------
+
+struct RiverVertex {
+    double x = 0, y = 0, z = 0;
+};
+using RiverPiece = std::vector<RiverVertex>;
+
+// The river pieces of buildPointSet: runs of vertices whose bilinear DEM altitude is finite,
+// consecutive duplicates dropped, pieces of fewer than two vertices dropped.
+std::vector<RiverPiece> sampleRiverPieces(const DemGrid& dem, const RiverLines& rivers);
+
+// One byte per DEM cell: 1 where the cell centre is closer than `clearance` (horizontally) to a
+// segment of `pieces`. Empty when clearance <= 0.
+std::vector<std::uint8_t> riverClearanceMask(const DemGrid& dem,
+                                             const std::vector<RiverPiece>& pieces,
+                                             double clearance);
+
+// Appends the pieces to `set` as river points and polylines: one id per distinct (x, y) (a
+// junction), first and last vertex of every piece and every junction locked.
+void appendRiverPieces(const std::vector<RiverPiece>& pieces, PointSet& set);
 
 }  // namespace unilod

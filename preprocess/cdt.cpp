@@ -1,0 +1,702 @@
+// River-constrained Delaunay triangulation (paper §3.3). Construction: Bowyer-Watson insertion
+// in Hilbert-curve order with a visibility walk from the last created triangle, ghost triangles
+// closing the convex hull (the "vertex at infinity" idea of Shewchuk's Triangle and CGAL), then
+// every river segment inserted by flipping away the edges it crosses (Sloan 1993). The hole of a
+// deleted vertex is re-triangulated by ear clipping with exact predicates. Both are then made
+// constrained Delaunay by Lawson flips (a non-locally-Delaunay, non-constraint edge
+// is always flippable and every flip strictly improves the triangulation, so this terminates in
+// the constrained Delaunay triangulation; Lawson 1977, Chew 1989).
+#include "cdt.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <numeric>
+
+namespace unilod {
+
+namespace {
+
+inline std::uint32_t nextIndex(std::uint32_t i) {
+    return i == 2 ? 0 : i + 1;
+}
+inline std::uint32_t prevIndex(std::uint32_t i) {
+    return i == 0 ? 2 : i - 1;
+}
+
+// Hilbert curve index of (x, y) on a 2^16 x 2^16 grid (the classic rotate-and-flip walk).
+std::uint64_t hilbertIndex(std::uint32_t x, std::uint32_t y) {
+    constexpr std::uint32_t kSide = 1u << 16;
+    std::uint64_t d = 0;
+    for (std::uint32_t s = kSide / 2; s > 0; s /= 2) {
+        const std::uint32_t rx = (x & s) ? 1 : 0;
+        const std::uint32_t ry = (y & s) ? 1 : 0;
+        d += std::uint64_t(s) * s * ((3 * rx) ^ ry);
+        if (ry == 0) {
+            if (rx == 1) {
+                x = kSide - 1 - x;
+                y = kSide - 1 - y;
+            }
+            std::swap(x, y);
+        }
+    }
+    return d;
+}
+
+}  // namespace
+
+TriangleTriple canonicalTriangle(PointId a, PointId b, PointId c) {
+    if (b < a && b < c) return {{b, c, a}};
+    if (c < a && c < b) return {{c, a, b}};
+    return {{a, b, c}};
+}
+
+// --- Journal ---------------------------------------------------------------------------------
+
+void Cdt::beginJournal(std::uint32_t step) {
+    journaling_ = true;
+    step_ = step;
+    journalRemovedSlots.clear();
+    journalRemoved.clear();
+    journalCreated.clear();
+}
+
+// --- Elementary operations -------------------------------------------------------------------
+
+std::uint32_t Cdt::createTriangle(PointId a, PointId b, PointId c) {
+    std::uint32_t t;
+    if (!freeSlots.empty()) {
+        t = freeSlots.back();
+        freeSlots.pop_back();
+    } else {
+        t = triangleSlots();
+        tv.resize(tv.size() + 3);
+        tn.resize(tn.size() + 3);
+        tc.push_back(0);
+        stamp.push_back(0);
+    }
+    tv[3 * t] = a;
+    tv[3 * t + 1] = b;
+    tv[3 * t + 2] = c;
+    tn[3 * t] = tn[3 * t + 1] = tn[3 * t + 2] = kNone;
+    tc[t] = 0;
+    stamp[t] = step_;
+    bool ghost = false;
+    for (PointId v : {a, b, c}) {
+        if (v == kGhost) {
+            ghost = true;
+        } else {
+            vertexTriangle[v] = t;
+        }
+    }
+    if (!ghost) {
+        ++realTriangleCount;
+        lastTriangle_ = t;
+    }
+    if (journaling_) journalCreated.push_back(t);
+    return t;
+}
+
+void Cdt::destroyTriangle(std::uint32_t t) {
+    assert(triangleAlive(t));
+    const bool ghost = isGhost(t);
+    if (journaling_ && !ghost && stamp[t] != step_) {
+        journalRemovedSlots.push_back(t);
+        journalRemoved.push_back(canonicalTriangle(tv[3 * t], tv[3 * t + 1], tv[3 * t + 2]));
+    }
+    if (!ghost) --realTriangleCount;
+    tv[3 * t] = tv[3 * t + 1] = tv[3 * t + 2] = kNone;
+    freeSlots.push_back(t);
+}
+
+void Cdt::setConstrained(std::uint32_t h, bool on) {
+    const std::uint32_t g = tn[h];
+    if (on) {
+        tc[h / 3] |= std::uint8_t(1u << (h % 3));
+        tc[g / 3] |= std::uint8_t(1u << (g % 3));
+    } else {
+        tc[h / 3] &= std::uint8_t(~(1u << (h % 3)));
+        tc[g / 3] &= std::uint8_t(~(1u << (g % 3)));
+    }
+}
+
+std::uint32_t Cdt::findEdge(PointId a, PointId b) const {
+    const std::uint32_t t0 = vertexTriangle[a];
+    assert(t0 != kNone);
+    std::uint32_t t = t0;
+    do {
+        std::uint32_t i = 0;
+        while (tv[3 * t + i] != a)
+            ++i;
+        if (tv[3 * t + nextIndex(i)] == b) return 3 * t + prevIndex(i);
+        t = tn[3 * t + nextIndex(i)] / 3;
+    } while (t != t0);
+    return kNone;
+}
+
+void Cdt::flip(std::uint32_t h) {
+    const std::uint32_t t = h / 3, i = h % 3;
+    const std::uint32_t g = tn[h], n = g / 3, j = g % 3;
+    const PointId a = tv[3 * t + i], b = tv[3 * t + nextIndex(i)], c = tv[3 * t + prevIndex(i)];
+    const PointId d = tv[3 * n + j];
+    assert(tv[3 * n + nextIndex(j)] == c && tv[3 * n + prevIndex(j)] == b);
+    const std::uint32_t hca = tn[3 * t + nextIndex(i)], hab = tn[3 * t + prevIndex(i)];
+    const std::uint32_t hbd = tn[3 * n + nextIndex(j)], hdc = tn[3 * n + prevIndex(j)];
+    const bool cca = isConstrained(3 * t + nextIndex(i)), cab = isConstrained(3 * t + prevIndex(i));
+    const bool cbd = isConstrained(3 * n + nextIndex(j)), cdc = isConstrained(3 * n + prevIndex(j));
+    if (journaling_) {
+        for (std::uint32_t s : {t, n}) {
+            if (stamp[s] != step_) {
+                journalRemovedSlots.push_back(s);
+                journalRemoved.push_back(
+                    canonicalTriangle(tv[3 * s], tv[3 * s + 1], tv[3 * s + 2]));
+            }
+            journalCreated.push_back(s);
+        }
+    }
+    stamp[t] = stamp[n] = step_;
+    // t becomes (a, b, d), n becomes (d, c, a).
+    tv[3 * t] = a, tv[3 * t + 1] = b, tv[3 * t + 2] = d;
+    tv[3 * n] = d, tv[3 * n + 1] = c, tv[3 * n + 2] = a;
+    tc[t] = std::uint8_t((cbd ? 1u : 0u) | (cab ? 4u : 0u));
+    tc[n] = std::uint8_t((cca ? 1u : 0u) | (cdc ? 4u : 0u));
+    link(3 * t, hbd);
+    link(3 * t + 2, hab);
+    link(3 * n, hca);
+    link(3 * n + 2, hdc);
+    link(3 * t + 1, 3 * n + 1);
+    vertexTriangle[a] = t;
+    vertexTriangle[b] = t;
+    vertexTriangle[d] = t;
+    vertexTriangle[c] = n;
+}
+
+void Cdt::legalize(std::vector<std::uint32_t>& stack) {
+    while (!stack.empty()) {
+        const std::uint32_t h = stack.back();
+        stack.pop_back();
+        const std::uint32_t t = h / 3;
+        if (!triangleAlive(t) || isConstrained(h)) continue;
+        const std::uint32_t g = tn[h], n = g / 3;
+        if (isGhost(t) || isGhost(n)) continue;
+        const std::uint32_t i = h % 3;
+        const PointId a = tv[3 * t + i], b = tv[3 * t + nextIndex(i)], c = tv[3 * t + prevIndex(i)];
+        const PointId d = tv[3 * n + g % 3];
+        if (incircle(gx[a], gy[a], gx[b], gy[b], gx[c], gy[c], gx[d], gy[d]) <= 0) continue;
+        flip(h);
+        stack.push_back(3 * t);
+        stack.push_back(3 * t + 2);
+        stack.push_back(3 * n);
+        stack.push_back(3 * n + 2);
+    }
+}
+
+bool Cdt::triangulatePolygon(const std::vector<PointId>& poly,
+                             const std::vector<std::uint32_t>& outer,
+                             const std::vector<std::uint8_t>& cons,
+                             std::vector<std::uint32_t>& created, std::uint32_t& openEdge) {
+    const std::uint32_t k = static_cast<std::uint32_t>(poly.size());
+    assert(k >= 3 && outer.size() == k && cons.size() == k);
+    earPrev_.resize(k);
+    earNext_.resize(k);
+    earEdge_.assign(outer.begin(), outer.end());
+    earCons_.assign(cons.begin(), cons.end());
+    for (std::uint32_t i = 0; i < k; ++i) {
+        earPrev_[i] = i == 0 ? k - 1 : i - 1;
+        earNext_[i] = i + 1 == k ? 0 : i + 1;
+    }
+    auto attach = [&](std::uint32_t h, std::uint32_t e) {
+        if (earEdge_[e] == kNone) {
+            openEdge = h;
+        } else {
+            link(h, earEdge_[e]);
+        }
+        if (earCons_[e]) tc[h / 3] |= std::uint8_t(1u << (h % 3));
+    };
+    auto isEar = [&](std::uint32_t p, std::uint32_t i, std::uint32_t n) {
+        const PointId a = poly[p], b = poly[i], c = poly[n];
+        if (orient(a, b, c) <= 0) return false;
+        for (std::uint32_t m = earNext_[n]; m != p; m = earNext_[m]) {
+            const PointId x = poly[m];
+            if (orient(a, b, x) >= 0 && orient(b, c, x) >= 0 && orient(c, a, x) >= 0) return false;
+        }
+        return true;
+    };
+    std::uint32_t remaining = k, i = 0, misses = 0;
+    while (remaining > 3) {
+        const std::uint32_t p = earPrev_[i], n = earNext_[i];
+        if (!isEar(p, i, n)) {
+            i = n;
+            if (++misses > remaining) return false;
+            continue;
+        }
+        const std::uint32_t t = createTriangle(poly[p], poly[i], poly[n]);
+        created.push_back(t);
+        attach(3 * t, i);
+        attach(3 * t + 2, p);
+        earEdge_[p] = 3 * t + 1;
+        earCons_[p] = 0;
+        earNext_[p] = n;
+        earPrev_[n] = p;
+        --remaining;
+        misses = 0;
+        i = p;
+    }
+    const std::uint32_t p = earPrev_[i], n = earNext_[i];
+    if (orient(poly[p], poly[i], poly[n]) <= 0) return false;
+    const std::uint32_t t = createTriangle(poly[p], poly[i], poly[n]);
+    created.push_back(t);
+    attach(3 * t, i);
+    attach(3 * t + 1, n);
+    attach(3 * t + 2, p);
+    return true;
+}
+
+// --- Segment walk and insertion --------------------------------------------------------------
+
+void Cdt::traceSegment(PointId a, PointId b, Trace& trace) const {
+    trace.crossed.clear();
+    trace.vertex = kNone;
+    trace.edge = kNone;
+    const std::int64_t dx = gx[b] - gx[a], dy = gy[b] - gy[a];
+    const std::uint32_t t0 = vertexTriangle[a];
+    std::uint32_t t = t0, h = kNone;
+    do {
+        std::uint32_t i = 0;
+        while (tv[3 * t + i] != a)
+            ++i;
+        const PointId p = tv[3 * t + nextIndex(i)], q = tv[3 * t + prevIndex(i)];
+        if (p != kGhost && q != kGhost) {
+            const std::int64_t o1 = orient(a, b, p);
+            if (o1 == 0 && (gx[p] - gx[a]) * dx + (gy[p] - gy[a]) * dy > 0) {
+                trace.end = p == b ? TraceEnd::Reached : TraceEnd::Vertex;
+                trace.vertex = p == b ? kNone : p;
+                return;
+            }
+            if (o1 < 0 && orient(a, b, q) > 0) {
+                h = 3 * t + i;
+                break;
+            }
+        }
+        t = tn[3 * t + nextIndex(i)] / 3;
+    } while (t != t0);
+    assert(h != kNone);
+    for (;;) {
+        if (isConstrained(h)) {
+            trace.end = TraceEnd::Constraint;
+            trace.edge = h;
+            return;
+        }
+        trace.crossed.push_back(h);
+        const std::uint32_t g = tn[h], n = g / 3, j = g % 3;
+        const PointId r = tv[3 * n + j];
+        assert(r != kGhost);
+        if (r == b) {
+            trace.end = TraceEnd::Reached;
+            return;
+        }
+        const std::int64_t o = orient(a, b, r);
+        if (o == 0) {
+            trace.end = TraceEnd::Vertex;
+            trace.vertex = r;
+            return;
+        }
+        h = o > 0 ? 3 * n + nextIndex(j) : 3 * n + prevIndex(j);
+    }
+}
+
+bool Cdt::insertSegment(PointId a, PointId b, std::vector<PointId>& path, std::string& error) {
+    assert(a != b);
+    path.clear();
+    path.push_back(a);
+    PointId cur = a;
+    while (cur != b) {
+        std::uint32_t h = findEdge(cur, b);
+        PointId end = b;
+        if (h == kNone) {
+            traceSegment(cur, b, trace_);
+            if (trace_.end == TraceEnd::Constraint) {
+                const std::uint32_t e = trace_.edge;
+                error = "river segments cross: " + std::to_string(a) + "-" + std::to_string(b) +
+                        " crosses " + std::to_string(origin(e)) + "-" +
+                        std::to_string(destination(e));
+                return false;
+            }
+            if (trace_.end == TraceEnd::Vertex) end = trace_.vertex;
+            if (trace_.crossed.empty()) h = findEdge(cur, end);
+        }
+        if (h != kNone) {
+            if (isConstrained(h)) {
+                error = "river segments overlap: " + std::to_string(a) + "-" + std::to_string(b) +
+                        " runs along the river edge " + std::to_string(cur) + "-" +
+                        std::to_string(end);
+                return false;
+            }
+            setConstrained(h, true);
+            ++constraintEdgeCount;
+            path.push_back(end);
+            cur = end;
+            continue;
+        }
+        // Flip the crossed edges away (Sloan 1993): an edge whose quadrilateral is strictly
+        // convex is flipped, and its new diagonal goes back to the queue while it still crosses
+        // cur-end; a non-convex one waits at the back of the queue. This terminates with cur-end
+        // an edge. (Re-triangulating the crossed region as two pseudo-polygons is not enough on
+        // its own: a vertex beside the segment can have its whole star crossed.)
+        queue_.clear();
+        for (std::uint32_t e : trace_.crossed)
+            queue_.push_back({origin(e), destination(e)});
+        touched_.clear();
+        for (std::size_t head = 0; head < queue_.size(); ++head) {
+            const auto [u, w] = queue_[head];
+            const std::uint32_t e = findEdge(u, w);
+            assert(e != kNone);
+            const PointId p = tv[e], q = tv[tn[e]];
+            const std::int64_t su = orient(p, q, u), sw = orient(p, q, w);
+            if (!((su > 0 && sw < 0) || (su < 0 && sw > 0))) {
+                queue_.push_back({u, w});
+                continue;
+            }
+            touched_.push_back(e / 3);
+            touched_.push_back(tn[e] / 3);
+            flip(e);
+            const std::int64_t sp = orient(cur, end, p), sq = orient(cur, end, q);
+            if ((sp > 0 && sq < 0) || (sp < 0 && sq > 0)) queue_.push_back({p, q});
+            if (queue_.size() > 4096 && head > queue_.size() / 2) {
+                queue_.erase(queue_.begin(), queue_.begin() + std::ptrdiff_t(head) + 1);
+                head = std::size_t(-1);
+            }
+        }
+        const std::uint32_t e = findEdge(cur, end);
+        assert(e != kNone);
+        setConstrained(e, true);
+        ++constraintEdgeCount;
+        legal_.clear();
+        for (std::uint32_t t : touched_) {
+            legal_.push_back(3 * t);
+            legal_.push_back(3 * t + 1);
+            legal_.push_back(3 * t + 2);
+        }
+        legalize(legal_);
+        path.push_back(end);
+        cur = end;
+    }
+    return true;
+}
+
+// --- Vertex removal --------------------------------------------------------------------------
+
+bool Cdt::star(PointId v, std::vector<PointId>& link, std::vector<std::uint32_t>& triangles) const {
+    link.clear();
+    triangles.clear();
+    const std::uint32_t t0 = vertexTriangle[v];
+    assert(t0 != kNone);
+    std::uint32_t t = t0;
+    do {
+        if (isGhost(t)) return false;
+        std::uint32_t i = 0;
+        while (tv[3 * t + i] != v)
+            ++i;
+        link.push_back(tv[3 * t + nextIndex(i)]);
+        triangles.push_back(3 * t + i);
+        t = tn[3 * t + nextIndex(i)] / 3;
+    } while (t != t0);
+    return true;
+}
+
+void Cdt::removeVertex(PointId v) {
+    const bool interior = star(v, poly_, starTris_);
+    assert(interior);
+    (void)interior;
+    const std::size_t k = poly_.size();
+    outer_.resize(k);
+    cons_.resize(k);
+    for (std::size_t i = 0; i < k; ++i) {
+        outer_[i] = tn[starTris_[i]];
+        cons_[i] = isConstrained(starTris_[i]) ? 1 : 0;
+    }
+    for (std::uint32_t h : starTris_)
+        destroyTriangle(h / 3);
+    vertexTriangle[v] = kNone;
+    --vertexCount;
+    created_.clear();
+    std::uint32_t open = kNone;
+    const bool ok = triangulatePolygon(poly_, outer_, cons_, created_, open);
+    assert(ok);
+    (void)ok;
+    legal_.clear();
+    for (std::uint32_t t : created_) {
+        legal_.push_back(3 * t);
+        legal_.push_back(3 * t + 1);
+        legal_.push_back(3 * t + 2);
+    }
+    legalize(legal_);
+}
+
+// --- Point insertion (Bowyer-Watson) ---------------------------------------------------------
+
+std::uint32_t Cdt::locate(PointId p) const {
+    std::uint32_t t = lastTriangle_;
+    std::uint32_t rot = 0;
+    for (;;) {
+        if (isGhost(t)) return t;
+        bool inside = true;
+        for (std::uint32_t k = 0; k < 3; ++k) {
+            const std::uint32_t e = (k + rot) % 3;
+            const PointId u = tv[3 * t + nextIndex(e)], w = tv[3 * t + prevIndex(e)];
+            if (orient(u, w, p) < 0) {
+                t = tn[3 * t + e] / 3;
+                inside = false;
+                break;
+            }
+        }
+        if (inside) return t;
+        rot = rot == 2 ? 0 : rot + 1;
+    }
+}
+
+void Cdt::insertPoint(PointId p) {
+    const std::uint32_t start = locate(p);
+    auto inCircle = [&](std::uint32_t t) {
+        const PointId* v = &tv[3 * t];
+        if (v[0] == kGhost || v[1] == kGhost || v[2] == kGhost) {
+            std::uint32_t g = 0;
+            while (v[g] != kGhost)
+                ++g;
+            const PointId u = v[nextIndex(g)], w = v[prevIndex(g)];
+            const std::int64_t o = orient(u, w, p);
+            if (o != 0) return o > 0;
+            // On the hull line: inside the open segment u-w only.
+            const std::int64_t dot = (gx[p] - gx[u]) * std::int64_t(gx[w] - gx[u]) +
+                                     (gy[p] - gy[u]) * std::int64_t(gy[w] - gy[u]);
+            const std::int64_t len = std::int64_t(gx[w] - gx[u]) * (gx[w] - gx[u]) +
+                                     std::int64_t(gy[w] - gy[u]) * (gy[w] - gy[u]);
+            return dot > 0 && dot < len;
+        }
+        return incircle(gx[v[0]], gy[v[0]], gx[v[1]], gy[v[1]], gx[v[2]], gy[v[2]], gx[p], gy[p]) >
+               0;
+    };
+    if (mark_.size() < triangleSlots()) mark_.resize(triangleSlots() + triangleSlots() / 2, 0);
+    ++markStamp_;
+    cavity_.clear();
+    cavity_.push_back(start);
+    mark_[start] = markStamp_;
+    boundary_.clear();
+    for (std::size_t k = 0; k < cavity_.size(); ++k) {
+        const std::uint32_t t = cavity_[k];
+        for (std::uint32_t i = 0; i < 3; ++i) {
+            const std::uint32_t n = tn[3 * t + i] / 3;
+            if (mark_[n] == markStamp_) continue;
+            if (inCircle(n)) {
+                mark_[n] = markStamp_;
+                cavity_.push_back(n);
+            } else {
+                boundary_.push_back(3 * t + i);
+            }
+        }
+    }
+    // Boundary edges (u, w) with their outer half-edges, saved before the cavity dies.
+    struct Edge {
+        PointId u, w;
+        std::uint32_t outer;
+        bool cons;
+        std::uint32_t t;
+    };
+    std::vector<Edge> edges;
+    edges.reserve(boundary_.size());
+    for (std::uint32_t h : boundary_) {
+        edges.push_back({origin(h), destination(h), tn[h], isConstrained(h), kNone});
+    }
+    for (std::uint32_t t : cavity_)
+        destroyTriangle(t);
+    for (Edge& e : edges) {
+        e.t = createTriangle(e.u, e.w, p);
+        link(3 * e.t + 2, e.outer);
+        if (e.cons) tc[e.t] |= 4;
+    }
+    std::sort(edges.begin(), edges.end(), [](const Edge& x, const Edge& y) { return x.u < y.u; });
+    for (const Edge& e : edges) {
+        auto it = std::lower_bound(edges.begin(), edges.end(), e.w,
+                                   [](const Edge& x, PointId key) { return x.u < key; });
+        assert(it != edges.end() && it->u == e.w);
+        link(3 * e.t, 3 * it->t + 1);
+    }
+    ++vertexCount;
+}
+
+// --- Construction ----------------------------------------------------------------------------
+
+bool buildCdt(const PointSet& set, const CdtOptions& options, Cdt& cdt, std::string& error) {
+    cdt = Cdt();
+    const std::size_t n = set.points.size();
+    if (n >= Cdt::kGhost) {
+        error = "too many points in one block: " + std::to_string(n);
+        return false;
+    }
+    if (!(options.gridUnit > 0)) {
+        error = "grid unit must be positive";
+        return false;
+    }
+    double minX = INFINITY, minY = INFINITY, maxX = -INFINITY, maxY = -INFINITY;
+    for (std::size_t i = 0; i < n; ++i) {
+        const Point& p = set.points[i];
+        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
+            error = "point " + std::to_string(i) + " has a non-finite coordinate";
+            return false;
+        }
+        minX = std::min(minX, p.x), maxX = std::max(maxX, p.x);
+        minY = std::min(minY, p.y), maxY = std::max(maxY, p.y);
+    }
+    cdt.gridUnit = options.gridUnit;
+    cdt.originX = n ? 0.5 * (minX + maxX) : 0;
+    cdt.originY = n ? 0.5 * (minY + maxY) : 0;
+    cdt.gx.resize(n);
+    cdt.gy.resize(n);
+    const double limit = double(kMaxGridCoordinate);
+    for (std::size_t i = 0; i < n; ++i) {
+        const double fx = std::round((set.points[i].x - cdt.originX) / cdt.gridUnit);
+        const double fy = std::round((set.points[i].y - cdt.originY) / cdt.gridUnit);
+        if (std::fabs(fx) > limit || std::fabs(fy) > limit) {
+            error = "block too large for the exact grid: point " + std::to_string(i) +
+                    " lies more than 2^28-1 grid units (" + std::to_string(limit * cdt.gridUnit) +
+                    " m) from the block centre";
+            return false;
+        }
+        cdt.gx[i] = static_cast<std::int32_t>(fx);
+        cdt.gy[i] = static_cast<std::int32_t>(fy);
+    }
+    // Merge points on the same grid point: the lowest id wins.
+    std::vector<PointId> ids(n);
+    std::iota(ids.begin(), ids.end(), PointId{0});
+    std::sort(ids.begin(), ids.end(), [&](PointId a, PointId b) {
+        if (cdt.gx[a] != cdt.gx[b]) return cdt.gx[a] < cdt.gx[b];
+        if (cdt.gy[a] != cdt.gy[b]) return cdt.gy[a] < cdt.gy[b];
+        return a < b;
+    });
+    cdt.representative.assign(n, 0);
+    cdt.locked.assign(n, 0);
+    std::vector<PointId> vertices;
+    vertices.reserve(n);
+    for (std::size_t k = 0; k < n; ++k) {
+        const PointId id = ids[k];
+        if (k > 0 && cdt.gx[id] == cdt.gx[ids[k - 1]] && cdt.gy[id] == cdt.gy[ids[k - 1]]) {
+            cdt.representative[id] = cdt.representative[ids[k - 1]];
+            ++cdt.mergedPoints;
+        } else {
+            cdt.representative[id] = id;
+            vertices.push_back(id);
+        }
+        if (set.points[id].locked) cdt.locked[cdt.representative[id]] = 1;
+    }
+    ids = std::vector<PointId>();
+    if (vertices.size() < 3) {
+        error = "fewer than 3 distinct points in the block";
+        return false;
+    }
+    // Insertion order: Hilbert curve over the bounding box, ties by id.
+    {
+        std::int64_t lo = kMaxGridCoordinate, hi = -kMaxGridCoordinate;
+        for (PointId v : vertices) {
+            lo = std::min<std::int64_t>({lo, cdt.gx[v], cdt.gy[v]});
+            hi = std::max<std::int64_t>({hi, cdt.gx[v], cdt.gy[v]});
+        }
+        const double scale = hi > lo ? 65535.0 / double(hi - lo) : 0.0;
+        std::vector<std::pair<std::uint64_t, PointId>> keys(vertices.size());
+        for (std::size_t k = 0; k < vertices.size(); ++k) {
+            const PointId v = vertices[k];
+            const auto hx = static_cast<std::uint32_t>(double(cdt.gx[v] - lo) * scale);
+            const auto hy = static_cast<std::uint32_t>(double(cdt.gy[v] - lo) * scale);
+            keys[k] = {hilbertIndex(hx, hy), v};
+        }
+        std::sort(keys.begin(), keys.end());
+        for (std::size_t k = 0; k < keys.size(); ++k)
+            vertices[k] = keys[k].second;
+    }
+    // First triangle: the first two points and the first point not collinear with them.
+    const PointId a = vertices[0];
+    PointId b = vertices[1];
+    std::size_t third = 2;
+    while (third < vertices.size() && cdt.orient(a, b, vertices[third]) == 0)
+        ++third;
+    if (third == vertices.size()) {
+        error = "all points of the block are collinear";
+        return false;
+    }
+    PointId c = vertices[third];
+    if (cdt.orient(a, b, c) < 0) std::swap(b, c);
+    cdt.vertexTriangle.assign(n, Cdt::kNone);
+    cdt.tv.reserve(3 * (2 * vertices.size() + 8));
+    cdt.tn.reserve(3 * (2 * vertices.size() + 8));
+    cdt.tc.reserve(2 * vertices.size() + 8);
+    cdt.stamp.reserve(2 * vertices.size() + 8);
+    {
+        const PointId g = Cdt::kGhost;
+        const std::uint32_t r = cdt.createTriangle(a, b, c);
+        const std::uint32_t gab = cdt.createTriangle(b, a, g);
+        const std::uint32_t gbc = cdt.createTriangle(c, b, g);
+        const std::uint32_t gca = cdt.createTriangle(a, c, g);
+        cdt.link(3 * r + 2, 3 * gab + 2);
+        cdt.link(3 * r + 0, 3 * gbc + 2);
+        cdt.link(3 * r + 1, 3 * gca + 2);
+        cdt.link(3 * gab + 0, 3 * gca + 1);
+        cdt.link(3 * gab + 1, 3 * gbc + 0);
+        cdt.link(3 * gbc + 1, 3 * gca + 0);
+        cdt.vertexCount = 3;
+    }
+    for (std::size_t k = 1; k < vertices.size(); ++k) {
+        if (k == 1 || k == third) continue;
+        cdt.insertPoint(vertices[k]);
+    }
+    // River constraints.
+    std::vector<PointId> path;
+    for (std::size_t r = 0; r < set.rivers.size(); ++r) {
+        const Polyline& line = set.rivers[r];
+        Polyline out;
+        for (std::size_t s = 0; s < line.size(); ++s) {
+            if (line[s] >= n) {
+                error = "river " + std::to_string(r) + " vertex " + std::to_string(s) +
+                        ": point id " + std::to_string(line[s]) + " out of range";
+                return false;
+            }
+            const PointId v = cdt.representative[line[s]];
+            if (!out.empty() && out.back() == v) continue;
+            if (out.empty()) {
+                out.push_back(v);
+                continue;
+            }
+            std::string why;
+            if (!cdt.insertSegment(out.back(), v, path, why)) {
+                error =
+                    "river " + std::to_string(r) + " segment " + std::to_string(s - 1) + ": " + why;
+                return false;
+            }
+            out.insert(out.end(), path.begin() + 1, path.end());
+        }
+        if (out.size() >= 2) cdt.rivers.push_back(std::move(out));
+    }
+    return true;
+}
+
+std::vector<TriangleTriple> collectTriangles(const Cdt& cdt) {
+    std::vector<TriangleTriple> out;
+    out.reserve(cdt.realTriangleCount);
+    for (std::uint32_t t = 0; t < cdt.triangleSlots(); ++t) {
+        if (!cdt.triangleAlive(t) || cdt.isGhost(t)) continue;
+        out.push_back(canonicalTriangle(cdt.tv[3 * t], cdt.tv[3 * t + 1], cdt.tv[3 * t + 2]));
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+std::vector<RiverEdge> collectRiverEdges(const Cdt& cdt) {
+    std::vector<RiverEdge> out;
+    for (std::uint32_t h = 0; h < cdt.tv.size(); ++h) {
+        if (!cdt.triangleAlive(h / 3) || !cdt.isConstrained(h)) continue;
+        const PointId u = cdt.origin(h), w = cdt.destination(h);
+        if (u < w) out.push_back({u, w});
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+}  // namespace unilod

@@ -1,0 +1,190 @@
+// River-constrained Delaunay triangulation of one block (paper §3.3; DESIGN.md "River-constrained
+// Delaunay and deletion"): every river segment is a constraint edge, every other edge is locally
+// Delaunay. The mesh operations here (cavity re-triangulation, segment insertion, edge flips)
+// are shared by the construction and by the deletion sequence (deletion.h).
+//
+// Grid. The block's points are quantised to a fixed grid of `gridUnit` metres (default 1 mm)
+// relative to the centre of their bounding box; all predicates run exactly on these integers
+// (predicates.h). A block whose half extent exceeds 2^28 - 1 grid units (268 km at 1 mm) is
+// rejected. Points that land on the same grid point are merged: the lowest point id wins and
+// becomes the vertex (`representative` maps every point id to its vertex; a merged vertex is
+// locked when any of its points is locked), river polylines are rewritten to representatives.
+//
+// Domain. The convex hull of the block's points. The outside is closed by ghost triangles that
+// share the vertex at infinity (kGhost), so every triangle has three neighbours. Hull vertices
+// are never deleted (deletion.h refuses them), so the domain never changes.
+//
+// Constraints. Every river segment is inserted after all points. A vertex lying exactly on a
+// segment splits it (the vertex joins the river, `rivers` holds the split polylines). Two river
+// segments crossing each other, or the same segment given twice (overlap), are data errors.
+//
+// Data layout (no per-triangle heap allocation): triangle t owns slots 3t..3t+2 of `tv` (vertex
+// ids, counter-clockwise), `tn` (neighbour half-edges) and bit i of `tc` (constraint flags).
+// Half-edge h = 3t + i is the edge of t opposite its vertex i, from tv[3t + (i+1)%3] to
+// tv[3t + (i+2)%3]; tn[h] is the twin half-edge in the neighbouring triangle. Free triangle slots
+// have tv[3t] == kNone and are reused last-in first-out (deterministic).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "points.h"
+#include "predicates.h"
+
+namespace unilod {
+
+// A triangle as three vertex ids, counter-clockwise, rotated so that the smallest id comes first
+// (a canonical form: equal triangles compare equal).
+struct TriangleTriple {
+    PointId v[3] = {0, 0, 0};
+    auto operator<=>(const TriangleTriple&) const = default;
+};
+static_assert(sizeof(TriangleTriple) == 12);
+TriangleTriple canonicalTriangle(PointId a, PointId b, PointId c);
+
+// A river edge (constraint edge) as two vertex ids, a < b.
+struct RiverEdge {
+    PointId a = 0, b = 0;
+    auto operator<=>(const RiverEdge&) const = default;
+};
+static_assert(sizeof(RiverEdge) == 8);
+inline RiverEdge makeRiverEdge(PointId a, PointId b) {
+    return a < b ? RiverEdge{a, b} : RiverEdge{b, a};
+}
+
+struct CdtOptions {
+    double gridUnit = 1e-3;  // metres per grid unit
+};
+
+class Cdt {
+public:
+    static constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+    static constexpr PointId kGhost = 0xFFFFFFFEu;  // the vertex at infinity
+
+    // --- Grid frame: grid = round((metres - origin) / gridUnit).
+    double originX = 0, originY = 0, gridUnit = 1e-3;
+
+    // --- Per point id (the vertex id of a point is its point id).
+    std::vector<std::int32_t> gx, gy;
+    std::vector<PointId> representative;        // point id -> vertex id it was merged into
+    std::vector<std::uint32_t> vertexTriangle;  // an alive triangle at v; kNone: not a vertex
+    std::vector<std::uint8_t> locked;           // 1: never deleted
+
+    // --- Per triangle.
+    std::vector<PointId> tv;
+    std::vector<std::uint32_t> tn;
+    std::vector<std::uint8_t> tc;
+    std::vector<std::uint32_t> stamp;  // step that created the triangle (journal, deletion.h)
+    std::vector<std::uint32_t> freeSlots;
+
+    std::uint32_t vertexCount = 0;          // alive vertices
+    std::uint32_t realTriangleCount = 0;    // alive triangles without the ghost vertex
+    std::uint32_t constraintEdgeCount = 0;  // river edges
+    std::uint32_t mergedPoints = 0;         // points merged into another (duplicates on the grid)
+    std::vector<Polyline> rivers;           // river polylines as built (split, representatives)
+
+    // --- Queries.
+    std::uint32_t triangleSlots() const { return static_cast<std::uint32_t>(tv.size() / 3); }
+    bool triangleAlive(std::uint32_t t) const { return tv[3 * t] != kNone; }
+    bool isGhost(std::uint32_t t) const {
+        return tv[3 * t] == kGhost || tv[3 * t + 1] == kGhost || tv[3 * t + 2] == kGhost;
+    }
+    bool isVertex(PointId v) const { return vertexTriangle[v] != kNone; }
+    bool isConstrained(std::uint32_t h) const { return (tc[h / 3] >> (h % 3)) & 1u; }
+    PointId origin(std::uint32_t h) const { return tv[h - h % 3 + (h % 3 + 1) % 3]; }
+    PointId destination(std::uint32_t h) const { return tv[h - h % 3 + (h % 3 + 2) % 3]; }
+    std::int64_t orient(PointId a, PointId b, PointId c) const {
+        return orient2d(gx[a], gy[a], gx[b], gy[b], gx[c], gy[c]);
+    }
+    // Half-edge from a to b, or kNone when a-b is not an edge.
+    std::uint32_t findEdge(PointId a, PointId b) const;
+    // Metres of a vertex's grid position.
+    double gridToX(std::int64_t g) const { return originX + static_cast<double>(g) * gridUnit; }
+    double gridToY(std::int64_t g) const { return originY + static_cast<double>(g) * gridUnit; }
+
+    // --- Journal of one deletion step (deletion.h): triangles that existed before the step and
+    // were destroyed during it, and the slots created during it.
+    void beginJournal(std::uint32_t step);
+    void endJournal() { journaling_ = false; }
+    std::vector<std::uint32_t> journalRemovedSlots;
+    std::vector<TriangleTriple> journalRemoved;
+    std::vector<std::uint32_t> journalCreated;  // may hold a slot twice, or dead slots
+
+    // --- Mesh operations.
+    std::uint32_t createTriangle(PointId a, PointId b, PointId c);
+    void destroyTriangle(std::uint32_t t);
+    void link(std::uint32_t h, std::uint32_t g) {
+        tn[h] = g;
+        tn[g] = h;
+    }
+    void setConstrained(std::uint32_t h, bool on);
+    // Flips the edge of h (both triangles real, h not constrained, the quadrilateral convex).
+    void flip(std::uint32_t h);
+    // Flips every edge on the stack (and the edges it uncovers) that is not locally Delaunay.
+    void legalize(std::vector<std::uint32_t>& stack);
+    // Re-triangulates the polygon `poly` (vertex ids, counter-clockwise, simple) whose edge
+    // i (poly[i] -> poly[i+1]) borders the half-edge outer[i] (kNone: left open; the half-edge
+    // that takes it is returned in `openEdge`) with constraint flag cons[i]. New triangles are
+    // appended to `created`. Returns false when no ear exists (an invalid polygon).
+    bool triangulatePolygon(const std::vector<PointId>& poly,
+                            const std::vector<std::uint32_t>& outer,
+                            const std::vector<std::uint8_t>& cons,
+                            std::vector<std::uint32_t>& created, std::uint32_t& openEdge);
+
+    // Walk of the segment a -> b from a.
+    enum class TraceEnd : std::uint8_t { Reached, Vertex, Constraint };
+    struct Trace {
+        TraceEnd end = TraceEnd::Reached;
+        PointId vertex = kNone;              // Vertex: the vertex met on the open segment
+        std::uint32_t edge = kNone;          // Constraint: the crossed constraint half-edge
+        std::vector<std::uint32_t> crossed;  // crossed half-edges, in order, up to the end
+    };
+    void traceSegment(PointId a, PointId b, Trace& trace) const;
+
+    // Inserts the constraint a-b (a != b). Vertices on the segment split it: `path` receives
+    // a, the vertices met, b. Returns false with `error` set when the segment crosses a
+    // constraint or overlaps one.
+    bool insertSegment(PointId a, PointId b, std::vector<PointId>& path, std::string& error);
+
+    // Removes the interior vertex v (no ghost triangle at v) and re-triangulates its star so that
+    // the mesh is again constrained Delaunay. Constraint edges at v disappear (the caller keeps
+    // the river bookkeeping).
+    void removeVertex(PointId v);
+    // The star of v: link vertices counter-clockwise and, for each, the triangle (v, link[i],
+    // link[i+1]) half-edge index of v. Returns false when v is on the hull (a ghost triangle).
+    bool star(PointId v, std::vector<PointId>& link, std::vector<std::uint32_t>& triangles) const;
+
+    // Inserts a point (construction only: no constraints yet). Returns false for a duplicate.
+    void insertPoint(PointId p);
+
+private:
+    std::uint32_t locate(PointId p) const;
+
+    bool journaling_ = false;
+    std::uint32_t step_ = 0;
+    std::uint32_t lastTriangle_ = 0;
+    // Scratch buffers reused across operations.
+    std::vector<std::uint32_t> cavity_, boundary_, legal_, created_, mark_, touched_;
+    std::vector<std::pair<PointId, PointId>> queue_;
+    std::uint32_t markStamp_ = 0;
+    std::vector<PointId> poly_;
+    std::vector<std::uint32_t> outer_, starTris_;
+    std::vector<std::uint8_t> cons_;
+    std::vector<std::uint32_t> earPrev_, earNext_, earEdge_;
+    std::vector<std::uint8_t> earCons_;
+    Trace trace_;
+};
+
+// Builds the constrained Delaunay triangulation of the block's points with every river segment
+// as a constraint. Returns false with `error` naming the problem: fewer than 3 distinct points,
+// all points collinear, a non-finite coordinate, a block too large for the exact grid, a river
+// point id out of range, crossing or overlapping river segments.
+bool buildCdt(const PointSet& set, const CdtOptions& options, Cdt& cdt, std::string& error);
+
+// The alive real triangles in canonical form, sorted.
+std::vector<TriangleTriple> collectTriangles(const Cdt& cdt);
+// The river (constraint) edges, sorted.
+std::vector<RiverEdge> collectRiverEdges(const Cdt& cdt);
+
+}  // namespace unilod

@@ -1,0 +1,96 @@
+// The deletion sequence over the river-constrained Delaunay triangulation (paper §3.3), with
+// topology-change records and the model error of every step (paper §3.2; DESIGN.md
+// "Topology-change records").
+//
+// Points are deleted in the given order (the importance order, ascending). Deleting vertex X
+// removes its star and re-triangulates the hole so that the mesh is again constrained Delaunay
+// (cdt.h). A river vertex X between A and C is deleted only when the new river edge A-C keeps
+// the network's topology, decided exactly before anything changes: A-C must not cross or touch a
+// river edge, must not pass through any vertex but X, and must not already be a river edge.
+// Then X is removed and A-C inserted as a constraint, enlarging the cavity by the triangles A-C
+// crosses when it leaves X's star.
+//
+// Refusals (the vertex stays for good, listed in `kept`):
+//   Locked   - a locked point (block border, river end or junction; the caller locks them);
+//   Hull     - a vertex on the convex hull (deleting it would change the domain);
+//   RiverEnd - a vertex with 1 or >= 3 river edges that is not locked (its deletion would
+//              change the junction structure).
+// Deferral rule: a river vertex whose A-C fails the test is deferred and retried right after
+// the deletion of any vertex of its blocker set: A, C and the endpoints of the first river edge
+// A-C hits (or the vertex A-C passes through). Nothing else can unblock it (the blocking edge or
+// vertex stays as long as its endpoints do), so the rule is exact and costs nothing while
+// blocked. Retries run in order position, before the next vertex of the order; a retried vertex
+// that fails again is deferred again with its new blockers. Vertices still deferred when the
+// order is exhausted are kept (reason Deferred). Order entries that are merged duplicates
+// (Cdt::representative[id] != id) are skipped: their vertex is the representative.
+//
+// Records: one DeletionStep per successful deletion; the triangles (canonical vertex triples)
+// and river edges removed and added by step s are the ranges [offset[s], offset[s+1]) of the
+// flat arrays, so a file writer can store every array as it is. A triangle that is destroyed and
+// re-created identically within a step appears in neither list.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "cdt.h"
+
+namespace unilod {
+
+struct DeletionStep {
+    PointId vertex = 0;                // the vertex removed by this step
+    std::uint32_t trianglesAlive = 0;  // real triangles after the step
+    std::uint32_t riverEdgesAlive = 0;
+};
+static_assert(sizeof(DeletionStep) == 12);
+
+enum class KeptReason : std::uint8_t { Locked = 0, Hull = 1, RiverEnd = 2, Deferred = 3 };
+struct KeptVertex {
+    PointId id = 0;
+    KeptReason reason = KeptReason::Locked;
+};
+
+struct DeletionRecords {
+    std::vector<DeletionStep> steps;
+    // Size steps.size() + 1, first entry 0.
+    std::vector<std::uint32_t> removedTriangleOffset, addedTriangleOffset;
+    std::vector<std::uint32_t> removedEdgeOffset, addedEdgeOffset;
+    std::vector<TriangleTriple> removedTriangles, addedTriangles;
+    std::vector<RiverEdge> removedEdges, addedEdges;
+    // Model error after each step, running maxima (non-decreasing). Empty when not computed.
+    std::vector<double> errorMax, errorPaper;
+    double initialErrorMax = 0, initialErrorPaper = 0;  // before the first step
+    std::vector<KeptVertex> kept;        // refused or never-deletable vertices of the order
+    std::uint32_t deferrals = 0;         // deferred attempts (a vertex may be deferred often)
+    std::uint32_t deferredVertices = 0;  // distinct vertices deferred at least once
+    std::uint32_t mergedSkipped = 0;     // order entries skipped as merged duplicates
+
+    std::size_t memoryBytes() const;
+};
+
+struct DeletionOptions {
+    bool maxError = true;    // compute the `max` metric
+    bool paperError = true;  // compute the `paper` metric
+    // Stop after this many steps (the Cdt is left at that step; `kept` then lists only the
+    // refusals met so far and no Deferred entries).
+    std::uint32_t maxSteps = std::numeric_limits<std::uint32_t>::max();
+    // Called after every step with the step count (tests run the checker here).
+    std::function<void(std::uint32_t)> afterStep;
+};
+
+// Runs the deletion sequence on `cdt` (built from `set` by buildCdt, no deletion yet).
+// Returns false with `error` for an invalid order (id out of range or repeated).
+bool runDeletion(const PointSet& set, Cdt& cdt, const std::vector<PointId>& order,
+                 const DeletionOptions& options, DeletionRecords& records, std::string& error);
+
+// Applies steps 1..k of the records to the triangles / river edges of the full triangulation
+// (collectTriangles / collectRiverEdges before the deletion) and returns the sorted result.
+std::vector<TriangleTriple> replayTriangles(const std::vector<TriangleTriple>& initial,
+                                            const DeletionRecords& records, std::uint32_t k);
+std::vector<RiverEdge> replayRiverEdges(const std::vector<RiverEdge>& initial,
+                                        const DeletionRecords& records, std::uint32_t k);
+
+}  // namespace unilod

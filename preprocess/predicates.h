@@ -1,0 +1,50 @@
+// Exact geometric predicates on integer grid coordinates (paper §3.3: the river-constrained
+// Delaunay triangulation; DESIGN.md "use exact predicates ... no epsilon-based orientation tests").
+//
+// Every block is quantised to a fixed grid (cdt.h) and every coordinate handed to these functions
+// satisfies |c| <= kMaxGridCoordinate = 2^28 - 1. Then:
+//   orient2d: coordinate differences < 2^29, products < 2^58, result < 2^59   -> exact in int64.
+//   incircle: lifted terms dx^2 + dy^2 < 2^59 and 2x2 minors < 2^59 fit int64; their products are
+//             < 2^118 and the sum of three < 2^120                              -> exact in int128.
+// No floating point, no epsilon: the sign is always the true sign.
+#pragma once
+
+#include <cstdint>
+
+namespace unilod {
+
+__extension__ typedef __int128 Int128;
+
+inline constexpr std::int64_t kMaxGridCoordinate = (std::int64_t{1} << 28) - 1;
+
+// Twice the signed area of (a, b, c): > 0 counter-clockwise, < 0 clockwise, 0 collinear.
+inline std::int64_t orient2d(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by,
+                             std::int64_t cx, std::int64_t cy) {
+    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax);
+}
+
+// > 0 when d lies strictly inside the circle through the counter-clockwise triangle (a, b, c),
+// 0 when the four points are cocircular, < 0 outside.
+inline int incircle(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by,
+                    std::int64_t cx, std::int64_t cy, std::int64_t dx, std::int64_t dy) {
+    const std::int64_t adx = ax - dx, ady = ay - dy;
+    const std::int64_t bdx = bx - dx, bdy = by - dy;
+    const std::int64_t cdx = cx - dx, cdy = cy - dy;
+    const std::int64_t alift = adx * adx + ady * ady;
+    const std::int64_t blift = bdx * bdx + bdy * bdy;
+    const std::int64_t clift = cdx * cdx + cdy * cdy;
+    const Int128 det = Int128(alift) * (bdx * cdy - cdx * bdy) +
+                       Int128(blift) * (cdx * ady - adx * cdy) +
+                       Int128(clift) * (adx * bdy - bdx * ady);
+    return det > 0 ? 1 : (det < 0 ? -1 : 0);
+}
+
+// Exact test whether p lies on the closed segment [a, b], given orient2d(a, b, p) == 0.
+inline bool betweenCollinear(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by,
+                             std::int64_t px, std::int64_t py) {
+    const std::int64_t dot = (px - ax) * (bx - ax) + (py - ay) * (by - ay);
+    const std::int64_t len = (bx - ax) * (bx - ax) + (by - ay) * (by - ay);
+    return dot >= 0 && dot <= len;
+}
+
+}  // namespace unilod

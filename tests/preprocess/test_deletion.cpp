@@ -1,0 +1,252 @@
+// River-constrained deletion sequence (paper §3.3): invariants after every step, deferral,
+// replay of the topology-change records, determinism.
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "cdt.h"
+#include "cdt_fixtures.h"
+#include "checker.h"
+#include "deletion.h"
+
+namespace unilod {
+namespace {
+
+using testing::BlockSpec;
+using testing::makeBlock;
+using testing::shuffledOrder;
+
+// Runs the whole sequence and checks every invariant after every step, with the river edges
+// rebuilt from the records (so the records are checked too).
+void runChecked(const PointSet& set, const std::vector<PointId>& order, DeletionRecords& rec,
+                std::uint32_t every = 1) {
+    Cdt cdt;
+    std::string error;
+    ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+    const CheckReference ref = captureCheckReference(cdt);
+    const std::vector<RiverEdge> initialEdges = collectRiverEdges(cdt);
+    std::set<RiverEdge> edges(initialEdges.begin(), initialEdges.end());
+    std::string message;
+    ASSERT_TRUE(checkCdt(cdt, ref, nullptr, message)) << message;
+    std::uint32_t failures = 0;
+    DeletionOptions options;
+    options.afterStep = [&](std::uint32_t step) {
+        const std::uint32_t s = step - 1;
+        for (std::uint32_t i = rec.removedEdgeOffset[s]; i < rec.removedEdgeOffset[s + 1]; ++i)
+            edges.erase(rec.removedEdges[i]);
+        for (std::uint32_t i = rec.addedEdgeOffset[s]; i < rec.addedEdgeOffset[s + 1]; ++i)
+            edges.insert(rec.addedEdges[i]);
+        if (failures > 0 || (step % every != 0 && step + 1000 < order.size())) return;
+        const std::vector<RiverEdge> list(edges.begin(), edges.end());
+        std::string m;
+        if (!checkCdt(cdt, ref, &list, m)) {
+            ++failures;
+            ADD_FAILURE() << "after step " << step << " (vertex " << rec.steps[s].vertex
+                          << "): " << m;
+        }
+        EXPECT_EQ(rec.steps[s].trianglesAlive, cdt.realTriangleCount);
+        EXPECT_EQ(rec.steps[s].riverEdgesAlive, list.size());
+    };
+    ASSERT_TRUE(runDeletion(set, cdt, order, options, rec, error)) << error;
+    EXPECT_EQ(failures, 0u);
+    // Everything deletable was deleted: every vertex left is locked, on the hull or kept.
+    std::uint32_t kept = 0;
+    for (const KeptVertex& k : rec.kept)
+        kept += k.reason != KeptReason::Locked;
+    EXPECT_EQ(rec.steps.size() + kept, order.size() - rec.mergedSkipped);
+    ASSERT_TRUE(checkCdt(cdt, ref, nullptr, message)) << message;
+}
+
+TEST(Deletion, InvariantsAfterEveryStepRandomBlocks) {
+    for (std::uint64_t seed : {11u, 12u}) {
+        BlockSpec spec;
+        spec.seed = seed;
+        spec.points = 2500;
+        spec.rivers = 3;
+        const PointSet set = makeBlock(spec);
+        DeletionRecords rec;
+        runChecked(set, shuffledOrder(set, seed * 7), rec);
+        EXPECT_GT(rec.steps.size(), 2000u);
+        EXPECT_GT(rec.removedEdges.size(), 100u);  // river vertices were deleted
+    }
+}
+
+TEST(Deletion, InvariantsAfterEveryStepGridBlock) {
+    BlockSpec spec;
+    spec.seed = 5;
+    spec.points = 2500;
+    spec.grid = true;
+    spec.rivers = 4;
+    const PointSet set = makeBlock(spec);
+    DeletionRecords rec;
+    runChecked(set, shuffledOrder(set, 99), rec);
+    EXPECT_GT(rec.steps.size(), 2000u);
+}
+
+TEST(Deletion, HullVerticesAreRefusedWhenNotLocked) {
+    BlockSpec spec;
+    spec.seed = 3;
+    spec.points = 600;
+    spec.lockBorder = false;
+    const PointSet set = makeBlock(spec);
+    DeletionRecords rec;
+    runChecked(set, shuffledOrder(set, 3), rec);
+    std::uint32_t hull = 0;
+    for (const KeptVertex& k : rec.kept)
+        hull += k.reason == KeptReason::Hull;
+    EXPECT_GE(hull, 4u);
+}
+
+// Four locked corners around a small river scene.
+PointSet frame() {
+    PointSet set;
+    for (auto [x, y] : {std::pair{-20.0, -20.0}, {30.0, -20.0}, {30.0, 20.0}, {-20.0, 20.0}}) {
+        set.points.push_back({x, y, 0.0, PointKind::Dem, true});
+    }
+    for (auto [x, y] :
+         {std::pair{-10.0, 12.0}, {20.0, 13.0}, {-12.0, -11.0}, {21.0, -13.0}, {3.0, 15.0}}) {
+        set.points.push_back({x, y, 1.0, PointKind::Dem, false});
+    }
+    return set;
+}
+PointId add(PointSet& set, double x, double y, bool locked) {
+    set.points.push_back({x, y, 2.0, PointKind::River, locked});
+    return PointId(set.points.size() - 1);
+}
+
+TEST(Deletion, CrossingDeletionIsDeferredUntilTheBlockerGoes) {
+    // River 1: A - X - C. River 2: B1 - B2 - B3 with B2 inside triangle A X C, so A-C would
+    // cross both edges at B2. Deleting B2 first is not in the order: X comes first.
+    PointSet set = frame();
+    const PointId a = add(set, 0, 0, true), x = add(set, 5, 5, false), c = add(set, 10, 0, true);
+    const PointId b1 = add(set, 5, -4, true), b2 = add(set, 5, 1, false),
+                  b3 = add(set, 12, -2, true);
+    set.rivers = {{a, x, c}, {b1, b2, b3}};
+    DeletionRecords rec;
+    runChecked(set, {x, b2}, rec);
+    ASSERT_EQ(rec.steps.size(), 2u);
+    EXPECT_EQ(rec.steps[0].vertex, b2);  // X waited for B2
+    EXPECT_EQ(rec.steps[1].vertex, x);
+    EXPECT_EQ(rec.deferrals, 1u);
+    EXPECT_EQ(rec.deferredVertices, 1u);
+    EXPECT_TRUE(rec.kept.empty());
+}
+
+TEST(Deletion, NeverPossibleDeletionIsKeptAndNothingCrosses) {
+    // B3 is a river end inside triangle A X C: A-C would always cross the river B.
+    PointSet set = frame();
+    const PointId a = add(set, 0, 0, true), x = add(set, 5, 5, false), c = add(set, 10, 0, true);
+    const PointId b1 = add(set, 5, -4, true), b2 = add(set, 5, -1, false),
+                  b3 = add(set, 5, 2, true);
+    set.rivers = {{a, x, c}, {b1, b2, b3}};
+    DeletionRecords rec;
+    runChecked(set, {x, b2, 4, 5, 6, 7, 8}, rec);
+    EXPECT_EQ(rec.deferrals, 2u);  // deferred, retried after B2 went, deferred again
+    EXPECT_EQ(rec.deferredVertices, 1u);
+    ASSERT_EQ(rec.kept.size(), 1u);
+    EXPECT_EQ(rec.kept[0].id, x);
+    EXPECT_EQ(rec.kept[0].reason, KeptReason::Deferred);
+    EXPECT_EQ(rec.steps.size(), 6u);
+}
+
+TEST(Deletion, VertexOnTheNewRiverEdgeDefers) {
+    // A DEM point D exactly on A-C: A-C would touch it. D goes later in the order.
+    PointSet set = frame();
+    const PointId a = add(set, 0, 0, true), x = add(set, 5, 5, false), c = add(set, 10, 0, true);
+    set.points.push_back({4, 0, 1.0, PointKind::Dem, false});
+    const PointId d = PointId(set.points.size() - 1);
+    set.rivers = {{a, x, c}};
+    DeletionRecords rec;
+    runChecked(set, {x, d}, rec);
+    ASSERT_EQ(rec.steps.size(), 2u);
+    EXPECT_EQ(rec.steps[0].vertex, d);
+    EXPECT_EQ(rec.steps[1].vertex, x);
+    EXPECT_EQ(rec.deferrals, 1u);
+}
+
+TEST(Deletion, CollinearRiverVertexIsDeleted) {
+    PointSet set = frame();
+    const PointId a = add(set, 0, 0, true), x = add(set, 5, 0, false), c = add(set, 10, 0, true);
+    set.rivers = {{a, x, c}};
+    DeletionRecords rec;
+    runChecked(set, {x}, rec);
+    ASSERT_EQ(rec.steps.size(), 1u);
+    ASSERT_EQ(rec.addedEdges.size(), 1u);
+    EXPECT_EQ(rec.addedEdges[0], makeRiverEdge(a, c));
+}
+
+TEST(Deletion, ReplayReproducesEveryStep) {
+    BlockSpec spec;
+    spec.seed = 21;
+    spec.points = 1500;
+    const PointSet set = makeBlock(spec);
+    const std::vector<PointId> order = shuffledOrder(set, 4);
+    Cdt full;
+    std::string error;
+    ASSERT_TRUE(buildCdt(set, {}, full, error)) << error;
+    const std::vector<TriangleTriple> initial = collectTriangles(full);
+    const std::vector<RiverEdge> initialEdges = collectRiverEdges(full);
+    DeletionRecords rec;
+    ASSERT_TRUE(runDeletion(set, full, order, {}, rec, error)) << error;
+    const auto total = std::uint32_t(rec.steps.size());
+    for (std::uint32_t k : {0u, 1u, 2u, 17u, total / 3, total / 2, total - 1, total}) {
+        Cdt cdt;
+        ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+        DeletionOptions options;
+        options.maxSteps = k;
+        DeletionRecords partial;
+        ASSERT_TRUE(runDeletion(set, cdt, order, options, partial, error)) << error;
+        ASSERT_EQ(partial.steps.size(), k);
+        EXPECT_EQ(replayTriangles(initial, rec, k), collectTriangles(cdt)) << "step " << k;
+        EXPECT_EQ(replayRiverEdges(initialEdges, rec, k), collectRiverEdges(cdt)) << "step " << k;
+        if (k > 0) {
+            EXPECT_EQ(rec.steps[k - 1].trianglesAlive, cdt.realTriangleCount);
+            EXPECT_EQ(replayTriangles(initial, rec, k).size(), cdt.realTriangleCount);
+        }
+    }
+}
+
+TEST(Deletion, IdenticalRecordsForIdenticalInput) {
+    BlockSpec spec;
+    spec.seed = 8;
+    spec.points = 1500;
+    const PointSet set = makeBlock(spec);
+    const std::vector<PointId> order = shuffledOrder(set, 8);
+    DeletionRecords r[2];
+    for (auto& rec : r) {
+        Cdt cdt;
+        std::string error;
+        ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+        ASSERT_TRUE(runDeletion(set, cdt, order, {}, rec, error)) << error;
+    }
+    ASSERT_EQ(r[0].steps.size(), r[1].steps.size());
+    for (std::size_t s = 0; s < r[0].steps.size(); ++s) {
+        EXPECT_EQ(r[0].steps[s].vertex, r[1].steps[s].vertex);
+        EXPECT_EQ(r[0].steps[s].trianglesAlive, r[1].steps[s].trianglesAlive);
+    }
+    EXPECT_EQ(r[0].removedTriangleOffset, r[1].removedTriangleOffset);
+    EXPECT_EQ(r[0].addedTriangleOffset, r[1].addedTriangleOffset);
+    EXPECT_TRUE(r[0].removedTriangles == r[1].removedTriangles);
+    EXPECT_TRUE(r[0].addedTriangles == r[1].addedTriangles);
+    EXPECT_TRUE(r[0].removedEdges == r[1].removedEdges);
+    EXPECT_TRUE(r[0].addedEdges == r[1].addedEdges);
+    EXPECT_EQ(r[0].errorMax, r[1].errorMax);
+    EXPECT_EQ(r[0].errorPaper, r[1].errorPaper);
+}
+
+TEST(Deletion, InvalidOrderIsRejected) {
+    BlockSpec spec;
+    spec.points = 100;
+    const PointSet set = makeBlock(spec);
+    Cdt cdt;
+    std::string error;
+    ASSERT_TRUE(buildCdt(set, {}, cdt, error));
+    DeletionRecords rec;
+    EXPECT_FALSE(runDeletion(set, cdt, {PointId(set.points.size())}, {}, rec, error));
+    EXPECT_NE(error.find("out of range"), std::string::npos);
+    EXPECT_FALSE(runDeletion(set, cdt, {50, 50}, {}, rec, error));
+    EXPECT_NE(error.find("repeated"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace unilod
