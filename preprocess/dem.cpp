@@ -89,8 +89,14 @@ int utmEpsgFor(double lon, double lat) {
 double DemGrid::sample(double x, double y) const {
     constexpr double kNaNd = std::numeric_limits<double>::quiet_NaN();
     if (width <= 0 || height <= 0) return kNaNd;
-    const double fx = (x - originX) / cellX;
-    const double fy = (y - originY) / cellY;
+    // Coordinates computed as origin + i * cell come back as i +- 1 ulp: snap them, so that a
+    // point on a row or column of centres does not pick up a zero-weight nodata neighbour.
+    const auto snap = [](double f) {
+        const double r = std::round(f);
+        return std::abs(f - r) < 1e-9 ? r : f;
+    };
+    const double fx = snap((x - originX) / cellX);
+    const double fy = snap((y - originY) / cellY);
     // The negated comparisons also reject NaN coordinates.
     if (!(fx >= 0 && fx <= width - 1 && fy >= 0 && fy <= height - 1)) return kNaNd;
     const int c0 = std::min(static_cast<int>(fx), width - 1);

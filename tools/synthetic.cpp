@@ -4,9 +4,11 @@
 // west is wide low flats and the east rough mountains. Rivers: Langbein & Leopold's sine-generated
 // curves (heading = omega * sin(2 pi s / lambda) along arc length s), whose tight meanders do not
 // self-intersect for omega below ~2.2 rad, with lambda / omega redrawn every half wave and a weak
-// pull back to the river's band centre. Every line is checked against all accepted segments with a
-// clearance before it is accepted (rejected attempts retry with calmer meanders), so "no crossing"
-// holds by verification, not by hope. All geometry is generated in cell units.
+// pull back to the river's band centre. Every segment is checked against all accepted segments
+// with a clearance as it is made (a main river's half wave that fails is redrawn calmer; a
+// tributary that fails is dropped), so "no crossing" holds by verification, not by hope. Main
+// rivers run west to east in horizontal bands, tributaries leave them at the outer apex of a bend.
+// All geometry is generated in cell units.
 #include "synthetic.h"
 
 #include <gdal_priv.h>
@@ -311,24 +313,28 @@ struct Walker {
     double phase = 0, wavelength = 0, omega = 0;
     long halfWave = -1;
 
-    void redrawIfNewHalfWave() {
-        const long h = static_cast<long>(std::floor(phase / kPi));
-        if (h == halfWave) return;
-        halfWave = h;
+    // Draws the wavelength and omega of the half wave starting now (scale: calmer retries).
+    void beginHalfWave(double scale) {
+        halfWave = static_cast<long>(std::floor(phase / kPi));
         wavelength = rng.uniform(style.minWavelength, style.maxWavelength);
         omega = rng.chance(style.tightChance)
                     ? rng.uniform(style.tightMinOmega, style.tightMaxOmega)
                     : rng.uniform(style.minOmega, style.maxOmega);
-        omega *= omegaScale;
+        omega *= omegaScale * scale;
     }
 
-    // One step of length ds from (u, v) with the given base heading; returns the new vertex.
+    // One step of length ds from p with the given base heading; returns the new vertex.
     XY step(const XY& p, double base, double ds) {
-        redrawIfNewHalfWave();
         const double dphi = kTwoPi * ds / wavelength;
         const double heading = base + omega * detSin(phase + 0.5 * dphi);
         phase += dphi;
         return {p.x + ds * detCos(heading), p.y + ds * detSin(heading)};
+    }
+
+    // step(), drawing a new half wave whenever the phase enters one.
+    XY stepAuto(const XY& p, double base, double ds) {
+        if (static_cast<long>(std::floor(phase / kPi)) != halfWave) beginHalfWave(1.0);
+        return step(p, base, ds);
     }
 };
 
@@ -367,35 +373,67 @@ double pathLength(const RiverLine& line) {
 
 // Main river in band [vLow, vLow + band]: from the west margin to the east margin.
 bool walkMainRiver(Rng& rng, const RiverPlan& plan, double vLow, double omegaScale,
-                   RiverLine& line) {
+                   SegmentIndex& index, int id, RiverLine& line) {
     const double vCentre = vLow + 0.5 * plan.band;
     const double belt = 0.3 * plan.band;  // target half width of the meander belt
-    MeanderStyle style{kMinWavelength,
-                       std::max(kMinWavelength, std::min(1.3 * plan.band, 120.0)),
-                       0.45,
-                       1.2,
-                       0.3,
-                       1.4,
-                       1.75};
+    const MeanderStyle style{kMinWavelength,
+                             std::max(kMinWavelength, std::min(1.3 * plan.band, 120.0)),
+                             0.5,
+                             1.25,
+                             0.3,
+                             1.5,
+                             1.95};
     Walker walker{rng, style, omegaScale};
     line.clear();
+    const std::size_t start = index.mark();
     XY p{kMargin + 1.0, vCentre + rng.uniform(-0.2, 0.2) * belt};
     line.push_back(p);
     const double uEnd = plan.width - kMargin - 1.0;
+    const auto skip = [id](const Seg& s) {
+        return [id, &s](const Seg& o) { return o.line == id && std::abs(o.index - s.index) <= 1; };
+    };
+
+    // Half wave by half wave. A half wave that leaves the band or comes too close to a river is
+    // undone and redrawn calmer (the last try straight), so that one tight bend in the wrong
+    // place does not cost the whole river its meanders.
     const std::size_t maxVertices = static_cast<std::size_t>(plan.width) * 40;
     while (p.x < uEnd) {
-        if (line.size() > maxVertices) return false;
-        // Pull towards the band centre, saturating, so that drift from unequal half waves
-        // does not accumulate.
-        const double pull = -0.35 * std::clamp((p.y - vCentre) / belt, -1.5, 1.5);
-        p = walker.step(p, pull, rng.uniform(0.5, 1.0));
-        if (!insideBox(p, kMargin, plan.width - kMargin, vLow + 0.1 * plan.band,
-                       vLow + 0.9 * plan.band)) {
+        if (line.size() > maxVertices) {  // not getting anywhere: give up this river
+            index.rollback(start);
             return false;
         }
-        line.push_back(p);
+        const std::size_t vertices = line.size(), segments = index.mark();
+        const double phase = walker.phase;
+        bool ok = false;
+        for (int attempt = 0; attempt < 5 && !ok; ++attempt) {
+            line.resize(vertices);
+            index.rollback(segments);
+            walker.phase = phase;
+            p = line.back();
+            walker.beginHalfWave(attempt == 4 ? 0.0 : 1.0 - 0.25 * attempt);
+            const double end = (std::floor(phase / kPi + 1e-9) + 1.0) * kPi;
+            ok = true;
+            while (ok && walker.phase < end && p.x < uEnd) {
+                // Pull towards the band centre, saturating, so that drift from unequal half
+                // waves does not accumulate.
+                const double pull = -0.35 * std::clamp((p.y - vCentre) / belt, -1.5, 1.5);
+                const XY q = walker.step(p, pull, rng.uniform(0.5, 1.0));
+                const Seg s{p, q, id, static_cast<int>(line.size()) - 1};
+                ok = insideBox(q, kMargin, plan.width - kMargin, vLow + 0.1 * plan.band,
+                               vLow + 0.9 * plan.band) &&
+                     index.tryAdd(s, skip(s));
+                if (ok) {
+                    line.push_back(q);
+                    p = q;
+                }
+            }
+        }
+        if (!ok) {
+            index.rollback(start);
+            return false;
+        }
     }
-    return line.size() >= 4;
+    return true;
 }
 
 // Tributary leaving main river `main` at vertex `j` towards side (+1 north, -1 south), returned
@@ -412,7 +450,7 @@ bool walkTributary(Rng& rng, const RiverPlan& plan, double vLow, const RiverLine
     double walked = 0;
     while (walked < length) {
         const double ds = rng.uniform(0.5, 1.0);
-        const XY q = walker.step(p, base, ds);
+        const XY q = walker.stepAuto(p, base, ds);
         if (!insideBox(q, kMargin, plan.width - kMargin, vLow + 0.04 * plan.band,
                        vLow + 0.96 * plan.band)) {
             break;
@@ -442,9 +480,9 @@ void generateRivers(const RiverPlan& plan, std::uint64_t seed, RiverLines& lines
     if (plan.mains == 0) return;
     Rng rng(hash64(seed ^ 0x7269766572730000ull));  // "rivers"
     SegmentIndex index(plan.width, plan.height, 4.0, kClearance);
-    const auto noSkip = [](const Seg&) { return false; };
 
-    // Main rivers; a failed attempt retries with calmer meanders, the last one with none.
+    // Main rivers; a river whose walk gets stuck retries with calmer meanders, the last time with
+    // none.
     std::vector<double> bandLow;
     for (int i = 0; i < plan.mains; ++i) {
         const double vLow = kMargin + i * plan.band;
@@ -452,8 +490,7 @@ void generateRivers(const RiverPlan& plan, std::uint64_t seed, RiverLines& lines
         for (int attempt = 0; attempt < 6; ++attempt) {
             const double omegaScale = attempt == 5 ? 0.0 : 1.0 - 0.18 * attempt;
             const int id = static_cast<int>(lines.size());
-            if (walkMainRiver(rng, plan, vLow, omegaScale, line) &&
-                addLine(index, line, id, noSkip)) {
+            if (walkMainRiver(rng, plan, vLow, omegaScale, index, id, line)) {
                 lines.push_back(std::move(line));
                 bandLow.push_back(vLow);
                 break;

@@ -204,6 +204,9 @@ TEST(Dem, NodataBecomesNaN) {
     EXPECT_TRUE(std::isnan(dem.sample(dem.centreX(2), dem.centreY(1))));
     EXPECT_EQ(dem.sample(dem.centreX(1) + 5.0, dem.centreY(2)), 100.0);
     EXPECT_EQ(dem.sample(dem.centreX(1), dem.centreY(1) - 5.0), 100.0);
+    // Next to the nodata column, a hair off the centre column still counts as on it.
+    EXPECT_EQ(dem.sample(dem.centreX(1) + 5e-9, dem.centreY(1) - 5.0), 100.0);
+    EXPECT_TRUE(std::isnan(dem.sample(dem.centreX(1) + 1e-6, dem.centreY(1) - 5.0)));
 }
 
 TEST(Dem, IntegerNodataBecomesNaN) {

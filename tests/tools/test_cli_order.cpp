@@ -308,3 +308,14 @@ TEST(CliOrder, BaiTableFromAFile) {
     EXPECT_EQ(bad.code, 1);
     EXPECT_NE(bad.err.find(table), std::string::npos) << bad.err;
 }
+
+TEST(CliSynth, UnwritableOutputIsADataError) {
+    TempDir dir("synth_bad");
+    const std::string file = dir.file("a_file");
+    std::ofstream(file) << "x";
+    const std::string out = file + "/data";  // a directory below a regular file
+    const Result r = run("synth --points 2000 -o " + q(out));
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find(out), std::string::npos) << r.err;
+    EXPECT_EQ(dir.entries(), 1u);
+}
