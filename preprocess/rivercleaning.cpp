@@ -139,9 +139,15 @@ struct Segment {
 
 class SegmentGrid {
 public:
-    // Registers every segment in the cells its region padded by `pad` units (Chebyshev) touches.
-    void build(const std::vector<Segment>& segs, std::int64_t pad) {
+    // Registers the segments in the cells their region padded by `pad` units (Chebyshev)
+    // touches. With `dirtyOnly`, a clean segment is registered only in cells that hold a dirty
+    // one (enough to find every pair with a dirty segment, at a fraction of the cost).
+    void build(const std::vector<Segment>& segs, std::int64_t pad, bool dirtyOnly = false) {
         entries_.clear();
+        ref_.assign(segs.size(), {0, 0});
+        strip_.assign(segs.size(), 0);
+        start_.assign(2, 0);
+        mask_ = 0;
         if (segs.empty()) return;
         minX_ = segs[0].a.x;
         minY_ = segs[0].a.y;
@@ -154,40 +160,59 @@ public:
         }
         minX_ -= pad + 1;
         minY_ -= pad + 1;
-        cell_ =
-            std::max<std::int64_t>(static_cast<std::int64_t>(extent / segs.size()), 2 * pad + 8);
-        for (std::uint32_t i = 0; i < segs.size(); ++i)
-            registerSegment(segs[i].a, segs[i].b, pad, i);
-        std::sort(entries_.begin(), entries_.end());
+        // Twice the mean extent: most segments touch 1 to 4 cells.
+        cell_ = std::max<std::int64_t>(static_cast<std::int64_t>(2 * extent / segs.size()),
+                                       2 * pad + 8);
+        std::vector<Entry> raw;
+        raw.reserve(2 * segs.size());
+        auto push = [&](std::uint64_t key, std::uint32_t id) { raw.push_back({key, id}); };
+        for (std::uint32_t i = 0; i < segs.size(); ++i) {
+            if (!dirtyOnly || segs[i].dirty) registerSegment(segs[i].a, segs[i].b, pad, i, push);
+        }
+        if (dirtyOnly) {
+            bucketize(raw);
+            auto pushIfDirtyCell = [&](std::uint64_t key, std::uint32_t id) {
+                if (inCell(key)) raw.push_back({key, id});
+            };
+            for (std::uint32_t i = 0; i < segs.size(); ++i) {
+                if (!segs[i].dirty) registerSegment(segs[i].a, segs[i].b, pad, i, pushIfDirtyCell);
+            }
+        }
+        bucketize(raw);
     }
 
     // Ids of the segments registered in the cell containing p (ascending).
     template <class F>
     void forCell(const G& p, F&& f) const {
         const std::uint64_t key = keyOf(cellOf(p.x, minX_), cellOf(p.y, minY_));
-        auto it = std::lower_bound(entries_.begin(), entries_.end(), std::make_pair(key, 0u));
-        for (; it != entries_.end() && it->first == key; ++it)
-            f(it->second);
+        const std::size_t b = bucketOf(key);
+        for (std::size_t i = start_[b]; i < start_[b + 1]; ++i)
+            if (entries_[i].key == key) f(entries_[i].id);
     }
 
     // Calls f(s, t), s < t, once for every pair of segments sharing a cell for which
-    // want(s, t) holds.
+    // want(s, t) holds. Two box-registered segments are reported only in their reference cell
+    // (the lowest cell both boxes cover); pairs with a long segment are deduplicated by sorting.
     template <class W, class F>
     void forPairs(W&& want, F&& f) const {
         std::vector<std::uint64_t> pairs;
-        for (std::size_t i = 0; i < entries_.size();) {
-            std::size_t j = i;
-            while (j < entries_.size() && entries_[j].first == entries_[i].first)
-                ++j;
-            for (std::size_t p = i; p < j; ++p) {
-                for (std::size_t q = p + 1; q < j; ++q) {
-                    // (The same id twice in a cell only happens on a key collision.)
-                    if (entries_[p].second == entries_[q].second) continue;
-                    if (!want(entries_[p].second, entries_[q].second)) continue;
-                    pairs.push_back((std::uint64_t{entries_[p].second} << 32) | entries_[q].second);
+        for (std::size_t b = 0; b + 1 < start_.size(); ++b) {
+            for (std::size_t p = start_[b]; p < start_[b + 1]; ++p) {
+                const std::uint64_t key = entries_[p].key;
+                for (std::size_t q = p + 1; q < start_[b + 1]; ++q) {
+                    if (entries_[q].key != key) continue;  // another cell in the same bucket
+                    std::uint32_t s = entries_[p].id, t = entries_[q].id;
+                    if (s == t) continue;  // (only on a key collision)
+                    if (s > t) std::swap(s, t);
+                    if (!want(s, t)) continue;
+                    if (strip_[s] || strip_[t]) {
+                        pairs.push_back((std::uint64_t{s} << 32) | t);
+                    } else if (keyOf(std::max(ref_[s].first, ref_[t].first),
+                                     std::max(ref_[s].second, ref_[t].second)) == key) {
+                        f(s, t);
+                    }
                 }
             }
-            i = j;
         }
         std::sort(pairs.begin(), pairs.end());
         pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
@@ -196,22 +221,57 @@ public:
     }
 
 private:
-    std::int64_t cellOf(std::int64_t v, std::int64_t lo) const { return (v - lo) / cell_; }
-    static std::uint64_t keyOf(std::int64_t cx, std::int64_t cy) {
-        return (static_cast<std::uint64_t>(cx) << 32) | static_cast<std::uint64_t>(cy);
+    struct Entry {
+        std::uint64_t key;
+        std::uint32_t id;
+    };
+
+    std::size_t bucketOf(std::uint64_t key) const {
+        const std::uint64_t h = key * 0x9E3779B97F4A7C15ull;
+        return static_cast<std::size_t>((h ^ (h >> 31)) & mask_);
+    }
+    // Counting sort of the entries by hashed cell into buckets (stable: ids stay ascending).
+    void bucketize(std::vector<Entry>& raw) {
+        std::size_t n = 1;
+        while (n < raw.size())
+            n <<= 1;
+        mask_ = n - 1;
+        start_.assign(n + 1, 0);
+        for (const Entry& e : raw)
+            ++start_[bucketOf(e.key) + 1];
+        for (std::size_t b = 0; b < n; ++b)
+            start_[b + 1] += start_[b];
+        entries_.resize(raw.size());
+        std::vector<std::size_t> fill(start_.begin(), start_.end() - 1);
+        for (const Entry& e : raw)
+            entries_[fill[bucketOf(e.key)]++] = e;
+    }
+    bool inCell(std::uint64_t key) const {
+        const std::size_t b = bucketOf(key);
+        for (std::size_t i = start_[b]; i < start_[b + 1]; ++i)
+            if (entries_[i].key == key) return true;
+        return false;
     }
 
-    void registerSegment(const G& a, const G& b, std::int64_t pad, std::uint32_t id) {
+    std::int64_t cellOf(std::int64_t v, std::int64_t lo) const { return (v - lo) / cell_; }
+    static std::uint64_t keyOf(std::int64_t cx, std::int64_t cy) {
+        return (static_cast<std::uint64_t>(cx) << 32) ^ static_cast<std::uint64_t>(cy);
+    }
+
+    template <class Push>
+    void registerSegment(const G& a, const G& b, std::int64_t pad, std::uint32_t id, Push&& push) {
         const std::int64_t x0 = std::min(a.x, b.x) - pad, x1 = std::max(a.x, b.x) + pad;
         const std::int64_t y0 = std::min(a.y, b.y) - pad, y1 = std::max(a.y, b.y) + pad;
         const std::int64_t c0 = cellOf(x0, minX_), c1 = cellOf(x1, minX_);
         const std::int64_t r0 = cellOf(y0, minY_), r1 = cellOf(y1, minY_);
-        if ((c1 - c0 <= 8 && r1 - r0 <= 8 && (c1 - c0 + 1) * (r1 - r0 + 1) <= 8) || a.x == b.x) {
+        ref_[id] = {c0, r0};
+        if ((c1 - c0 <= 8 && r1 - r0 <= 8 && (c1 - c0 + 1) * (r1 - r0 + 1) <= 9) || a.x == b.x) {
             for (std::int64_t c = c0; c <= c1; ++c)
                 for (std::int64_t r = r0; r <= r1; ++r)
-                    entries_.push_back({keyOf(c, r), id});
+                    push(keyOf(c, r), id);
             return;
         }
+        strip_[id] = 1;
         // A long segment: per column of cells, only the rows its padded band passes. The y range
         // is computed in double and widened by 2 units, which covers its rounding error.
         const double ax = static_cast<double>(a.x), ay = static_cast<double>(a.y);
@@ -228,12 +288,16 @@ private:
             const std::int64_t ra = std::max(r0, cellOf(std::max(ylo, minY_), minY_));
             const std::int64_t rb = std::min(r1, cellOf(std::max(yhi, minY_), minY_));
             for (std::int64_t r = ra; r <= rb; ++r)
-                entries_.push_back({keyOf(c, r), id});
+                push(keyOf(c, r), id);
         }
     }
 
     std::int64_t minX_ = 0, minY_ = 0, cell_ = 1;
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> entries_;
+    std::vector<Entry> entries_;      // grouped by bucket
+    std::vector<std::size_t> start_;  // bucket b: entries_[start_[b], start_[b + 1])
+    std::size_t mask_ = 0;
+    std::vector<std::pair<std::int64_t, std::int64_t>> ref_;  // lowest cell of the padded box
+    std::vector<std::uint8_t> strip_;                         // registered along its length
 };
 
 std::vector<Segment> segmentsOf(const std::vector<Work>& lines, bool allDirty) {
@@ -414,7 +478,7 @@ bool planarityPass(std::vector<Work>& lines, bool allDirty, bool dropConflicts,
     const std::vector<Segment> segs = segmentsOf(lines, allDirty);
     if (segs.empty()) return false;
     SegmentGrid grid;
-    grid.build(segs, 1);
+    grid.build(segs, 1, !allDirty);
     std::vector<std::pair<std::uint32_t, G>> inserts;
     std::vector<std::uint8_t> removed(segs.size(), 0);
     Merge merge;

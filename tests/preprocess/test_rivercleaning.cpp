@@ -223,6 +223,23 @@ TEST(RiverCleaning, EndpointBeyondToleranceStays) {
     EXPECT_EQ(s.touchesSplit, 1u);
 }
 
+TEST(RiverCleaning, NearDegenerateGeometryBecomesShared) {
+    // Without snapping: a vertex 0.8 mm off a segment is inserted into it (the exact CDT would
+    // otherwise see a vertex almost on a constraint), and two endpoints 1 mm apart are merged.
+    RiverCleaningStats s;
+    const RiverLines near = clean({{{10, 50}, {90, 50}}, {{50, 90}, {50, 50.0008}}}, s, 0);
+    ASSERT_EQ(near.size(), 2u);
+    ASSERT_EQ(near[0].size(), 3u);
+    EXPECT_EQ(near[0][1], near[1].back());
+    EXPECT_EQ(near[0][1], (XY{50, 50.001}));
+    EXPECT_EQ(s.touchesSplit, 1u);
+    const RiverLines ends = clean({{{10, 50}, {50, 50}}, {{50.001, 50.001}, {90, 20}}}, s, 0);
+    ASSERT_EQ(ends.size(), 2u);
+    EXPECT_EQ(ends[0].back(), ends[1].front());
+    EXPECT_EQ(s.verticesMerged, 1u);
+    EXPECT_EQ(violations(near) + violations(ends), 0u);
+}
+
 TEST(RiverCleaning, SelfCrossingIsSplit) {
     const RiverLines in = {{{10, 10}, {90, 90}, {90, 10}, {10, 90}}};
     RiverCleaningStats s;
