@@ -19,9 +19,10 @@
 //    within snapTolerance, and that foot is inserted into the segment. Candidates come from a
 //    uniform grid of segments; later endpoints see earlier moves and inserted feet.
 // 4. Planarity, in passes until a pass changes nothing. Candidate segment pairs come from a
-//    uniform grid hash (cells ~ the mean segment extent; a long segment registers only the cells
-//    along it); after the first pass only pairs with a segment changed by the previous pass are
-//    tested. For a pair (s, t), in this order:
+//    uniform grid hash (cells of twice the mean segment extent, hashed into buckets by a counting
+//    sort; a long segment registers only the cells along it; never all pairs); after the first
+//    pass only pairs with a segment changed by the previous pass are tested (a pair of unchanged
+//    segments was already found clean). For a pair (s, t), in this order:
 //      - two distinct endpoints within 1 grid unit (Chebyshev) are merged (the smaller grid point
 //        wins; every occurrence in every line moves, so shared junctions stay shared);
 //      - an endpoint of one within 1 grid unit of the other's interior is inserted into it (a

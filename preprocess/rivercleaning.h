@@ -50,6 +50,10 @@ struct RiverCleaningStats {
 //   - any two segments of the output either do not meet or meet exactly at a shared vertex
 //     (identical x and y) that is an endpoint of both, and no vertex lies within 1 mm of the
 //     interior of a segment it is not an endpoint of (the exact CDT sees no near-degeneracy).
+// Lines are not split at junctions: two crossing lines stay two lines, each with the identical
+// crossing vertex inserted. A line is split only where a vertex is off the DEM, where its
+// segment duplicated an earlier line's (a collinear overlap is kept once, in the earlier line)
+// and where it passes a vertex twice (after crossing itself).
 // Deterministic: the same input gives bit-identical output. Output lines keep the order of the
 // input lines (a split line becomes consecutive pieces). Steps and policies: rivercleaning.cpp.
 RiverLines cleanRivers(const RiverLines& in, const DemGrid& dem, const RiverCleaningOptions& opt,
