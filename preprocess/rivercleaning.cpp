@@ -655,6 +655,8 @@ bool validOnDem(const DemGrid& dem, const G& g) {
 
 RiverLines cleanRivers(const RiverLines& in, const DemGrid& dem, const RiverCleaningOptions& opt,
                        RiverCleaningStats& stats) {
+    assert(dem.z.size() == static_cast<std::size_t>(dem.width) * dem.height);
+    assert(opt.snapTolerance >= 0 && opt.minRiverLength >= 0);
     stats = RiverCleaningStats{};
     stats.inputLines = in.size();
 
