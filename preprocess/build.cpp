@@ -15,6 +15,7 @@
 
 #include "blockbuild.h"
 #include "dem.h"
+#include "rivercleaning.h"
 #include "rivers.h"
 
 namespace unilod {
@@ -145,6 +146,20 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
                     "' (a CRS mistake? try --assume-crs or check the data)";
             return false;
         }
+    }
+    // River cleaning (DESIGN.md "Point set"): clip to the DEM, snap, split at crossings, drop
+    // duplicates, zero-length segments and short rivers, so that the constrained triangulation
+    // gets a planar network whose rivers meet only at shared vertices.
+    RiverCleaningOptions cleaning;
+    cleaning.minRiverLength = o.minRiverLength;
+    RiverCleaningStats cleaningStats;
+    rivers = cleanRivers(rivers, dem, cleaning, cleaningStats);
+    summary.cleaning = describe(cleaningStats);
+    if (cleaningStats.crossingsSplit + cleaningStats.selfCrossings + cleaningStats.touchesSplit > 0) {
+        warn("rivers '" + o.riversPath + "': crossing or touching rivers were split at the crossing");
+    }
+    if (cleaningStats.duplicateVertices + cleaningStats.zeroLengthSegments > 0) {
+        warn("rivers '" + o.riversPath + "': duplicate vertices and zero-length segments dropped");
     }
     summary.riverLines = rivers.size();
 
