@@ -15,6 +15,7 @@
 
 #include "blockbuild.h"
 #include "dem.h"
+#include "nodata.h"
 #include "rivercleaning.h"
 #include "rivers.h"
 
@@ -103,11 +104,10 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     summary.demWidth = dem.width;
     summary.demHeight = dem.height;
     summary.crsName = crsDisplayName(dem.wkt);
-    std::size_t nodata = 0;
     for (std::size_t i = 0; i < dem.z.size(); ++i) {
         const float z = dem.z[i];
         if (std::isnan(z)) {
-            ++nodata;
+            continue;
         } else if (z < kMinPlausibleZ || z > kMaxPlausibleZ) {
             const std::size_t col = i % std::size_t(dem.width), row = i / std::size_t(dem.width);
             error = "DEM '" + o.demPath + "': elevation " + std::to_string(z) + " at cell (" +
@@ -117,9 +117,13 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
             return false;
         }
     }
-    if (nodata > 0) {
-        warn("DEM '" + o.demPath + "': " + std::to_string(nodata) +
-             " nodata cells (nodata value, NaN or infinite) produce no points");
+    NodataStats nodata;
+    if (!fillSmallHoles(dem, o.demPath, kDefaultMaxFillCells, nodata, error)) return false;
+    if (nodata.nodataCells > 0) {
+        warn("DEM '" + o.demPath + "': " + std::to_string(nodata.nodataCells) +
+             " nodata cells (nodata value, NaN or infinite); " + std::to_string(nodata.holes) +
+             " small interior holes (" + std::to_string(nodata.filledCells) +
+             " cells) filled from their rims, the rest produce no points");
     }
 
     RiverLines rivers;
@@ -171,6 +175,34 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
         error = "DEM '" + o.demPath + "': " + error;
         return false;
     }
+    // nodata.h rule 2: fill the nodata cells a block's hull would bridge (few per block), until
+    // no hull contains a nodata centre; refuse a block with many.
+    for (int round = 0; round < 8; ++round) {
+        std::size_t filled = 0;
+        for (std::size_t i = 0; i < source.blockCount(); ++i) {
+            const std::vector<std::size_t> cells = source.bridgedNodataCells(i, source.points(i));
+            if (cells.size() > kMaxBridgedCells) {
+                const std::size_t c = cells.front();
+                error = "DEM '" + o.demPath + "': block (" + std::to_string(source.rect(i).col) +
+                        "," + std::to_string(source.rect(i).row) + ") would bridge " +
+                        std::to_string(cells.size()) + " nodata cells (e.g. cell (" +
+                        std::to_string(c % std::size_t(dem.width)) + ", " +
+                        std::to_string(c / std::size_t(dem.width)) +
+                        ")): a nodata bay reaches into the block's convex hull; at most " +
+                        std::to_string(kMaxBridgedCells) + " such cells per block are filled";
+                return false;
+            }
+            filled += fillCells(dem, cells);
+        }
+        nodata.bayCellsFilled += filled;
+        if (filled == 0) break;
+    }
+    if (nodata.bayCellsFilled > 0) {
+        warn("DEM '" + o.demPath + "': " + std::to_string(nodata.bayCellsFilled) +
+             " nodata cells inside blocks' convex hulls filled from their neighbours");
+    }
+    summary.nodataCells = nodata.nodataCells;
+    summary.filledNodataCells = nodata.filledCells + nodata.bayCellsFilled;
     summary.crossings = source.stats().crossings;
     summary.droppedDemPoints = source.stats().droppedDemPoints;
 
@@ -235,7 +267,8 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
             }
             const PointSet set = source.points(i);
             const BlockRect& r = source.rect(i);
-            const bool ok = buildBlock(set, r.col, r.row, blockOptions, results[i], stats[i], errors[i]);
+            const bool ok =
+                buildBlock(set, r.col, r.row, blockOptions, results[i], stats[i], errors[i]);
             {
                 std::lock_guard lock(mutex);
                 ready[i] = 1;
