@@ -1,7 +1,6 @@
 // `unilod build` pipeline (build.h).
 #include "build.h"
 
-#include <ogr_spatialref.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -22,17 +21,6 @@
 namespace unilod {
 
 namespace {
-
-std::string crsDisplayName(const std::string& wkt) {
-    if (wkt.empty()) return "none";
-    OGRSpatialReference srs;
-    if (srs.importFromWkt(wkt.c_str()) != OGRERR_NONE) return "unknown";
-    std::string name = srs.GetName() != nullptr ? srs.GetName() : "unnamed";
-    const char* auth = srs.GetAuthorityName(nullptr);
-    const char* code = srs.GetAuthorityCode(nullptr);
-    if (auth != nullptr && code != nullptr) name += std::string(" (") + auth + ":" + code + ")";
-    return name;
-}
 
 bool checkOutput(const BuildOptions& o, std::string& error) {
     namespace fs = std::filesystem;

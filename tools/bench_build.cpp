@@ -4,7 +4,6 @@
 // machine) are read off the output. Each case runs in its own child process, so the peak resident
 // set size is per case.
 #include <sys/resource.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -14,6 +13,7 @@
 #include <string>
 #include <thread>
 
+#include "benchutil.h"
 #include "build.h"
 #include "synthetic.h"
 
@@ -45,29 +45,6 @@ json runCase(const std::string& name, const unilod::BuildOptions& options) {
             {"index_data_vs_full", s.fullTriangles ? double(s.indexTriangles) / double(s.fullTriangles) : 0.0}};
 }
 
-// Runs f in a child process and returns its JSON (one line on a pipe).
-template <class F>
-json inChild(F f) {
-    int fd[2];
-    if (pipe(fd) != 0) std::exit(1);
-    const pid_t pid = fork();
-    if (pid == 0) {
-        close(fd[0]);
-        const std::string text = f().dump();
-        if (write(fd[1], text.data(), text.size()) < 0) _exit(1);
-        _exit(0);
-    }
-    close(fd[1]);
-    std::string text;
-    char buf[4096];
-    for (ssize_t k; (k = read(fd[0], buf, sizeof buf)) > 0;) text.append(buf, std::size_t(k));
-    close(fd[0]);
-    int status = 0;
-    waitpid(pid, &status, 0);
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) std::exit(1);
-    return json::parse(text);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -94,7 +71,7 @@ int main(int argc, char** argv) {
         o.riversPath = assets + "/jacksboro_rivers_grass.geojson";
         o.outPath = work + "/jacksboro.ulod";
         std::fprintf(stderr, "bench_build: bundled data...\n");
-        cases.push_back(inChild([&] { return runCase("jacksboro_grass", o); }));
+        cases.push_back(unilod::bench::runInChild([&] { return runCase("jacksboro_grass", o); }));
     }
     if (!skipSynthetic) {
         const std::string dir = work + "/synthetic" + std::to_string(side);
@@ -115,7 +92,7 @@ int main(int argc, char** argv) {
         o.riversPath = dir + "/rivers.geojson";
         o.outPath = work + "/synthetic" + std::to_string(side) + ".ulod";
         std::fprintf(stderr, "bench_build: synthetic %d x %d...\n", side, side);
-        cases.push_back(inChild([&] { return runCase("synthetic_" + std::to_string(side), o); }));
+        cases.push_back(unilod::bench::runInChild([&] { return runCase("synthetic_" + std::to_string(side), o); }));
         std::filesystem::remove(o.outPath);
     }
     const json result = {{"benchmark", "build"},
