@@ -287,9 +287,10 @@ TEST_F(StatsTest, TextTableHasThePaperColumns) {
     const Result r = run("stats '" + model + "' --distance 1km,100km --pixels 2");
     ASSERT_EQ(r.code, 0) << r.err;
     for (const char* h :
-         {"View distance (km)", "Screen projection error (pixel)",
-          "Model space error tolerance (m)", "Points to construct a network", "River bound edges",
-          "Total triangles", "Data retention (%)", "(edge)", "(corner)", "(middle)"}) {
+         {"View distance (km)", "The tolerance of screen projection error (Pixel)",
+          "The tolerance of model space error (m)", "The number of points to construct a network",
+          "The number of river bound edges", "Total number of triangles",
+          "Percentage of data retention (%)", "(edge)", "(corner)", "(middle)"}) {
         EXPECT_NE(r.out.find(h), std::string::npos) << h << "\n" << r.out;
     }
     // Header + title + three lines per (D, P) row.

@@ -45,13 +45,14 @@ void printText(const StatsTable& t, const std::string& path) {
         path.c_str(), t.metric == format::kMetricPaper ? "paper" : "max", t.blocksX, t.blocksY,
         t.cornerCol, t.cornerRow, t.edgeCol, t.edgeRow, t.middleCol, t.middleRow,
         grouped(t.fullPoints).c_str());
+    // The column headers of the paper's Tables 2 and 3.
     const char* header[] = {"View distance (km)",
-                            "Screen projection error (pixel)",
-                            "Model space error tolerance (m)",
-                            "Points to construct a network",
-                            "River bound edges",
-                            "Total triangles",
-                            "Data retention (%)"};
+                            "The tolerance of screen projection error (Pixel)",
+                            "The tolerance of model space error (m)",
+                            "The number of points to construct a network",
+                            "The number of river bound edges",
+                            "Total number of triangles",
+                            "Percentage of data retention (%)"};
     std::vector<std::vector<std::string>> cells;
     cells.emplace_back(std::begin(header), std::end(header));
     for (std::size_t i = 0; i < t.rows.size(); ++i) {
