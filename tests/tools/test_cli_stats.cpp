@@ -75,6 +75,7 @@ protected:
     static inline std::string model;
     static inline std::vector<format::Block> blocks;
     static inline format::Header header;
+    static inline int demCells = 0;  // the longer side of the DEM
 
     static void SetUpTestSuite() {
         dir = fs::temp_directory_path() / ("unilod_test_stats_" + std::to_string(getpid()));
@@ -85,6 +86,7 @@ protected:
         const SyntheticData data = generateSyntheticData(so);
         std::string error;
         ASSERT_TRUE(writeSyntheticData(data, dir.string(), error)) << error;
+        demCells = std::max(data.dem.width, data.dem.height);
         BuildOptions bo;
         bo.demPath = (dir / "dem.tif").string();
         bo.riversPath = (dir / "rivers.geojson").string();
@@ -331,6 +333,29 @@ TEST_F(StatsTest, DataErrorsExitOneAndNameTheFile) {
     r = run("stats '" + junk + "'");
     EXPECT_EQ(r.code, 1);
     EXPECT_NE(r.err.find(junk), std::string::npos) << r.err;
+}
+
+TEST_F(StatsTest, SmallGridsNameBlockZeroForAll) {
+    // A 2 x 2 grid of the same data: corner, edge and middle are all block (0, 0) (stats.h).
+    BuildOptions bo;
+    bo.demPath = (dir / "dem.tif").string();
+    bo.riversPath = (dir / "rivers.geojson").string();
+    bo.outPath = (dir / "model2x2.ulod").string();
+    std::string error;
+    bo.blockSize = (demCells - 1) / 2 + 1;
+    BuildSummary summary;
+    ASSERT_TRUE(runBuild(bo, summary, error)) << error;
+    StatsOptions o;
+    o.distances = {1000};
+    StatsTable t;
+    ASSERT_TRUE(computeStats(bo.outPath, o, t, error)) << error;
+    ASSERT_EQ(t.blocksX, 2u);
+    ASSERT_EQ(t.blocksY, 2u);
+    for (std::uint32_t v :
+         {t.cornerCol, t.cornerRow, t.edgeCol, t.edgeRow, t.middleCol, t.middleRow})
+        EXPECT_EQ(v, 0u);
+    EXPECT_EQ(t.rows[0].hEdge, t.rows[0].hCorner);
+    EXPECT_EQ(t.rows[0].hMiddle, t.rows[0].hCorner);
 }
 
 TEST(StatsParse, Distances) {
