@@ -89,6 +89,12 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     demOptions.band = o.band;
     demOptions.targetSrs = o.targetSrs;
     if (!loadDem(o.demPath, demOptions, dem, error)) return false;
+    // Before the block-size checks, so that a 1 x 1 raster is reported for what it is.
+    if (dem.width < 2 || dem.height < 2) {
+        error = "DEM '" + o.demPath + "': " + std::to_string(dem.width) + " x " +
+                std::to_string(dem.height) + " cells is too small to triangulate (at least 2 x 2)";
+        return false;
+    }
     summary.demWidth = dem.width;
     summary.demHeight = dem.height;
     summary.crsName = crsDisplayName(dem.wkt);
@@ -119,7 +125,25 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     riverOptions.layer = o.layer;
     riverOptions.where = o.where;
     riverOptions.assumeSrs = o.assumeSrs;
+    riverOptions.warn = warn;
     if (!loadRivers(o.riversPath, riverOptions, dem.wkt, rivers, error)) return false;
+    {
+        // The point set drops repeated consecutive vertices and lines with fewer than two
+        // distinct vertices (pointset.h); say so, since the user's data changes.
+        std::size_t repeated = 0, degenerate = 0;
+        for (const RiverLine& line : rivers) {
+            std::size_t here = 0;
+            for (std::size_t i = 1; i < line.size(); ++i)
+                here += line[i] == line[i - 1];
+            repeated += here;
+            degenerate += line.size() - here < 2;
+        }
+        if (repeated > 0 || degenerate > 0) {
+            warn("rivers '" + o.riversPath + "': dropped " + std::to_string(repeated) +
+                 " repeated vertices and " + std::to_string(degenerate) +
+                 " zero-length lines (fewer than two distinct vertices)");
+        }
+    }
     if (rivers.empty()) {
         warn("rivers '" + o.riversPath + "': no line features: building a terrain-only model");
     } else {
@@ -312,8 +336,9 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     for (auto& t : pool) t.join();
     for (std::size_t i = 0; i < n; ++i) {
         if (!errors[i].empty()) {
-            error = "block (" + std::to_string(source.rect(i).col) + "," +
-                    std::to_string(source.rect(i).row) + "): " + errors[i];
+            error = "DEM '" + o.demPath + "' + rivers '" + o.riversPath + "': block (" +
+                    std::to_string(source.rect(i).col) + "," + std::to_string(source.rect(i).row) +
+                    "): " + errors[i];
             return false;
         }
     }

@@ -266,19 +266,20 @@ void Cdt::traceSegment(PointId a, PointId b, Trace& trace) const {
         while (tv[3 * t + i] != a)
             ++i;
         const PointId p = tv[3 * t + nextIndex(i)], q = tv[3 * t + prevIndex(i)];
-        if (p != kGhost && q != kGhost) {
-            const std::int64_t o1 = orient(a, b, p), o2 = orient(a, b, q);
-            // A vertex on the ray a -> b ends the walk. Both ends of the edge are tested: next to
-            // the hull the collinear vertex may be the last real triangle's q (segment along the
-            // boundary), with a ghost triangle after it.
-            for (const auto& [v, o] : {std::pair{p, o1}, std::pair{q, o2}}) {
-                if (o == 0 && (gx[v] - gx[a]) * dx + (gy[v] - gy[a]) * dy > 0) {
-                    trace.end = v == b ? TraceEnd::Reached : TraceEnd::Vertex;
-                    trace.vertex = v == b ? kNone : v;
-                    return;
-                }
+        // A vertex on the ray a -> b. Both corners are tested: for a on the hull, its hull
+        // neighbour on one side is `p` only in a ghost triangle, so testing `p` alone misses a
+        // segment running along the hull (a block border) in that direction.
+        for (const PointId v : {p, q}) {
+            if (v != kGhost && orient(a, b, v) == 0 &&
+                (gx[v] - gx[a]) * dx + (gy[v] - gy[a]) * dy > 0) {
+                trace.end = v == b ? TraceEnd::Reached : TraceEnd::Vertex;
+                trace.vertex = v == b ? kNone : v;
+                return;
             }
-            if (o1 < 0 && o2 > 0) {
+        }
+        if (p != kGhost && q != kGhost) {
+            const std::int64_t o1 = orient(a, b, p);
+            if (o1 < 0 && orient(a, b, q) > 0) {
                 h = 3 * t + i;
                 break;
             }

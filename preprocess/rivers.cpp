@@ -82,6 +82,13 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
             if (wkbFlatten(l->GetGeomType()) == wkbUnknown && hasLineFeature(l)) layer = l;
         }
         if (layer == nullptr) {
+            // No feature anywhere (an empty FeatureCollection declares no geometry type): an
+            // empty river network, which the caller may accept as a terrain-only model. A layer
+            // holding only points or polygons is a wrong file, not an empty one.
+            bool anyFeature = false;
+            for (OGRLayer* l : ds->GetLayers())
+                anyFeature = anyFeature || l->GetFeatureCount(TRUE) != 0;
+            if (!anyFeature) return true;
             error = what + ": no layer with line geometry (LineString / MultiLineString)";
             return false;
         }
@@ -106,7 +113,7 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
             }
         } else {
             error = what + ": layer '" + layerName +
-                    "' has no CRS while the DEM has one; name it with --rivers-srs";
+                    "' has no CRS while the DEM has one; name it with --assume-crs";
             return false;
         }
         OGRSpatialReference dst;
@@ -152,9 +159,11 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
     };
 
     layer->ResetReading();
+    bool hasZ = false;
     for (const auto& feature : *layer) {
         const OGRGeometry* g = feature->GetGeometryRef();
         if (g == nullptr) continue;
+        hasZ = hasZ || (g->Is3D() && isLineType(g->getGeometryType()));
         bool good = true;
         switch (wkbFlatten(g->getGeometryType())) {
             case wkbLineString:
@@ -175,6 +184,13 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
             return false;
         }
     }
+    if (hasZ && options.warn) {
+        options.warn(what + ": the lines have z coordinates; they are ignored (river altitudes " +
+                     "are sampled from the DEM, so rivers lie on the terrain)");
+    }
+    // A declared line layer without any feature is an empty network as above; a where clause
+    // that matches nothing is more likely a typo and stays an error.
+    if (out.empty() && options.where.empty() && layer->GetFeatureCount(TRUE) == 0) return true;
     if (out.empty()) {
         error = what + ": layer '" + layerName + "' has no line features" +
                 (options.where.empty() ? "" : " matching the where clause");

@@ -73,6 +73,45 @@ TEST(Cdt, DuplicatesMergedFirstIdWins) {
     EXPECT_EQ(cdt.vertexCount, 5u);
 }
 
+TEST(Cdt, TraceAlongTheHullInBothDirections) {
+    // A 4 x 4 grid: every pair of hull vertices on one side, walked both ways, meets the first
+    // hull vertex after a (a river vertex between two border vertices being deleted). Walking
+    // one way used to find no start triangle (the neighbour sits in a ghost triangle) and crash.
+    PointSet set;
+    for (int r = 0; r < 4; ++r) {
+        for (int c = 0; c < 4; ++c)
+            set.points.push_back({10.0 * c, 10.0 * r, 0.0, PointKind::Dem, false});
+    }
+    Cdt cdt;
+    std::string error;
+    ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+    auto id = [](int c, int r) { return PointId(4 * r + c); };
+    Cdt::Trace trace;
+    for (int side = 0; side < 4; ++side) {
+        // Vertices along the side, in order.
+        std::vector<PointId> line;
+        for (int i = 0; i < 4; ++i) {
+            line.push_back(side == 0   ? id(i, 0)
+                           : side == 1 ? id(3, i)
+                           : side == 2 ? id(3 - i, 3)
+                                       : id(0, 3 - i));
+        }
+        for (int i = 0; i < 4; ++i) {
+            for (int j = 0; j < 4; ++j) {
+                if (i == j) continue;
+                cdt.traceSegment(line[i], line[j], trace);
+                const int next = j > i ? i + 1 : i - 1;
+                if (next == j) {
+                    EXPECT_EQ(trace.end, Cdt::TraceEnd::Reached) << side << " " << i << " " << j;
+                } else {
+                    EXPECT_EQ(trace.end, Cdt::TraceEnd::Vertex) << side << " " << i << " " << j;
+                    EXPECT_EQ(trace.vertex, line[next]) << side << " " << i << " " << j;
+                }
+            }
+        }
+    }
+}
+
 TEST(Cdt, PointOnAConstraintSplitsIt) {
     PointSet set;
     set.points = {{0, 0, 0}, {10, 0, 0}, {10, 10, 0}, {0, 10, 0}, {1, 5, 0}, {9, 5, 0}, {5, 5, 0}};

@@ -155,6 +155,16 @@ TEST(Rivers, PointLayerIsAnError) {
     EXPECT_TRUE(lines.empty());
 }
 
+TEST(Rivers, EmptyCollectionIsAnEmptyNetwork) {
+    TempDir dir("empty");
+    const std::string path =
+        dir.write("empty.geojson", R"({"type": "FeatureCollection", "features": []})");
+    RiverLines lines{{{1, 2}, {3, 4}}};
+    std::string error;
+    EXPECT_TRUE(loadRivers(path, {}, bundledDem().wkt, lines, error)) << error;
+    EXPECT_TRUE(lines.empty());
+}
+
 TEST(Rivers, MissingAndUnreadableFiles) {
     TempDir dir("missing");
     RiverLines lines;

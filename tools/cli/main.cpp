@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
     unilod::cli::addBuildCommand(app, exitCode);
     unilod::cli::addInfoCommand(app, exitCode);
     unilod::cli::addCheckCommand(app, exitCode);
+    unilod::cli::addStatsCommand(app, exitCode);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

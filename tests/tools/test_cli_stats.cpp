@@ -1,0 +1,384 @@
+// `unilod stats` and computeStats (preprocess/stats.h): the paper's Tables 2 and 3 on a small
+// synthetic model with a 4x4 block grid. Every column is recomputed here straight from the file
+// (format::Reader) with the formulas written out again, and compared with the library and with
+// the CLI's CSV; plus monotonicity in distance and pixels, text output and usage errors.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "build.h"
+#include "stats.h"
+#include "synthetic.h"
+#include "ulod.h"
+
+using namespace unilod;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string slurp(const std::string& path) {
+    std::ifstream in(path);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+struct Result {
+    int code = -1;
+    std::string out, err;
+};
+
+Result run(const std::string& args) {
+    static int counter = 0;
+    const fs::path base =
+        fs::temp_directory_path() /
+        ("unilod_test_stats_run_" + std::to_string(getpid()) + "_" + std::to_string(counter++));
+    const std::string out = base.string() + ".out", err = base.string() + ".err";
+    const std::string command =
+        "'" + std::string(UNILOD_CLI) + "' " + args + " >'" + out + "' 2>'" + err + "'";
+    const int status = std::system(command.c_str());
+    Result r;
+    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = slurp(out);
+    r.err = slurp(err);
+    fs::remove(out);
+    fs::remove(err);
+    return r;
+}
+
+std::vector<std::string> split(const std::string& line, char sep) {
+    std::vector<std::string> fields;
+    std::stringstream s(line);
+    std::string f;
+    while (std::getline(s, f, sep))
+        fields.push_back(f);
+    return fields;
+}
+
+// Expected values, computed from the file without the library's code.
+struct Expected {
+    double hEdge, hCorner, hMiddle, retention;
+    std::uint64_t points = 0, riverEdges = 0, triangles = 0;
+};
+
+class StatsTest : public ::testing::Test {
+protected:
+    static inline fs::path dir;
+    static inline std::string model;
+    static inline std::vector<format::Block> blocks;
+    static inline format::Header header;
+    static inline int demCells = 0;  // the longer side of the DEM
+
+    static void SetUpTestSuite() {
+        dir = fs::temp_directory_path() / ("unilod_test_stats_" + std::to_string(getpid()));
+        fs::remove_all(dir);
+        SyntheticOptions so;
+        so.targetPoints = 3000;
+        so.seed = 7;
+        const SyntheticData data = generateSyntheticData(so);
+        std::string error;
+        ASSERT_TRUE(writeSyntheticData(data, dir.string(), error)) << error;
+        demCells = std::max(data.dem.width, data.dem.height);
+        BuildOptions bo;
+        bo.demPath = (dir / "dem.tif").string();
+        bo.riversPath = (dir / "rivers.geojson").string();
+        bo.outPath = (dir / "model.ulod").string();
+        bo.blockSize = (std::max(data.dem.width, data.dem.height) - 1) / 4;  // about 4 x 4 blocks
+        bo.threads = 2;
+        BuildSummary summary;
+        ASSERT_TRUE(runBuild(bo, summary, error)) << error;
+        model = bo.outPath;
+
+        format::Reader reader;
+        ASSERT_TRUE(reader.open(model, error)) << error;
+        header = reader.header();
+        blocks.resize(reader.blocks().size());
+        for (std::size_t i = 0; i < blocks.size(); ++i) {
+            ASSERT_TRUE(reader.readBlock(i, blocks[i], error)) << error;
+        }
+    }
+    static void TearDownTestSuite() {
+        std::error_code ec;
+        fs::remove_all(dir, ec);
+    }
+
+    static const format::Block& blockAt(std::uint32_t col, std::uint32_t row) {
+        for (const format::Block& b : blocks) {
+            if (b.col == col && b.row == row) return b;
+        }
+        ADD_FAILURE() << "no block (" << col << "," << row << ")";
+        return blocks.front();
+    }
+
+    static Expected expected(double distance, double pixels, bool paper = false, double fov = 60.0,
+                             double height = 1080.0) {
+        // Eye above the extent's centre, `distance` above the highest point.
+        const double ex = (header.minX + header.maxX) / 2, ey = (header.minY + header.maxY) / 2;
+        const double ez = header.maxZ + distance;
+        auto hlim = [&](const format::Block& b) {
+            const double dx = (b.minX + b.maxX) / 2 - ex, dy = (b.minY + b.maxY) / 2 - ey;
+            const double dz = (b.minZ + b.maxZ) / 2 - ez;
+            const double s = std::sqrt(dx * dx + dy * dy + dz * dz);
+            return 2 * pixels * s * std::tan(fov / 2 * M_PI / 180) / height;
+        };
+        Expected e;
+        std::uint64_t full = 0;
+        for (const format::Block& b : blocks) {
+            const std::vector<float>& err = paper ? b.errorPaper : b.errorMax;
+            const double limit = hlim(b);
+            std::size_t k = 0;
+            for (std::size_t s = 0; s < err.size(); ++s) {
+                if (err[s] <= limit) k = s;
+            }
+            e.points += b.vertices.size() - k;
+            e.riverEdges += k == 0 ? b.levels[0].riverCount : b.steps[k - 1].riverEdgesAlive;
+            e.triangles += k == 0 ? b.levels[0].triangleCount : b.steps[k - 1].trianglesAlive;
+            full += b.vertices.size();
+        }
+        e.retention = 100.0 * double(e.points) / double(full);
+        const std::uint32_t mc = (header.blocksX - 1) / 2, mr = (header.blocksY - 1) / 2;
+        e.hCorner = hlim(blockAt(0, 0));
+        e.hEdge = hlim(blockAt(mc, 0));
+        e.hMiddle = hlim(blockAt(mc, mr));
+        return e;
+    }
+};
+
+const std::vector<double> kDistances = {500, 2000, 10e3, 50e3, 200e3};
+const std::vector<double> kPixels = {1, 2, 3};
+
+TEST_F(StatsTest, GridIsAtLeastThreeByThree) {
+    EXPECT_GE(header.blocksX, 3u);
+    EXPECT_GE(header.blocksY, 3u);
+    EXPECT_EQ(blocks.size(), std::size_t(header.blocksX) * header.blocksY);
+}
+
+TEST_F(StatsTest, EveryColumnMatchesAHandComputation) {
+    StatsOptions o;
+    o.distances = kDistances;
+    o.pixels = kPixels;
+    StatsTable t;
+    std::string error;
+    ASSERT_TRUE(computeStats(model, o, t, error)) << error;
+    EXPECT_EQ(t.metric, header.defaultMetric);
+    ASSERT_EQ(t.rows.size(), kDistances.size() * kPixels.size());
+    std::uint64_t full = 0;
+    for (const format::Block& b : blocks)
+        full += b.vertices.size();
+    EXPECT_EQ(t.fullPoints, full);
+    EXPECT_EQ(t.cornerCol, 0u);
+    EXPECT_EQ(t.cornerRow, 0u);
+    EXPECT_EQ(t.edgeCol, (header.blocksX - 1) / 2);
+    EXPECT_EQ(t.edgeRow, 0u);
+    EXPECT_EQ(t.middleCol, (header.blocksX - 1) / 2);
+    EXPECT_EQ(t.middleRow, (header.blocksY - 1) / 2);
+    std::set<std::uint64_t> distinctPoints;
+    std::size_t i = 0;
+    for (double d : kDistances) {
+        for (double p : kPixels) {
+            const StatsRow& r = t.rows[i++];
+            const Expected e = expected(d, p);
+            EXPECT_EQ(r.distance, d);
+            EXPECT_EQ(r.pixels, p);
+            EXPECT_NEAR(r.hEdge, e.hEdge, 1e-9 * e.hEdge);
+            EXPECT_NEAR(r.hCorner, e.hCorner, 1e-9 * e.hCorner);
+            EXPECT_NEAR(r.hMiddle, e.hMiddle, 1e-9 * e.hMiddle);
+            EXPECT_EQ(r.points, e.points) << "D " << d << " P " << p;
+            EXPECT_EQ(r.riverEdges, e.riverEdges) << "D " << d << " P " << p;
+            EXPECT_EQ(r.triangles, e.triangles) << "D " << d << " P " << p;
+            EXPECT_NEAR(r.retention, e.retention, 1e-9);
+            distinctPoints.insert(r.points);
+        }
+    }
+    // The distances were chosen to span fine to coarse: the table is not trivially constant.
+    EXPECT_GE(distinctPoints.size(), 3u);
+}
+
+TEST_F(StatsTest, PaperMetricAndViewport) {
+    StatsOptions o;
+    o.distances = {3000, 30e3};
+    o.pixels = {1.5};
+    o.metric = format::kMetricPaper;
+    o.fovDegrees = 45;
+    o.heightPixels = 720;
+    StatsTable t;
+    std::string error;
+    ASSERT_TRUE(computeStats(model, o, t, error)) << error;
+    EXPECT_EQ(t.metric, std::uint32_t(format::kMetricPaper));
+    ASSERT_EQ(t.rows.size(), 2u);
+    for (std::size_t i = 0; i < 2; ++i) {
+        const Expected e = expected(o.distances[i], 1.5, true, 45, 720);
+        EXPECT_NEAR(t.rows[i].hEdge, e.hEdge, 1e-9 * e.hEdge);
+        EXPECT_EQ(t.rows[i].points, e.points);
+        EXPECT_EQ(t.rows[i].riverEdges, e.riverEdges);
+        EXPECT_EQ(t.rows[i].triangles, e.triangles);
+    }
+}
+
+TEST_F(StatsTest, MonotonicInDistanceAndPixels) {
+    StatsOptions o;
+    o.distances = {200, 1000, 3000, 10e3, 30e3, 100e3, 1000e3};
+    o.pixels = {0.5, 1, 2, 3, 8};
+    StatsTable t;
+    std::string error;
+    ASSERT_TRUE(computeStats(model, o, t, error)) << error;
+    const std::size_t np = o.pixels.size();
+    for (std::size_t di = 0; di < o.distances.size(); ++di) {
+        for (std::size_t pi = 0; pi < np; ++pi) {
+            const StatsRow& r = t.rows[di * np + pi];
+            EXPECT_LE(r.points, t.fullPoints);
+            if (di > 0) {
+                const StatsRow& nearer = t.rows[(di - 1) * np + pi];
+                EXPECT_LE(r.points, nearer.points);
+                EXPECT_LE(r.triangles, nearer.triangles);
+                EXPECT_GT(r.hMiddle, nearer.hMiddle);
+            }
+            if (pi > 0) {
+                const StatsRow& finer = t.rows[di * np + pi - 1];
+                EXPECT_LE(r.points, finer.points);
+                EXPECT_LE(r.triangles, finer.triangles);
+            }
+        }
+    }
+    // Nearest view at half a pixel: full resolution almost everywhere; farthest: far coarser.
+    EXPECT_LT(t.rows.back().points, t.rows.front().points);
+}
+
+TEST_F(StatsTest, CsvMatchesTheHandComputation) {
+    const Result r =
+        run("stats '" + model + "' --distance 500m,2km,10km,50km,200km --pixels 1,2,3 --csv");
+    ASSERT_EQ(r.code, 0) << r.err;
+    std::stringstream in(r.out);
+    std::string line;
+    ASSERT_TRUE(std::getline(in, line));
+    EXPECT_EQ(line,
+              "view_distance_m,pixels,hlim_edge_m,hlim_corner_m,hlim_middle_m,points,"
+              "river_bound_edges,triangles,retention_percent");
+    std::size_t rows = 0;
+    for (double d : kDistances) {
+        for (double p : kPixels) {
+            ASSERT_TRUE(std::getline(in, line));
+            const auto f = split(line, ',');
+            ASSERT_EQ(f.size(), 9u) << line;
+            const Expected e = expected(d, p);
+            EXPECT_DOUBLE_EQ(std::stod(f[0]), d);
+            EXPECT_DOUBLE_EQ(std::stod(f[1]), p);
+            EXPECT_NEAR(std::stod(f[2]), e.hEdge, 1e-9 * e.hEdge);
+            EXPECT_NEAR(std::stod(f[3]), e.hCorner, 1e-9 * e.hCorner);
+            EXPECT_NEAR(std::stod(f[4]), e.hMiddle, 1e-9 * e.hMiddle);
+            EXPECT_EQ(std::stoull(f[5]), e.points);
+            EXPECT_EQ(std::stoull(f[6]), e.riverEdges);
+            EXPECT_EQ(std::stoull(f[7]), e.triangles);
+            EXPECT_NEAR(std::stod(f[8]), e.retention, 1e-9);
+            ++rows;
+        }
+    }
+    EXPECT_EQ(rows, 15u);
+    EXPECT_FALSE(std::getline(in, line)) << "extra line: " << line;
+}
+
+TEST_F(StatsTest, TextTableHasThePaperColumns) {
+    const Result r = run("stats '" + model + "' --distance 1km,100km --pixels 2");
+    ASSERT_EQ(r.code, 0) << r.err;
+    for (const char* h :
+         {"View distance (km)", "The tolerance of screen projection error (Pixel)",
+          "The tolerance of model space error (m)", "The number of points to construct a network",
+          "The number of river bound edges", "Total number of triangles",
+          "Percentage of data retention (%)", "(edge)", "(corner)", "(middle)"}) {
+        EXPECT_NE(r.out.find(h), std::string::npos) << h << "\n" << r.out;
+    }
+    // Header + title + three lines per (D, P) row.
+    EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 2 + 3 * 2);
+}
+
+TEST_F(StatsTest, DefaultsAreThePaperDistances) {
+    const Result r = run("stats '" + model + "' --csv");
+    ASSERT_EQ(r.code, 0) << r.err;
+    const auto lines = split(r.out, '\n');
+    ASSERT_EQ(lines.size(), 6u);
+    const double expectedD[] = {100e3, 200e3, 500e3, 1000e3, 1500e3};
+    for (std::size_t i = 0; i < 5; ++i) {
+        EXPECT_DOUBLE_EQ(std::stod(split(lines[i + 1], ',')[0]), expectedD[i]);
+        EXPECT_DOUBLE_EQ(std::stod(split(lines[i + 1], ',')[1]), 1.0);
+    }
+}
+
+TEST_F(StatsTest, UsageErrorsExitTwo) {
+    for (const char* bad :
+         {"--distance 0km", "--distance -5km", "--distance 10furlongs", "--distance km",
+          "--pixels 0", "--pixels -1", "--pixels 1,0", "--fov 0", "--fov 180", "--fov -3",
+          "--fov abc", "--height 0", "--height 0.5", "--metric median"}) {
+        const Result r = run("stats '" + model + "' " + bad);
+        EXPECT_EQ(r.code, 2) << bad << "\n" << r.err;
+        EXPECT_TRUE(r.out.empty()) << bad;
+    }
+    EXPECT_EQ(run("stats").code, 2);
+}
+
+TEST_F(StatsTest, DataErrorsExitOneAndNameTheFile) {
+    const std::string missing = (dir / "missing.ulod").string();
+    Result r = run("stats '" + missing + "'");
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find(missing), std::string::npos) << r.err;
+    const std::string junk = (dir / "junk.ulod").string();
+    std::ofstream(junk) << "not a ulod file\n";
+    r = run("stats '" + junk + "'");
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find(junk), std::string::npos) << r.err;
+}
+
+TEST_F(StatsTest, SmallGridsNameBlockZeroForAll) {
+    // A 2 x 2 grid of the same data: corner, edge and middle are all block (0, 0) (stats.h).
+    BuildOptions bo;
+    bo.demPath = (dir / "dem.tif").string();
+    bo.riversPath = (dir / "rivers.geojson").string();
+    bo.outPath = (dir / "model2x2.ulod").string();
+    std::string error;
+    bo.blockSize = (demCells - 1) / 2 + 1;
+    BuildSummary summary;
+    ASSERT_TRUE(runBuild(bo, summary, error)) << error;
+    StatsOptions o;
+    o.distances = {1000};
+    StatsTable t;
+    ASSERT_TRUE(computeStats(bo.outPath, o, t, error)) << error;
+    ASSERT_EQ(t.blocksX, 2u);
+    ASSERT_EQ(t.blocksY, 2u);
+    for (std::uint32_t v :
+         {t.cornerCol, t.cornerRow, t.edgeCol, t.edgeRow, t.middleCol, t.middleRow})
+        EXPECT_EQ(v, 0u);
+    EXPECT_EQ(t.rows[0].hEdge, t.rows[0].hCorner);
+    EXPECT_EQ(t.rows[0].hMiddle, t.rows[0].hCorner);
+}
+
+TEST(StatsParse, Distances) {
+    double m = 0;
+    EXPECT_TRUE(parseDistance("100km", m));
+    EXPECT_DOUBLE_EQ(m, 100e3);
+    EXPECT_TRUE(parseDistance("2.5km", m));
+    EXPECT_DOUBLE_EQ(m, 2500);
+    EXPECT_TRUE(parseDistance("750m", m));
+    EXPECT_DOUBLE_EQ(m, 750);
+    EXPECT_TRUE(parseDistance("1500", m));
+    EXPECT_DOUBLE_EQ(m, 1500);
+    EXPECT_FALSE(parseDistance("", m));
+    EXPECT_FALSE(parseDistance("km", m));
+    EXPECT_FALSE(parseDistance("10 miles", m));
+    EXPECT_FALSE(parseDistance("1e400km", m));
+}
+
+TEST(StatsParse, ScreenErrorLimitIsEquation11) {
+    // 1 pixel at 100 km, 60 degrees, 1080 px: 2·100000·tan(30°)/1080.
+    EXPECT_NEAR(screenErrorLimit(1, 100e3, 60, 1080), 2e5 * std::tan(M_PI / 6) / 1080, 1e-9);
+    EXPECT_NEAR(screenErrorLimit(3, 100e3, 60, 1080), 3 * screenErrorLimit(1, 100e3, 60, 1080),
+                1e-9);
+}
+
+}  // namespace

@@ -1,0 +1,171 @@
+// `unilod stats FILE`: the paper's Tables 2 and 3 (§4.2.1) for a .ulod file; the definitions
+// (viewpoint, S, selected state, named blocks) are in preprocess/stats.h. Aligned text like the
+// paper's tables, or CSV with --csv. Options out of range are usage errors (exit 2).
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "stats.h"
+#include "ulod.h"
+
+namespace unilod::cli {
+
+namespace {
+
+struct StatsCli {
+    std::string path;
+    std::vector<std::string> distances = {"100km", "200km", "500km", "1000km", "1500km"};
+    std::vector<double> pixels = {1.0};
+    double fov = 60.0;
+    double height = 1080.0;
+    std::string metric;  // empty: the file's default
+    bool csv = false;
+};
+
+// "12,345" like the paper's tables.
+std::string grouped(std::uint64_t v) {
+    std::string s = std::to_string(v);
+    for (int i = int(s.size()) - 3; i > 0; i -= 3)
+        s.insert(std::size_t(i), ",");
+    return s;
+}
+
+std::string format(const char* fmt, double v) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, fmt, v);
+    return buf;
+}
+
+void printText(const StatsTable& t, const std::string& path) {
+    std::printf(
+        "%s: %s metric; %u x %u blocks; corner (%u,%u), edge (%u,%u), middle (%u,%u); "
+        "%s points at full resolution\n",
+        path.c_str(), t.metric == format::kMetricPaper ? "paper" : "max", t.blocksX, t.blocksY,
+        t.cornerCol, t.cornerRow, t.edgeCol, t.edgeRow, t.middleCol, t.middleRow,
+        grouped(t.fullPoints).c_str());
+    // The column headers of the paper's Tables 2 and 3.
+    const char* header[] = {"View distance (km)",
+                            "The tolerance of screen projection error (Pixel)",
+                            "The tolerance of model space error (m)",
+                            "The number of points to construct a network",
+                            "The number of river bound edges",
+                            "Total number of triangles",
+                            "Percentage of data retention (%)"};
+    std::vector<std::vector<std::string>> cells;
+    cells.emplace_back(std::begin(header), std::end(header));
+    for (std::size_t i = 0; i < t.rows.size(); ++i) {
+        const StatsRow& r = t.rows[i];
+        const bool newDistance = i == 0 || t.rows[i - 1].distance != r.distance;
+        cells.push_back({newDistance ? format("%g", r.distance / 1000.0) : "",
+                         format("%g", r.pixels), format("%.2f (edge)", r.hEdge), grouped(r.points),
+                         grouped(r.riverEdges), grouped(r.triangles),
+                         format("%.1f%%", r.retention)});
+        cells.push_back({"", "", format("%.2f (corner)", r.hCorner), "", "", "", ""});
+        cells.push_back({"", "", format("%.2f (middle)", r.hMiddle), "", "", "", ""});
+    }
+    std::vector<std::size_t> width(cells[0].size(), 0);
+    for (const auto& row : cells) {
+        for (std::size_t c = 0; c < row.size(); ++c)
+            width[c] = std::max(width[c], row[c].size());
+    }
+    for (const auto& row : cells) {
+        std::string line;
+        for (std::size_t c = 0; c < row.size(); ++c) {
+            // Text columns left-aligned, numbers right-aligned.
+            const std::string pad(width[c] - row[c].size(), ' ');
+            line += c == 0 && &row == &cells[0] ? row[c] + pad : pad + row[c];
+            if (c + 1 < row.size()) line += "  ";
+        }
+        while (!line.empty() && line.back() == ' ')
+            line.pop_back();
+        std::printf("%s\n", line.c_str());
+    }
+}
+
+void printCsv(const StatsTable& t) {
+    std::printf(
+        "view_distance_m,pixels,hlim_edge_m,hlim_corner_m,hlim_middle_m,points,"
+        "river_bound_edges,triangles,retention_percent\n");
+    // %.17g: the CSV round-trips the computed doubles; the C locale gives '.' decimals.
+    for (const StatsRow& r : t.rows) {
+        std::printf("%.17g,%.17g,%.17g,%.17g,%.17g,%llu,%llu,%llu,%.17g\n", r.distance, r.pixels,
+                    r.hEdge, r.hCorner, r.hMiddle, static_cast<unsigned long long>(r.points),
+                    static_cast<unsigned long long>(r.riverEdges),
+                    static_cast<unsigned long long>(r.triangles), r.retention);
+    }
+}
+
+int run(const StatsCli& c) {
+    StatsOptions o;
+    o.distances.clear();
+    for (const std::string& d : c.distances) {
+        double m = 0;
+        parseDistance(d, m);  // already validated while parsing
+        o.distances.push_back(m);
+    }
+    o.pixels = c.pixels;
+    o.fovDegrees = c.fov;
+    o.heightPixels = c.height;
+    o.metric = 0;
+    if (c.metric == "paper") o.metric = format::kMetricPaper;
+    if (c.metric == "max") o.metric = format::kMetricMax;
+    StatsTable t;
+    std::string error;
+    if (!computeStats(c.path, o, t, error)) {
+        std::fprintf(stderr, "unilod stats: error: %s\n", error.c_str());
+        return 1;
+    }
+    if (c.csv) {
+        printCsv(t);
+    } else {
+        printText(t, c.path);
+    }
+    return 0;
+}
+
+}  // namespace
+
+void addStatsCommand(CLI::App& app, int& exitCode) {
+    auto c = std::make_shared<StatsCli>();
+    CLI::App* sub = app.add_subcommand(
+        "stats",
+        "The paper's Tables 2 and 3: per view distance and pixel tolerance, h_lim of the "
+        "edge / corner / middle blocks and the size of the selected network");
+    sub->add_option("FILE", c->path, ".ulod file")->required();
+    const CLI::Validator positiveDistance(
+        [](std::string& s) -> std::string {
+            double m = 0;
+            if (!parseDistance(s, m)) return "not a distance (e.g. 100km, 500m): " + s;
+            if (!(m > 0)) return "distance must be positive: " + s;
+            return {};
+        },
+        "DISTANCE");
+    sub->add_option("--distance", c->distances,
+                    "view distances, comma-separated, with m or km (default "
+                    "100km,200km,500km,1000km,1500km; a bare number is metres)")
+        ->delimiter(',')
+        ->check(positiveDistance);
+    sub->add_option("--pixels", c->pixels,
+                    "screen projection error tolerances P in pixels, comma-separated (default 1)")
+        ->delimiter(',')
+        ->check(CLI::PositiveNumber);
+    sub->add_option("--fov", c->fov, "vertical field of view in degrees (default 60)")
+        ->check(CLI::Validator(
+            [](std::string& s) -> std::string {
+                char* end = nullptr;
+                const double v = std::strtod(s.c_str(), &end);
+                if (end == s.c_str() || *end != '\0') return "not a number: " + s;
+                return v > 0 && v < 180 ? "" : "field of view must be in (0, 180) degrees: " + s;
+            },
+            "(0,180)"));
+    sub->add_option("--height", c->height, "viewport height in pixels (default 1080)")
+        ->check(CLI::Range(1.0, 1e9));
+    sub->add_option("--metric", c->metric, "error metric (default: the file's default)")
+        ->check(CLI::IsMember({"max", "paper"}));
+    sub->add_flag("--csv", c->csv, "CSV output (header row, '.' decimals)");
+    sub->callback([c, &exitCode] { exitCode = run(*c); });
+}
+
+}  // namespace unilod::cli
