@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "grid.h"
 #include "points.h"
 
 namespace unilod {
@@ -59,9 +60,9 @@ struct Bend {
 
 // The bends of one polyline, with BAI filled in (l_avg, s_avg over these bends). `table`/`row`
 // set Bend::c; pass row = -1 to leave c = 0. A polyline with no turning at all (straight or only
-// collinear runs) has no bends.
+// collinear runs) has no bends. Turning signs are exact on the grid of `quantizer`.
 std::vector<Bend> computeBends(const std::vector<Point>& points, const Polyline& line,
-                               const BaiTable& table, int row);
+                               const Quantizer& quantizer, const BaiTable& table, int row);
 
 // Per point factor (C * BAI + 1) of Eq. 2; 1 for points in no bend and for DEM points. A vertex
 // in several bends (a turning point, or a junction of several polylines) takes the largest.

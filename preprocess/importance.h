@@ -11,11 +11,13 @@
 // Locked points take no part (paper §3.1). Details and degenerate cases: importance.cpp.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
 
 #include "bai.h"
+#include "grid.h"
 #include "points.h"
 
 namespace unilod {
@@ -24,6 +26,15 @@ struct ImportanceOptions {
     bool useBai = true;                    // false: plain 3D_DP (--no-bai)
     BaiTable baiTable = BaiTable::paperDefault();
     double baiRow = kDefaultBaiRow;        // simplification-threshold row of Table 1
+};
+
+// Where the time went and how the search behaved (for benchmarks and summaries).
+struct ImportanceStats {
+    double baiSeconds = 0, basePlaneSeconds = 0, chainSeconds = 0, selectionSeconds = 0,
+           orderSeconds = 0;
+    std::size_t basePairCandidates = 0;  // points left for the exact base-pair search
+    std::uint32_t maxDepth = 0;          // depth of the split tree
+    double meanDepth = 0;
 };
 
 struct ImportanceResult {
@@ -38,6 +49,7 @@ struct ImportanceResult {
     // Deletion order: every unlocked point once, ascending effective importance; ties: deeper
     // split-tree depth first (descendants before ancestors), then lower id. O, A, B come last.
     std::vector<PointId> order;
+    ImportanceStats stats;
 };
 
 // Returns false with `error` set when the options are invalid (unknown BAI row).
@@ -46,34 +58,43 @@ bool computeImportance(const PointSet& set, const ImportanceOptions& options,
 
 // --- Building blocks, exposed for tests and reference implementations -----------------------
 
-// Coordinates quantised to a fixed grid of kGridUnit metres relative to a common origin, so that
-// orientation / collinearity tests are exact integer arithmetic.
-inline constexpr double kGridUnit = 1e-3;  // 1 mm
-struct GridPoint {
-    std::int64_t x = 0, y = 0, z = 0;
-    bool operator==(const GridPoint&) const = default;
-};
-struct Quantizer {
-    double ox = 0, oy = 0, oz = 0;  // grid origin (metres)
-    static Quantizer forPoints(const std::vector<Point>& points);
-    GridPoint operator()(const Point& p) const;
-};
-
 // Distance from a point to the base plane through O, P (sub-chain start) and Q (end), in metres.
 // Degenerate cases: O, P, Q collinear with P != Q -> distance to line PQ; P == Q != O -> distance
-// to line OP; P == Q == O -> distance to O. Degeneracy is decided exactly on grid coordinates.
+// to line OP; P == Q == O -> distance to O. Degeneracy is decided exactly on grid coordinates, and
+// a point exactly on the plane (or line) gets exactly 0: the floating-point value is used unless
+// it is within its rounding error bound of 0, where an exact 128-bit test decides.
 class PlaneDistance {
 public:
-    PlaneDistance(const GridPoint& o, const GridPoint& p, const GridPoint& q);
-    double operator()(const GridPoint& x) const;
     enum class Kind { Plane, Line, Point };
+    PlaneDistance(const GridPoint& o, const GridPoint& p, const GridPoint& q);
     Kind kind() const { return kind_; }
 
+    double operator()(const GridPoint& x) const {
+        const std::int64_t ix = x.x - base_.x, iy = x.y - base_.y, iz = x.z - base_.z;
+        const double wx = double(ix), wy = double(iy), wz = double(iz);
+        if (kind_ == Kind::Plane) {
+            const double tx = nx_ * wx, ty = ny_ * wy, tz = nz_ * wz;
+            const double dot = tx + ty + tz;
+            // |error| <= 4 eps (|tx| + |ty| + |tz|): conversion of n, three products, two sums.
+            constexpr double kErr = 4 * 0x1.0p-53;
+            if (std::fabs(dot) <= kErr * (std::fabs(tx) + std::fabs(ty) + std::fabs(tz)) &&
+                exactNx_ * ix + exactNy_ * iy + exactNz_ * iz == 0) {
+                return 0.0;
+            }
+            return std::fabs(dot) * invLen_ * kGridUnit;
+        }
+        if (kind_ == Kind::Line) return lineDistance(ix, iy, iz);
+        return std::sqrt(wx * wx + wy * wy + wz * wz) * kGridUnit;
+    }
+
 private:
-    Kind kind_;
-    double ax_, ay_, az_;  // plane: unit normal; line: anchor point
-    double dx_, dy_, dz_;  // line: unit direction
-    GridPoint base_;
+    double lineDistance(std::int64_t ix, std::int64_t iy, std::int64_t iz) const;
+
+    Kind kind_ = Kind::Point;
+    GridPoint base_;                    // O for a plane or a point; the line's first point
+    double nx_ = 0, ny_ = 0, nz_ = 0;   // plane normal (OP x OQ) or line direction, unnormalised
+    double invLen_ = 0;                 // 1 / |(nx, ny, nz)|
+    Int128 exactNx_ = 0, exactNy_ = 0, exactNz_ = 0;
 };
 
 // Selection tie-break shared by the implementation and reference checks: among interior chain

@@ -9,6 +9,8 @@
 #include <span>
 #include <vector>
 
+#include "grid.h"
+
 namespace unilod {
 
 class KdTree {
@@ -18,6 +20,8 @@ public:
     KdTree() = default;
     // Builds over points [0, n) with coordinates (x[i], y[i], z[i]); all alive.
     KdTree(std::span<const double> x, std::span<const double> y, std::span<const double> z);
+    // Builds over grid points (coordinates in grid units).
+    explicit KdTree(std::span<const GridPoint> points);
 
     void remove(std::uint32_t i);  // i must be alive
     bool alive(std::uint32_t i) const { return alive_[pos_[i]] != 0; }
@@ -26,10 +30,19 @@ public:
     // Nearest alive point to q in 3D Euclidean distance; ties go to the lowest index.
     // kNone when no point is alive.
     std::uint32_t nearest(double qx, double qy, double qz) const;
+    // The same for the position of point i (alive or not), searching bottom-up from i's leaf:
+    // much faster when the answer is close, as in a nearest-neighbour chain.
+    std::uint32_t nearestTo(std::uint32_t i) const;
+
+    double x(std::uint32_t i) const { return x_[pos_[i]]; }
+    double y(std::uint32_t i) const { return y_[pos_[i]]; }
+    double z(std::uint32_t i) const { return z_[pos_[i]]; }
 
     std::size_t memoryBytes() const;
 
 private:
+    void build();  // x_, y_, z_ hold the coordinates by point index on entry, leaf order after
+
     struct Node {
         double lo[3], hi[3];     // bounding box of the node's points
         std::uint32_t begin, end;  // range in the leaf order
@@ -37,6 +50,12 @@ private:
         std::uint32_t parent;
         std::uint32_t left, right;  // kNone for leaves
     };
+    // Top-down search below `node`, improving (best, bestD2).
+    void search(std::uint32_t node, double qx, double qy, double qz, std::uint32_t& best,
+                double& bestD2) const;
+    void scanLeaf(const Node& leaf, double qx, double qy, double qz, std::uint32_t& best,
+                  double& bestD2) const;
+
     std::vector<Node> nodes_;
     std::vector<double> x_, y_, z_;      // coordinates in leaf order
     std::vector<std::uint32_t> id_;      // leaf order -> point index

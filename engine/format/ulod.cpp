@@ -1,0 +1,913 @@
+// .ulod v1 reader and writer. The byte layout (every field, offset, alignment and checksum) is
+// described in README.md beside this file; the on-disk structs below are its source of truth and
+// each has a static_assert on its size so that the two cannot drift apart silently.
+//
+// The reader treats the file as hostile: every count is checked against the byte range it must fit
+// in before anything is allocated, all size arithmetic is done in 64 bits on values bounded by the
+// (real) file size, and nothing is read outside the ranges the directory declares.
+#include "ulod.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zlib.h>
+
+#include <algorithm>
+#include <bit>
+#include <cassert>
+#include <cerrno>
+#include <cmath>
+#include <cstddef>
+#include <cstring>
+#include <limits>
+#include <set>
+#include <utility>
+
+namespace unilod::format {
+
+// v1 is defined as little-endian and written by copying the in-memory structs; a big-endian port
+// would need byte swapping on every field (and a test on such a host).
+static_assert(std::endian::native == std::endian::little, ".ulod v1 needs a little-endian host");
+
+namespace {
+
+constexpr std::uint64_t kAlign = 8;  // every array and every block starts 8-byte aligned
+
+// The fixed part of the file header, at offset 0.
+struct FileHeader {
+    char magic[8];
+    std::uint32_t version;
+    std::uint32_t headerSize;  // sizeof(FileHeader)
+    std::uint64_t fileSize;    // total file size in bytes
+    double originX, originY;
+    double minX, minY, minZ, maxX, maxY, maxZ;
+    double blockWidth, blockHeight;
+    std::uint32_t blocksX, blocksY;
+    std::uint32_t metrics, defaultMetric;
+    std::uint32_t blockCount;
+    std::uint32_t crsWktSize;
+    std::uint32_t buildInfoSize;
+    std::uint32_t reserved;  // 0
+};
+static_assert(sizeof(FileHeader) == 136);
+static_assert(offsetof(FileHeader, fileSize) == 16);
+static_assert(offsetof(FileHeader, blocksX) == 104);
+static_assert(offsetof(FileHeader, reserved) == 132);
+
+// One block directory entry (BlockInfo on disk).
+struct DirEntry {
+    std::uint32_t col, row;
+    double minX, minY, minZ, maxX, maxY, maxZ;
+    std::uint64_t offset, size;
+    std::uint32_t checksum;
+    std::uint32_t vertexCount, stepCount, levelCount;
+    std::uint32_t fullTriangles;
+    std::uint32_t reserved;  // 0
+};
+static_assert(sizeof(DirEntry) == 96);
+static_assert(offsetof(DirEntry, offset) == 56);
+static_assert(offsetof(DirEntry, checksum) == 72);
+
+// Written after the directory: the CRC-32 of every byte before it.
+struct HeaderTrailer {
+    std::uint32_t crc;
+    std::uint32_t reserved;  // 0
+};
+static_assert(sizeof(HeaderTrailer) == 8);
+
+// The fixed header at the start of every block: position, bounds and the count of every array.
+struct BlockHeader {
+    std::uint32_t col, row;
+    double originX, originY;
+    double minX, minY, minZ, maxX, maxY, maxZ;
+    std::uint32_t vertexCount;
+    std::uint32_t stepCount;
+    std::uint32_t removedTriangleOffsetCount, addedTriangleOffsetCount;
+    std::uint32_t removedEdgeOffsetCount, addedEdgeOffsetCount;
+    std::uint32_t removedTriangleCount, addedTriangleCount;
+    std::uint32_t removedEdgeCount, addedEdgeCount;
+    std::uint32_t errorMaxCount, errorPaperCount;
+    std::uint32_t levelCount;
+    std::uint32_t terrainTriangleCount;
+    std::uint32_t riverEdgeCount;
+    std::uint32_t gridCount;
+};
+static_assert(sizeof(BlockHeader) == 136);
+static_assert(offsetof(BlockHeader, vertexCount) == 72);
+static_assert(offsetof(BlockHeader, gridCount) == 132);
+
+constexpr std::uint64_t alignUp(std::uint64_t n) {
+    return (n + kAlign - 1) / kAlign * kAlign;
+}
+
+std::string blockName(std::uint32_t col, std::uint32_t row) {
+    return "block (" + std::to_string(col) + "," + std::to_string(row) + ")";
+}
+
+std::string errnoText() {
+    return std::strerror(errno);
+}
+
+// The arrays of a block in file order: a pointer to each vector, its element size. Used by both
+// the writer and the reader so that the order is defined once.
+template <typename B, typename F>
+void forEachArray(B& b, F&& f) {
+    f(b.vertices);
+    f(b.steps);
+    f(b.removedTriangleOffset);
+    f(b.addedTriangleOffset);
+    f(b.removedEdgeOffset);
+    f(b.addedEdgeOffset);
+    f(b.removedTriangles);
+    f(b.addedTriangles);
+    f(b.removedEdges);
+    f(b.addedEdges);
+    f(b.errorMax);
+    f(b.errorPaper);
+    f(b.levels);
+    f(b.terrainIndices);
+    f(b.riverIndices);
+    f(b.grid);
+}
+
+// The counts of a block header in the same order as forEachArray.
+std::uint32_t* blockCounts(BlockHeader& h) {
+    return &h.vertexCount;
+}
+constexpr int kArrayCount = 16;
+static_assert(offsetof(BlockHeader, gridCount) ==
+              offsetof(BlockHeader, vertexCount) + (kArrayCount - 1) * sizeof(std::uint32_t));
+
+// Byte size of a block from its header's counts; 64-bit, cannot overflow (16 arrays of at most
+// 2^32 - 1 elements of at most 32 bytes each).
+std::uint64_t blockByteSize(const BlockHeader& h) {
+    const std::uint64_t elementSizes[kArrayCount] = {sizeof(Vertex),
+                                                     sizeof(Step),
+                                                     4,
+                                                     4,
+                                                     4,
+                                                     4,
+                                                     sizeof(Triangle),
+                                                     sizeof(Triangle),
+                                                     sizeof(Edge),
+                                                     sizeof(Edge),
+                                                     4,
+                                                     4,
+                                                     sizeof(Level),
+                                                     sizeof(Triangle),
+                                                     sizeof(Edge),
+                                                     sizeof(GridXY)};
+    const std::uint32_t* counts = &h.vertexCount;
+    std::uint64_t size = sizeof(BlockHeader);
+    for (int i = 0; i < kArrayCount; ++i)
+        size += alignUp(counts[i] * elementSizes[i]);
+    return size;
+}
+
+bool metricsValid(std::uint32_t metrics, std::uint32_t defaultMetric, std::string& error) {
+    const std::uint32_t all = kMetricMax | kMetricPaper;
+    if (metrics == 0 || (metrics & ~all) != 0) {
+        error = "invalid metrics mask " + std::to_string(metrics);
+        return false;
+    }
+    if ((defaultMetric != kMetricMax && defaultMetric != kMetricPaper) ||
+        (metrics & defaultMetric) == 0) {
+        error = "default metric " + std::to_string(defaultMetric) + " is not in metrics mask " +
+                std::to_string(metrics);
+        return false;
+    }
+    return true;
+}
+
+// ---- validation -----------------------------------------------------------------------------
+
+bool checkOffsets(const std::vector<std::uint32_t>& offsets, std::size_t steps,
+                  std::size_t arraySize, const char* name, std::string& error) {
+    if (offsets.size() != steps + 1) {
+        error = std::string(name) + " has " + std::to_string(offsets.size()) +
+                " entries, expected steps + 1 = " + std::to_string(steps + 1);
+        return false;
+    }
+    if (offsets[0] != 0) {
+        error = std::string(name) + "[0] is " + std::to_string(offsets[0]) + ", expected 0";
+        return false;
+    }
+    for (std::size_t s = 1; s < offsets.size(); ++s) {
+        if (offsets[s] < offsets[s - 1]) {
+            error = std::string(name) + " decreases at " + std::to_string(s) + " (" +
+                    std::to_string(offsets[s - 1]) + " -> " + std::to_string(offsets[s]) + ")";
+            return false;
+        }
+    }
+    if (offsets.back() != arraySize) {
+        error = std::string(name) + " ends at " + std::to_string(offsets.back()) +
+                " but its array has " + std::to_string(arraySize) + " entries";
+        return false;
+    }
+    return true;
+}
+
+bool checkTriangle(const Triangle& t, std::uint64_t limit, const std::string& where,
+                   std::string& error) {
+    if (t.a >= limit || t.b >= limit || t.c >= limit) {
+        error = where + ": triangle (" + std::to_string(t.a) + "," + std::to_string(t.b) + "," +
+                std::to_string(t.c) + ") has an index >= " + std::to_string(limit);
+        return false;
+    }
+    return true;
+}
+
+bool checkEdge(const Edge& e, std::uint64_t limit, const std::string& where, std::string& error) {
+    if (e.a >= e.b || e.b >= limit) {
+        error = where + ": edge (" + std::to_string(e.a) + "," + std::to_string(e.b) +
+                ") is not a < b < " + std::to_string(limit);
+        return false;
+    }
+    return true;
+}
+
+bool checkErrors(const std::vector<float>& errors, bool present, std::size_t steps,
+                 const char* name, std::string& error) {
+    if (!present) {
+        if (!errors.empty()) {
+            error = std::string(name) + " has " + std::to_string(errors.size()) +
+                    " entries but the metric is not in the file";
+            return false;
+        }
+        return true;
+    }
+    if (errors.size() != steps + 1) {
+        error = std::string(name) + " has " + std::to_string(errors.size()) +
+                " entries, expected steps + 1 = " + std::to_string(steps + 1);
+        return false;
+    }
+    for (std::size_t s = 0; s < errors.size(); ++s) {
+        if (!std::isfinite(errors[s]) || errors[s] < 0) {
+            error = std::string(name) + "[" + std::to_string(s) + "] is not a finite value >= 0";
+            return false;
+        }
+        if (s > 0 && errors[s] < errors[s - 1]) {
+            error = std::string(name) + " decreases at step " + std::to_string(s) + " (" +
+                    std::to_string(errors[s - 1]) + " -> " + std::to_string(errors[s]) + ")";
+            return false;
+        }
+    }
+    return true;
+}
+
+bool validateBlockImpl(const Block& b, std::uint32_t metrics, std::string& error) {
+    constexpr std::uint64_t kMax32 = std::numeric_limits<std::uint32_t>::max();
+    bool tooBig = false;
+    forEachArray(b, [&](const auto& v) { tooBig = tooBig || v.size() > kMax32; });
+    if (tooBig) {
+        error = "an array has more than 2^32 - 1 entries";
+        return false;
+    }
+
+    const std::uint64_t n = b.vertices.size();
+    const std::uint64_t stepCount = b.steps.size();
+    if (!b.grid.empty() && b.grid.size() != n) {
+        error = "grid has " + std::to_string(b.grid.size()) + " entries for " + std::to_string(n) +
+                " vertices";
+        return false;
+    }
+    for (std::uint64_t i = 0; i < n; ++i) {
+        const Vertex& v = b.vertices[i];
+        if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) {
+            error = "vertex " + std::to_string(i) + " has a non-finite coordinate";
+            return false;
+        }
+        if ((v.flags & ~(kVertexRiver | kVertexLocked)) != 0) {
+            error = "vertex " + std::to_string(i) + " has unknown flags " + std::to_string(v.flags);
+            return false;
+        }
+    }
+
+    // Retention order: the vertices alive before step s are [0, n - s), so step s deletes
+    // vertex n - 1 - s. Anything else would break the engine's prefix rule.
+    if (stepCount > n) {
+        error = std::to_string(stepCount) + " steps but only " + std::to_string(n) + " vertices";
+        return false;
+    }
+    for (std::uint64_t s = 0; s < stepCount; ++s) {
+        if (b.steps[s].vertex != n - 1 - s) {
+            error = "step " + std::to_string(s) + " deletes vertex " +
+                    std::to_string(b.steps[s].vertex) + ", retention order requires " +
+                    std::to_string(n - 1 - s);
+            return false;
+        }
+        if ((b.vertices[n - 1 - s].flags & kVertexLocked) != 0) {
+            error =
+                "step " + std::to_string(s) + " deletes locked vertex " + std::to_string(n - 1 - s);
+            return false;
+        }
+    }
+
+    if (!checkOffsets(b.removedTriangleOffset, stepCount, b.removedTriangles.size(),
+                      "removedTriangleOffset", error) ||
+        !checkOffsets(b.addedTriangleOffset, stepCount, b.addedTriangles.size(),
+                      "addedTriangleOffset", error) ||
+        !checkOffsets(b.removedEdgeOffset, stepCount, b.removedEdges.size(), "removedEdgeOffset",
+                      error) ||
+        !checkOffsets(b.addedEdgeOffset, stepCount, b.addedEdges.size(), "addedEdgeOffset",
+                      error)) {
+        return false;
+    }
+
+    // Records of step s: removed elements existed before it (indices < n - s), added ones exist
+    // after it (indices < n - s - 1, the deleted vertex is gone).
+    for (std::uint64_t s = 0; s < stepCount; ++s) {
+        const std::string where = "step " + std::to_string(s);
+        for (auto i = b.removedTriangleOffset[s]; i < b.removedTriangleOffset[s + 1]; ++i) {
+            if (!checkTriangle(b.removedTriangles[i], n - s, where + " removed", error)) {
+                return false;
+            }
+        }
+        for (auto i = b.addedTriangleOffset[s]; i < b.addedTriangleOffset[s + 1]; ++i) {
+            if (!checkTriangle(b.addedTriangles[i], n - s - 1, where + " added", error)) {
+                return false;
+            }
+        }
+        for (auto i = b.removedEdgeOffset[s]; i < b.removedEdgeOffset[s + 1]; ++i) {
+            if (!checkEdge(b.removedEdges[i], n - s, where + " removed", error)) return false;
+        }
+        for (auto i = b.addedEdgeOffset[s]; i < b.addedEdgeOffset[s + 1]; ++i) {
+            if (!checkEdge(b.addedEdges[i], n - s - 1, where + " added", error)) return false;
+        }
+    }
+
+    if (!checkErrors(b.errorMax, (metrics & kMetricMax) != 0, stepCount, "errorMax", error) ||
+        !checkErrors(b.errorPaper, (metrics & kMetricPaper) != 0, stepCount, "errorPaper", error)) {
+        return false;
+    }
+
+    if (b.levels.empty()) {
+        error = "no levels (levels[0] must be the full resolution)";
+        return false;
+    }
+    if (b.levels[0].step != 0) {
+        error = "levels[0].step is " + std::to_string(b.levels[0].step) + ", expected 0";
+        return false;
+    }
+
+    // Alive counts replayed from the full resolution (levels[0]) through the records.
+    std::vector<std::uint64_t> trianglesAlive(stepCount + 1), edgesAlive(stepCount + 1);
+    trianglesAlive[0] = b.levels[0].triangleCount;
+    edgesAlive[0] = b.levels[0].riverCount;
+    for (std::uint64_t s = 0; s < stepCount; ++s) {
+        const std::uint64_t removedT = b.removedTriangleOffset[s + 1] - b.removedTriangleOffset[s];
+        const std::uint64_t addedT = b.addedTriangleOffset[s + 1] - b.addedTriangleOffset[s];
+        const std::uint64_t removedE = b.removedEdgeOffset[s + 1] - b.removedEdgeOffset[s];
+        const std::uint64_t addedE = b.addedEdgeOffset[s + 1] - b.addedEdgeOffset[s];
+        const std::string where = "step " + std::to_string(s);
+        if (removedT > trianglesAlive[s] || removedE > edgesAlive[s]) {
+            error = where + " removes more triangles or river edges than are alive";
+            return false;
+        }
+        trianglesAlive[s + 1] = trianglesAlive[s] - removedT + addedT;
+        edgesAlive[s + 1] = edgesAlive[s] - removedE + addedE;
+        if (b.steps[s].trianglesAlive != trianglesAlive[s + 1]) {
+            error = where + ": trianglesAlive is " + std::to_string(b.steps[s].trianglesAlive) +
+                    " but the records give " + std::to_string(trianglesAlive[s + 1]);
+            return false;
+        }
+        if (b.steps[s].riverEdgesAlive != edgesAlive[s + 1]) {
+            error = where + ": riverEdgesAlive is " + std::to_string(b.steps[s].riverEdgesAlive) +
+                    " but the records give " + std::to_string(edgesAlive[s + 1]);
+            return false;
+        }
+    }
+
+    for (std::size_t l = 0; l < b.levels.size(); ++l) {
+        const Level& level = b.levels[l];
+        const std::string where = "level " + std::to_string(l);
+        if (l > 0 && level.step <= b.levels[l - 1].step) {
+            error = where + ": step " + std::to_string(level.step) + " is not above level " +
+                    std::to_string(l - 1) + "'s step " + std::to_string(b.levels[l - 1].step);
+            return false;
+        }
+        if (level.step > stepCount) {
+            error = where + ": step " + std::to_string(level.step) + " > step count " +
+                    std::to_string(stepCount);
+            return false;
+        }
+        if (level.vertexCount != n - level.step) {
+            error = where + ": vertexCount " + std::to_string(level.vertexCount) +
+                    ", expected vertices - step = " + std::to_string(n - level.step);
+            return false;
+        }
+        if (level.triangleCount != trianglesAlive[level.step] ||
+            level.riverCount != edgesAlive[level.step]) {
+            error = where + ": " + std::to_string(level.triangleCount) + " triangles and " +
+                    std::to_string(level.riverCount) + " river edges, the records give " +
+                    std::to_string(trianglesAlive[level.step]) + " and " +
+                    std::to_string(edgesAlive[level.step]);
+            return false;
+        }
+        if (std::uint64_t(level.triangleFirst) + level.triangleCount > b.terrainIndices.size()) {
+            error = where + ": terrain range [" + std::to_string(level.triangleFirst) + ", +" +
+                    std::to_string(level.triangleCount) + ") outside the " +
+                    std::to_string(b.terrainIndices.size()) + " terrain triangles";
+            return false;
+        }
+        if (std::uint64_t(level.riverFirst) + level.riverCount > b.riverIndices.size()) {
+            error = where + ": river range [" + std::to_string(level.riverFirst) + ", +" +
+                    std::to_string(level.riverCount) + ") outside the " +
+                    std::to_string(b.riverIndices.size()) + " river edges";
+            return false;
+        }
+        for (std::uint32_t i = 0; i < level.triangleCount; ++i) {
+            if (!checkTriangle(b.terrainIndices[level.triangleFirst + i], level.vertexCount,
+                               where + " terrain", error)) {
+                return false;
+            }
+        }
+        for (std::uint32_t i = 0; i < level.riverCount; ++i) {
+            if (!checkEdge(b.riverIndices[level.riverFirst + i], level.vertexCount,
+                           where + " river", error)) {
+                return false;
+            }
+        }
+        // The level's errors are the error table's at its step (what the engine's h_s is).
+        const bool maxOk = (metrics & kMetricMax) == 0 || level.errorMax == b.errorMax[level.step];
+        const bool paperOk =
+            (metrics & kMetricPaper) == 0 || level.errorPaper == b.errorPaper[level.step];
+        if (!maxOk || !paperOk) {
+            error = where + ": errors differ from the error table at step " +
+                    std::to_string(level.step);
+            return false;
+        }
+    }
+    return true;
+}
+
+// ---- I/O helpers ------------------------------------------------------------------------------
+
+bool preadAll(int fd, void* data, std::uint64_t size, std::uint64_t offset) {
+    auto* p = static_cast<unsigned char*>(data);
+    while (size > 0) {
+        const ssize_t got = ::pread(fd, p, size, static_cast<off_t>(offset));
+        if (got < 0 && errno == EINTR) continue;
+        if (got <= 0) {
+            if (got == 0) errno = EIO;  // the file shrank under us
+            return false;
+        }
+        p += got;
+        size -= static_cast<std::uint64_t>(got);
+        offset += static_cast<std::uint64_t>(got);
+    }
+    return true;
+}
+
+bool pwriteAll(int fd, const void* data, std::uint64_t size, std::uint64_t offset) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    while (size > 0) {
+        const ssize_t put = ::pwrite(fd, p, size, static_cast<off_t>(offset));
+        if (put < 0 && errno == EINTR) continue;
+        if (put <= 0) return false;
+        p += put;
+        size -= static_cast<std::uint64_t>(put);
+        offset += static_cast<std::uint64_t>(put);
+    }
+    return true;
+}
+
+std::uint32_t crc32Of(const void* data, std::uint64_t size, std::uint32_t crc = 0) {
+    // zlib's crc32 takes a uInt length: feed it in chunks.
+    const auto* p = static_cast<const Bytef*>(data);
+    uLong c = crc;
+    while (size > 0) {
+        const uInt chunk = static_cast<uInt>(std::min<std::uint64_t>(size, 1u << 30));
+        c = ::crc32(c, p, chunk);
+        p += chunk;
+        size -= chunk;
+    }
+    return static_cast<std::uint32_t>(c);
+}
+
+// Appends bytes to a buffer, then zero padding up to the next 8-byte boundary.
+void appendPadded(std::vector<unsigned char>& out, const void* data, std::size_t size) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    out.insert(out.end(), p, p + size);
+    out.resize(alignUp(out.size()), 0);
+}
+
+void fillBlockHeader(const Block& b, BlockHeader& h) {
+    h = BlockHeader{};
+    h.col = b.col;
+    h.row = b.row;
+    h.originX = b.originX;
+    h.originY = b.originY;
+    h.minX = b.minX;
+    h.minY = b.minY;
+    h.minZ = b.minZ;
+    h.maxX = b.maxX;
+    h.maxY = b.maxY;
+    h.maxZ = b.maxZ;
+    std::uint32_t* counts = blockCounts(h);
+    int i = 0;
+    forEachArray(b, [&](const auto& v) { counts[i++] = static_cast<std::uint32_t>(v.size()); });
+}
+
+void serializeBlock(const Block& b, std::vector<unsigned char>& out) {
+    BlockHeader h;
+    fillBlockHeader(b, h);
+    out.clear();
+    out.reserve(blockByteSize(h));
+    appendPadded(out, &h, sizeof(h));
+    forEachArray(b, [&](const auto& v) { appendPadded(out, v.data(), v.size() * sizeof(v[0])); });
+    assert(out.size() == blockByteSize(h));
+}
+
+// Removes the temporary file on every early return of writeUlod.
+struct TempFile {
+    std::string path;
+    int fd = -1;
+    bool keep = false;
+    ~TempFile() {
+        if (fd >= 0) ::close(fd);
+        if (!keep && !path.empty()) ::unlink(path.c_str());
+    }
+};
+
+}  // namespace
+
+bool validateBlock(const Block& block, std::uint32_t metrics, std::string& error) {
+    if (!validateBlockImpl(block, metrics, error)) {
+        error = blockName(block.col, block.row) + ": " + error;
+        return false;
+    }
+    return true;
+}
+
+// ---- writer -----------------------------------------------------------------------------------
+
+bool writeUlod(const std::string& path, const Header& header, const std::vector<Block>& blocks,
+               std::string& error) {
+    auto fail = [&](const std::string& what) {
+        error = path + ": " + what;
+        return false;
+    };
+    constexpr std::uint64_t kMax32 = std::numeric_limits<std::uint32_t>::max();
+
+    // Header and directory checks that need no I/O come first.
+    std::string why;
+    if (!metricsValid(header.metrics, header.defaultMetric, why)) return fail(why);
+    if (header.crsWkt.size() > kMax32 || header.buildInfo.size() > kMax32) {
+        return fail("CRS WKT or build info longer than 2^32 - 1 bytes");
+    }
+    if (blocks.size() > kMax32) return fail("more than 2^32 - 1 blocks");
+    std::set<std::pair<std::uint32_t, std::uint32_t>> seen;
+    for (const Block& b : blocks) {
+        if (b.col >= header.blocksX || b.row >= header.blocksY) {
+            return fail(blockName(b.col, b.row) + " is outside the " +
+                        std::to_string(header.blocksX) + "x" + std::to_string(header.blocksY) +
+                        " block grid");
+        }
+        if (!seen.insert({b.col, b.row}).second) {
+            return fail(blockName(b.col, b.row) + " appears twice");
+        }
+    }
+
+    // Layout: fixed header, WKT, build info, directory, trailer, then the blocks in order.
+    FileHeader fh{};
+    std::memcpy(fh.magic, kMagic, sizeof(kMagic));
+    fh.version = kVersion;
+    fh.headerSize = sizeof(FileHeader);
+    fh.originX = header.originX;
+    fh.originY = header.originY;
+    fh.minX = header.minX;
+    fh.minY = header.minY;
+    fh.minZ = header.minZ;
+    fh.maxX = header.maxX;
+    fh.maxY = header.maxY;
+    fh.maxZ = header.maxZ;
+    fh.blockWidth = header.blockWidth;
+    fh.blockHeight = header.blockHeight;
+    fh.blocksX = header.blocksX;
+    fh.blocksY = header.blocksY;
+    fh.metrics = header.metrics;
+    fh.defaultMetric = header.defaultMetric;
+    fh.blockCount = static_cast<std::uint32_t>(blocks.size());
+    fh.crsWktSize = static_cast<std::uint32_t>(header.crsWkt.size());
+    fh.buildInfoSize = static_cast<std::uint32_t>(header.buildInfo.size());
+
+    std::vector<DirEntry> dir(blocks.size());
+    std::uint64_t offset = sizeof(FileHeader) + alignUp(fh.crsWktSize) + alignUp(fh.buildInfoSize) +
+                           blocks.size() * sizeof(DirEntry) + sizeof(HeaderTrailer);
+    [[maybe_unused]] const std::uint64_t dataStart = offset;
+
+    TempFile tmp;
+    {
+        std::string templ = path + ".tmp-XXXXXX";
+        tmp.fd = ::mkstemp(templ.data());
+        if (tmp.fd < 0) return fail("cannot create a temporary file beside it: " + errnoText());
+        tmp.path = templ;
+    }
+    // mkstemp creates 0600; a model file is ordinary data.
+    if (::fchmod(tmp.fd, 0644) != 0) return fail("cannot set permissions: " + errnoText());
+
+    // Blocks first (validated one at a time, as they are written), then the header that records
+    // their offsets and checksums.
+    std::vector<unsigned char> bytes;
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+        const Block& b = blocks[i];
+        if (!validateBlock(b, header.metrics, why)) return fail(why);
+        serializeBlock(b, bytes);
+        DirEntry& e = dir[i];
+        e = DirEntry{};
+        e.col = b.col;
+        e.row = b.row;
+        e.minX = b.minX;
+        e.minY = b.minY;
+        e.minZ = b.minZ;
+        e.maxX = b.maxX;
+        e.maxY = b.maxY;
+        e.maxZ = b.maxZ;
+        e.offset = offset;
+        e.size = bytes.size();
+        e.checksum = crc32Of(bytes.data(), bytes.size());
+        e.vertexCount = static_cast<std::uint32_t>(b.vertices.size());
+        e.stepCount = static_cast<std::uint32_t>(b.steps.size());
+        e.levelCount = static_cast<std::uint32_t>(b.levels.size());
+        e.fullTriangles = b.levels[0].triangleCount;  // validateBlock: levels[0] is step 0
+        if (!pwriteAll(tmp.fd, bytes.data(), bytes.size(), offset)) {
+            return fail("write failed: " + errnoText());
+        }
+        offset += bytes.size();
+    }
+    fh.fileSize = offset;
+
+    bytes.clear();
+    appendPadded(bytes, &fh, sizeof(fh));
+    appendPadded(bytes, header.crsWkt.data(), header.crsWkt.size());
+    appendPadded(bytes, header.buildInfo.data(), header.buildInfo.size());
+    appendPadded(bytes, dir.data(), dir.size() * sizeof(DirEntry));
+    HeaderTrailer trailer{crc32Of(bytes.data(), bytes.size()), 0};
+    appendPadded(bytes, &trailer, sizeof(trailer));
+    assert(bytes.size() == dataStart);
+    if (!pwriteAll(tmp.fd, bytes.data(), bytes.size(), 0)) {
+        return fail("write failed: " + errnoText());
+    }
+
+    // Data on disk before the rename makes it visible; close errors can report delayed writes.
+    if (::fsync(tmp.fd) != 0) return fail("fsync failed: " + errnoText());
+    const int fd = std::exchange(tmp.fd, -1);
+    if (::close(fd) != 0) return fail("close failed: " + errnoText());
+    if (::rename(tmp.path.c_str(), path.c_str()) != 0) {
+        return fail("cannot rename the temporary file into place: " + errnoText());
+    }
+    tmp.keep = true;
+
+    // Make the rename itself durable (best effort: some file systems refuse fsync on folders).
+    const std::size_t slash = path.find_last_of('/');
+    const std::string folder = slash == std::string::npos ? "." : path.substr(0, slash + 1);
+    const int dirFd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (dirFd >= 0) {
+        ::fsync(dirFd);
+        ::close(dirFd);
+    }
+    return true;
+}
+
+// ---- reader -----------------------------------------------------------------------------------
+
+struct Reader::Impl {
+    std::string path;
+    int fd = -1;
+    Header header;
+    std::vector<BlockInfo> blocks;
+
+    ~Impl() {
+        if (fd >= 0) ::close(fd);
+    }
+};
+
+Reader::Reader() : impl_(std::make_unique<Impl>()) {}
+Reader::~Reader() = default;
+
+const Header& Reader::header() const {
+    assert(impl_->fd >= 0 && "Reader::open() first");
+    return impl_->header;
+}
+
+const std::vector<BlockInfo>& Reader::blocks() const {
+    assert(impl_->fd >= 0 && "Reader::open() first");
+    return impl_->blocks;
+}
+
+const std::string& Reader::path() const {
+    return impl_->path;
+}
+
+bool Reader::open(const std::string& path, std::string& error) {
+    impl_ = std::make_unique<Impl>();  // a failed open leaves a closed reader
+    auto fail = [&](const std::string& what) {
+        error = path + ": " + what;
+        impl_ = std::make_unique<Impl>();
+        return false;
+    };
+
+    Impl& r = *impl_;
+    r.path = path;
+    r.fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (r.fd < 0) return fail("cannot open: " + errnoText());
+    struct stat st {};
+    if (::fstat(r.fd, &st) != 0) return fail("cannot stat: " + errnoText());
+    if (!S_ISREG(st.st_mode)) return fail("not a regular file");
+    const auto actualSize = static_cast<std::uint64_t>(st.st_size);
+
+    FileHeader fh{};
+    if (actualSize < sizeof(kMagic)) {
+        return fail("not a .ulod file (" + std::to_string(actualSize) + " bytes)");
+    }
+    if (!preadAll(r.fd, &fh, std::min<std::uint64_t>(actualSize, sizeof(fh)), 0)) {
+        return fail("read failed: " + errnoText());
+    }
+    if (std::memcmp(fh.magic, kMagic, sizeof(kMagic)) != 0) return fail("not a .ulod file");
+    if (actualSize < offsetof(FileHeader, fileSize)) {
+        return fail("truncated (" + std::to_string(actualSize) + " bytes, shorter than a header)");
+    }
+    if (fh.version != kVersion) {
+        return fail("unsupported .ulod version " + std::to_string(fh.version) +
+                    " (this build reads " + std::to_string(kVersion) + ")");
+    }
+    if (fh.headerSize != sizeof(FileHeader)) {
+        return fail("header size " + std::to_string(fh.headerSize) + ", version " +
+                    std::to_string(kVersion) + " has " + std::to_string(sizeof(FileHeader)));
+    }
+    if (actualSize < sizeof(FileHeader)) {
+        return fail("truncated (" + std::to_string(actualSize) + " bytes, shorter than a header)");
+    }
+    if (actualSize < fh.fileSize) {
+        return fail("truncated (" + std::to_string(actualSize) + " bytes, header records " +
+                    std::to_string(fh.fileSize) + ")");
+    }
+    if (actualSize > fh.fileSize) {
+        return fail("trailing bytes (" + std::to_string(actualSize) + " bytes, header records " +
+                    std::to_string(fh.fileSize) + ")");
+    }
+
+    // Header region size from 32-bit counts: cannot overflow 64 bits; checked against the file
+    // size before it is allocated.
+    const std::uint64_t wktAt = sizeof(FileHeader);
+    const std::uint64_t buildAt = wktAt + alignUp(fh.crsWktSize);
+    const std::uint64_t dirAt = buildAt + alignUp(fh.buildInfoSize);
+    const std::uint64_t trailerAt = dirAt + std::uint64_t(fh.blockCount) * sizeof(DirEntry);
+    const std::uint64_t dataStart = trailerAt + sizeof(HeaderTrailer);
+    if (dataStart > actualSize) {
+        return fail("header region (" + std::to_string(dataStart) + " bytes) exceeds the file (" +
+                    std::to_string(actualSize) + " bytes)");
+    }
+    std::vector<unsigned char> head(dataStart);
+    if (!preadAll(r.fd, head.data(), head.size(), 0)) return fail("read failed: " + errnoText());
+    HeaderTrailer trailer;
+    std::memcpy(&trailer, head.data() + trailerAt, sizeof(trailer));
+    const std::uint32_t crc = crc32Of(head.data(), trailerAt);
+    if (crc != trailer.crc) return fail("header checksum mismatch");
+    if (fh.reserved != 0 || trailer.reserved != 0) return fail("reserved header field not 0");
+    std::string why;
+    if (!metricsValid(fh.metrics, fh.defaultMetric, why)) return fail(why);
+
+    Header& h = r.header;
+    h.crsWkt.assign(reinterpret_cast<const char*>(head.data() + wktAt), fh.crsWktSize);
+    h.buildInfo.assign(reinterpret_cast<const char*>(head.data() + buildAt), fh.buildInfoSize);
+    h.originX = fh.originX;
+    h.originY = fh.originY;
+    h.minX = fh.minX;
+    h.minY = fh.minY;
+    h.minZ = fh.minZ;
+    h.maxX = fh.maxX;
+    h.maxY = fh.maxY;
+    h.maxZ = fh.maxZ;
+    h.blocksX = fh.blocksX;
+    h.blocksY = fh.blocksY;
+    h.blockWidth = fh.blockWidth;
+    h.blockHeight = fh.blockHeight;
+    h.metrics = fh.metrics;
+    h.defaultMetric = fh.defaultMetric;
+
+    r.blocks.resize(fh.blockCount);
+    std::set<std::pair<std::uint32_t, std::uint32_t>> seen;
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> ranges;  // (offset, size) per block
+    ranges.reserve(fh.blockCount);
+    for (std::uint32_t i = 0; i < fh.blockCount; ++i) {
+        DirEntry e;
+        std::memcpy(&e, head.data() + dirAt + std::uint64_t(i) * sizeof(DirEntry), sizeof(e));
+        const std::string name =
+            "directory entry " + std::to_string(i) + " (" + blockName(e.col, e.row) + ")";
+        if (e.reserved != 0) return fail(name + ": reserved field not 0");
+        if (e.col >= fh.blocksX || e.row >= fh.blocksY) {
+            return fail(name + ": outside the " + std::to_string(fh.blocksX) + "x" +
+                        std::to_string(fh.blocksY) + " block grid");
+        }
+        if (!seen.insert({e.col, e.row}).second) return fail(name + ": duplicate block position");
+        // Overflow-safe: offset <= actualSize is checked before actualSize - offset.
+        if (e.offset < dataStart || e.offset % kAlign != 0 || e.offset > actualSize ||
+            e.size > actualSize - e.offset || e.size < sizeof(BlockHeader)) {
+            return fail(name + ": byte range [" + std::to_string(e.offset) + ", +" +
+                        std::to_string(e.size) + ") is out of bounds");
+        }
+        ranges.emplace_back(e.offset, e.size);
+        BlockInfo& info = r.blocks[i];
+        info.col = e.col;
+        info.row = e.row;
+        info.minX = e.minX;
+        info.minY = e.minY;
+        info.minZ = e.minZ;
+        info.maxX = e.maxX;
+        info.maxY = e.maxY;
+        info.maxZ = e.maxZ;
+        info.offset = e.offset;
+        info.size = e.size;
+        info.checksum = e.checksum;
+        info.vertexCount = e.vertexCount;
+        info.stepCount = e.stepCount;
+        info.levelCount = e.levelCount;
+        info.fullTriangles = e.fullTriangles;
+    }
+    std::sort(ranges.begin(), ranges.end());
+    for (std::size_t i = 1; i < ranges.size(); ++i) {
+        if (ranges[i].first < ranges[i - 1].first + ranges[i - 1].second) {
+            return fail("directory: blocks at offsets " + std::to_string(ranges[i - 1].first) +
+                        " and " + std::to_string(ranges[i].first) + " overlap");
+        }
+    }
+    return true;
+}
+
+bool Reader::readBlock(std::size_t index, Block& block, std::string& error) const {
+    assert(impl_->fd >= 0 && "Reader::open() first");
+    assert(index < impl_->blocks.size());
+    const Impl& r = *impl_;
+    const BlockInfo& info = r.blocks[index];
+    auto fail = [&](const std::string& what) {
+        error = r.path + ": " + blockName(info.col, info.row) + ": " + what;
+        return false;
+    };
+
+    // info.size was checked against the real file size at open: this allocation is bounded.
+    std::vector<unsigned char> bytes(info.size);
+    if (!preadAll(r.fd, bytes.data(), bytes.size(), info.offset)) {
+        return fail("read failed: " + errnoText());
+    }
+    if (crc32Of(bytes.data(), bytes.size()) != info.checksum) return fail("checksum mismatch");
+
+    BlockHeader h;
+    std::memcpy(&h, bytes.data(), sizeof(h));
+    if (h.col != info.col || h.row != info.row) {
+        return fail("block header says " + blockName(h.col, h.row));
+    }
+    // Counts are checked against the byte size before any array is allocated.
+    const std::uint64_t expected = blockByteSize(h);
+    if (expected != info.size) {
+        return fail("its counts need " + std::to_string(expected) + " bytes, the directory gives " +
+                    std::to_string(info.size));
+    }
+    if (h.vertexCount != info.vertexCount || h.stepCount != info.stepCount ||
+        h.levelCount != info.levelCount) {
+        return fail("vertex, step or level count differs from the directory");
+    }
+
+    Block b;
+    b.col = h.col;
+    b.row = h.row;
+    b.originX = h.originX;
+    b.originY = h.originY;
+    b.minX = h.minX;
+    b.minY = h.minY;
+    b.minZ = h.minZ;
+    b.maxX = h.maxX;
+    b.maxY = h.maxY;
+    b.maxZ = h.maxZ;
+    const std::uint32_t* counts = &h.vertexCount;
+    std::uint64_t at = sizeof(BlockHeader);
+    int i = 0;
+    forEachArray(b, [&](auto& v) {
+        const std::uint64_t n = counts[i++];
+        v.resize(n);
+        const std::uint64_t size = n * sizeof(v[0]);
+        if (size > 0) std::memcpy(v.data(), bytes.data() + at, size);  // data() may be null
+        at += alignUp(size);
+    });
+    assert(at == info.size);
+
+    const double dirBox[6] = {info.minX, info.minY, info.minZ, info.maxX, info.maxY, info.maxZ};
+    const double blockBox[6] = {b.minX, b.minY, b.minZ, b.maxX, b.maxY, b.maxZ};
+    if (std::memcmp(dirBox, blockBox, sizeof(dirBox)) != 0) {
+        return fail("bounding box differs from the directory");
+    }
+
+    std::string why;
+    if (!validateBlock(b, r.header.metrics, why)) {
+        error = r.path + ": " + why;  // validateBlock already names the block
+        return false;
+    }
+    if (b.levels[0].triangleCount != info.fullTriangles) {
+        return fail("full-resolution triangle count differs from the directory");
+    }
+    block = std::move(b);
+    return true;
+}
+
+}  // namespace unilod::format

@@ -1,0 +1,152 @@
+// The .ulod file, version 1: one unified LOD model (terrain + rivers) in blocks. Plain structs,
+// no Vulkan, no GDAL: the engine streams it, preprocess writes it. Byte layout: README.md beside
+// this file. Little-endian; every on-disk struct has a fixed size (static_assert below).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace unilod::format {
+
+inline constexpr char kMagic[8] = {'U', 'L', 'O', 'D', '\r', '\n', '\x1a', '\n'};
+inline constexpr std::uint32_t kVersion = 1;
+
+// Metrics present (bit mask) and the default one.
+enum Metric : std::uint32_t { kMetricMax = 1, kMetricPaper = 2 };
+
+// Vertex flags.
+inline constexpr std::uint32_t kVertexRiver = 1;   // a river point
+inline constexpr std::uint32_t kVertexLocked = 2;  // never deleted (border, river end, junction)
+
+struct Vertex {
+    float x, y, z;  // x, y relative to the block origin, z absolute (metres, working CRS)
+    std::uint32_t flags;
+};
+static_assert(sizeof(Vertex) == 16);
+
+// Exact position of a vertex on the block's fixed grid: units of kGridUnit metres relative to the
+// block origin. The constrained Delaunay triangulation was computed on these integers, so
+// `unilod check` re-runs every predicate exactly.
+inline constexpr double kGridUnit = 1e-3;
+struct GridXY {
+    std::int32_t x, y;
+};
+static_assert(sizeof(GridXY) == 8);
+
+struct Triangle {
+    std::uint32_t a, b, c;  // vertex indices (retention order), counter-clockwise
+};
+static_assert(sizeof(Triangle) == 12);
+
+struct Edge {
+    std::uint32_t a, b;  // vertex indices, a < b
+};
+static_assert(sizeof(Edge) == 8);
+
+// One deletion step (paper §3.3): the vertex removed and what is alive after it.
+struct Step {
+    std::uint32_t vertex;
+    std::uint32_t trianglesAlive;
+    std::uint32_t riverEdgesAlive;
+};
+static_assert(sizeof(Step) == 12);
+
+// A stored level: the triangulation after `step` deletions. The engine draws
+// terrainIndices[triangleFirst, triangleFirst + triangleCount) and
+// riverIndices[riverFirst, riverFirst + riverCount); every index is < vertexCount.
+struct Level {
+    std::uint32_t step;
+    std::uint32_t vertexCount;
+    std::uint32_t triangleFirst, triangleCount;
+    std::uint32_t riverFirst, riverCount;
+    float errorMax, errorPaper;  // model error at this level (metres)
+};
+static_assert(sizeof(Level) == 32);
+
+struct Block {
+    std::uint32_t col = 0, row = 0;  // position in the block grid
+    double originX = 0, originY = 0;  // vertex x, y are relative to this
+    double minX = 0, minY = 0, minZ = 0, maxX = 0, maxY = 0, maxZ = 0;  // bounding box
+
+    // Retention order: vertex i is deleted after vertex i + 1, so the vertices alive after step
+    // k are the prefix [0, vertices.size() - k); locked and never-deleted vertices come first.
+    std::vector<Vertex> vertices;
+
+    // Topology-change records: step s removes removedTriangles[removedTriangleOffset[s],
+    // removedTriangleOffset[s + 1]) etc. Offsets have steps.size() + 1 entries starting at 0.
+    std::vector<Step> steps;
+    std::vector<std::uint32_t> removedTriangleOffset, addedTriangleOffset;
+    std::vector<std::uint32_t> removedEdgeOffset, addedEdgeOffset;
+    std::vector<Triangle> removedTriangles, addedTriangles;
+    std::vector<Edge> removedEdges, addedEdges;
+
+    // Model error after each step, index 0 = full resolution (steps.size() + 1 entries each),
+    // non-decreasing. A metric not present in the file has an empty array.
+    std::vector<float> errorMax, errorPaper;
+
+    // LOD index data: levels ascending in step, levels[0].step == 0 (full resolution).
+    std::vector<Level> levels;
+    std::vector<Triangle> terrainIndices;
+    std::vector<Edge> riverIndices;
+
+    // One per vertex (same order), or empty.
+    std::vector<GridXY> grid;
+};
+
+struct Header {
+    std::string crsWkt;                 // working CRS (may be empty: no CRS)
+    double originX = 0, originY = 0;    // world origin: the DEM's cell (0, 0) centre
+    double minX = 0, minY = 0, minZ = 0, maxX = 0, maxY = 0, maxZ = 0;  // extents and z range
+    std::uint32_t blocksX = 0, blocksY = 0;  // block grid
+    double blockWidth = 0, blockHeight = 0;  // block size in metres
+    std::uint32_t metrics = kMetricMax | kMetricPaper;  // bit mask of Metric
+    std::uint32_t defaultMetric = kMetricMax;
+    std::string buildInfo;  // provenance as JSON text (command options, inputs, version)
+};
+
+// What the directory says about a block without reading it.
+struct BlockInfo {
+    std::uint32_t col = 0, row = 0;
+    double minX = 0, minY = 0, minZ = 0, maxX = 0, maxY = 0, maxZ = 0;
+    std::uint64_t offset = 0, size = 0;  // byte range of the block in the file
+    std::uint32_t checksum = 0;          // CRC-32 of those bytes
+    std::uint32_t vertexCount = 0, stepCount = 0, levelCount = 0;
+    std::uint32_t fullTriangles = 0;  // triangles at full resolution
+};
+
+// Structural validation of one block (also run by writeUlod and Reader::readBlock): every
+// vertex index in range, offsets monotone and matching their arrays, step and error counts
+// consistent, errors finite and non-decreasing, levels ascending with ranges inside the index
+// arrays and indices below the level's vertexCount. Returns false with a precise message.
+bool validateBlock(const Block& block, std::uint32_t metrics, std::string& error);
+
+// Writes header + blocks to `path` atomically (temporary file in the same folder + rename).
+// Blocks are written in the given order. Returns false with `error` naming the file on failure;
+// no partial file is left.
+bool writeUlod(const std::string& path, const Header& header, const std::vector<Block>& blocks,
+               std::string& error);
+
+// Reads a .ulod file block by block (pread): open() validates magic, version, sizes, the header
+// checksum and the directory; readBlock() validates the block's checksum and its structure
+// (every index and range in bounds, offsets monotone, errors non-decreasing).
+class Reader {
+public:
+    Reader();
+    ~Reader();
+    Reader(const Reader&) = delete;
+    Reader& operator=(const Reader&) = delete;
+
+    bool open(const std::string& path, std::string& error);
+    const Header& header() const;
+    const std::vector<BlockInfo>& blocks() const;
+    bool readBlock(std::size_t index, Block& block, std::string& error) const;
+    const std::string& path() const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace unilod::format

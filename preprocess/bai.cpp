@@ -1,0 +1,202 @@
+// Bending Adjustment Index (paper §2.2, Eq. 1-2, Table 1). See bai.h for the definitions.
+//
+// Turning points (paper §2.2.1, after Shen 2009): the turning angle at interior vertex i has the
+// sign of the exact orientation of (v[i-1], v[i], v[i+1]): + counter-clockwise, - clockwise,
+// 0 collinear. Collinear vertices carry no sign and never make a turning point, so collinear runs
+// stay inside the bend around them. Where the sign changes between vertex i (last of the old
+// sign) and vertex j (first of the new sign), the turning point is vertex floor((i + j) / 2):
+// the inflection vertex itself when collinear vertices lie between, and vertex i when the
+// inflection falls inside segment (i, i+1). Bends run between consecutive turning points, the
+// first from the polyline's start and the last to its end, so every vertex lies in a bend (paper:
+// "all of the curve points are included in bends"); a turning point belongs to both of its bends.
+//
+// Per bend, in the horizontal plane: W = |v_a v_b|, L = sum of segment lengths, S = |area| of the
+// polygon v_a..v_b closed by the chord, S0 = pi (W/2)^2, and
+//     BAI = (S/S0) (L/W) (L/l_avg) (S/s_avg) = L^2 S^2 / (S0 W l_avg s_avg).
+// Degenerate bends (W = 0, a closed loop) and rivers whose bends have no area get BAI = 0:
+// the cleaning stage removes self-touching rivers, so this only guards the arithmetic.
+#include "bai.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+
+namespace unilod {
+
+BaiTable BaiTable::paperDefault() {
+    BaiTable t;
+    t.classLowerBounds = {0.0, 500.0, 1000.0};
+    t.rows = {{100, {0.1, 0.05, 0.05}},
+              {200, {0.1, 0.05, 0.05}},
+              {500, {1.0, 0.5, 0.5}},
+              {1000, {2.0, 0.75, 0.75}},
+              {1500, {2.0, 1.0, 1.0}}};
+    return t;
+}
+
+// File format (whitespace separated, '#' starts a comment):
+//     altitudes 0 500 1000          lower bounds of the altitude classes, ascending
+//     100  0.1 0.05 0.05            threshold (m) and one C per class; thresholds ascending
+bool BaiTable::load(const std::string& path, BaiTable& table, std::string& error) {
+    std::ifstream in(path);
+    if (!in) {
+        error = path + ": cannot open BAI table";
+        return false;
+    }
+    BaiTable t;
+    std::string line;
+    int lineNo = 0;
+    bool haveClasses = false;
+    auto fail = [&](const std::string& what) {
+        error = path + ":" + std::to_string(lineNo) + ": " + what;
+        return false;
+    };
+    while (std::getline(in, line)) {
+        ++lineNo;
+        if (auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
+        std::istringstream ls(line);
+        std::string first;
+        if (!(ls >> first)) continue;
+        std::vector<double> values;
+        std::string tok;
+        while (ls >> tok) {
+            char* end = nullptr;
+            const double v = std::strtod(tok.c_str(), &end);
+            if (end == tok.c_str() || *end != '\0' || !std::isfinite(v)) {
+                return fail("'" + tok + "' is not a number");
+            }
+            values.push_back(v);
+        }
+        if (first == "altitudes") {
+            if (haveClasses) return fail("second 'altitudes' line");
+            if (values.empty()) return fail("'altitudes' needs at least one class bound");
+            if (!std::is_sorted(values.begin(), values.end()) ||
+                std::adjacent_find(values.begin(), values.end()) != values.end()) {
+                return fail("altitude class bounds must be strictly ascending");
+            }
+            t.classLowerBounds = values;
+            haveClasses = true;
+            continue;
+        }
+        if (!haveClasses) return fail("expected 'altitudes <bounds...>' before the rows");
+        char* end = nullptr;
+        const double threshold = std::strtod(first.c_str(), &end);
+        if (end == first.c_str() || *end != '\0' || !std::isfinite(threshold) || threshold < 0) {
+            return fail("'" + first + "' is not a threshold in metres");
+        }
+        if (values.size() != t.classLowerBounds.size()) {
+            return fail("row " + first + " has " + std::to_string(values.size()) +
+                        " constants, expected " + std::to_string(t.classLowerBounds.size()));
+        }
+        for (double c : values) {
+            if (c < 0) return fail("bending adjustment constants must be >= 0");
+        }
+        if (!t.rows.empty() && threshold <= t.rows.back().threshold) {
+            return fail("thresholds must be strictly ascending");
+        }
+        t.rows.push_back({threshold, values});
+    }
+    if (!haveClasses || t.rows.empty()) {
+        error = path + ": BAI table needs an 'altitudes' line and at least one row";
+        return false;
+    }
+    table = std::move(t);
+    return true;
+}
+
+int BaiTable::findRow(double threshold) const {
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+        if (rows[i].threshold == threshold) return static_cast<int>(i);
+    }
+    return -1;
+}
+
+double BaiTable::constantFor(int row, double altitude) const {
+    const auto& c = rows.at(static_cast<std::size_t>(row)).c;
+    std::size_t cls = 0;
+    while (cls + 1 < classLowerBounds.size() && altitude >= classLowerBounds[cls + 1]) ++cls;
+    return c[cls];
+}
+
+std::vector<Bend> computeBends(const std::vector<Point>& points, const Polyline& line,
+                               const Quantizer& quantizer, const BaiTable& table, int row) {
+    std::vector<Bend> bends;
+    const std::size_t m = line.size();
+    if (m < 3) return bends;
+
+    // Split positions: 0, the turning points, m - 1.
+    std::vector<std::uint32_t> splits{0};
+    int lastSign = 0;
+    std::size_t lastPos = 0;
+    GridPoint prev = quantizer(points[line[0]]), cur = quantizer(points[line[1]]);
+    for (std::size_t i = 1; i + 1 < m; ++i) {
+        const GridPoint next = quantizer(points[line[i + 1]]);
+        const int s = orient2d(prev, cur, next);
+        if (s != 0) {
+            if (lastSign != 0 && s != lastSign) {
+                splits.push_back(static_cast<std::uint32_t>((lastPos + i) / 2));
+            }
+            lastSign = s;
+            lastPos = i;
+        }
+        prev = cur;
+        cur = next;
+    }
+    if (lastSign == 0) return bends;  // no turning at all: a straight line has no bends
+    splits.push_back(static_cast<std::uint32_t>(m - 1));
+
+    double sumL = 0, sumS = 0;
+    for (std::size_t b = 0; b + 1 < splits.size(); ++b) {
+        Bend bend;
+        bend.first = splits[b];
+        bend.last = splits[b + 1];
+        const Point& a = points[line[bend.first]];
+        const Point& z = points[line[bend.last]];
+        bend.width = std::hypot(z.x - a.x, z.y - a.y);
+        double twiceArea = 0, sumZ = 0;
+        for (std::uint32_t k = bend.first; k <= bend.last; ++k) {
+            const Point& p = points[line[k]];
+            sumZ += p.z;
+            if (k < bend.last) {
+                const Point& q = points[line[k + 1]];
+                bend.length += std::hypot(q.x - p.x, q.y - p.y);
+                // Shoelace relative to the first vertex (closing edge back to it adds nothing).
+                twiceArea += (p.x - a.x) * (q.y - a.y) - (q.x - a.x) * (p.y - a.y);
+            }
+        }
+        bend.area = std::fabs(twiceArea) / 2;
+        bend.meanZ = sumZ / double(bend.last - bend.first + 1);
+        bend.c = row >= 0 ? table.constantFor(row, bend.meanZ) : 0.0;
+        sumL += bend.length;
+        sumS += bend.area;
+        bends.push_back(bend);
+    }
+    const double lAvg = sumL / double(bends.size()), sAvg = sumS / double(bends.size());
+    for (Bend& bend : bends) {
+        const double s0 = std::numbers::pi * bend.width * bend.width / 4;
+        if (bend.width > 0 && lAvg > 0 && sAvg > 0) {
+            bend.bai = (bend.area / s0) * (bend.length / bend.width) * (bend.length / lAvg) *
+                       (bend.area / sAvg);
+        }
+    }
+    return bends;
+}
+
+std::vector<float> baiFactors(const PointSet& set, const BaiTable& table, int row) {
+    std::vector<float> factor(set.points.size(), 1.0f);
+    const Quantizer quantizer = Quantizer::forPoints(set.points);
+    for (const Polyline& line : set.rivers) {
+        for (const Bend& bend : computeBends(set.points, line, quantizer, table, row)) {
+            const auto f = static_cast<float>(bend.c * bend.bai + 1.0);
+            for (std::uint32_t k = bend.first; k <= bend.last; ++k) {
+                float& slot = factor[line[k]];
+                if (set.points[line[k]].kind == PointKind::River) slot = std::max(slot, f);
+            }
+        }
+    }
+    return factor;
+}
+
+}  // namespace unilod

@@ -1,0 +1,84 @@
+// One block end to end (blockbuild.h).
+#include "blockbuild.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "cdt.h"
+#include "deletion.h"
+#include "lodindex.h"
+
+namespace unilod {
+
+bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
+                const BlockBuildOptions& options, format::Block& block, BlockBuildStats& stats,
+                std::string& error) {
+    const auto t0 = std::chrono::steady_clock::now();
+    stats = {};
+    stats.points = set.points.size();
+    for (const Point& p : set.points) {
+        stats.riverPoints += p.kind == PointKind::River;
+        stats.lockedPoints += p.locked;
+    }
+
+    ImportanceResult importance;
+    if (!computeImportance(set, options.importance, importance, error)) return false;
+
+    Cdt cdt;
+    if (!buildCdt(set, {}, cdt, error)) return false;
+    LodIndexInput in;
+    in.initialTriangles = collectTriangles(cdt);
+    in.initialEdges = collectRiverEdges(cdt);
+
+    DeletionOptions del;
+    del.maxError = options.maxError;
+    del.paperError = options.paperError;
+    DeletionRecords records;
+    if (!runDeletion(set, cdt, importance.order, del, records, error)) return false;
+
+    block = format::Block{};
+    block.col = col;
+    block.row = row;
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    for (const Point& p : set.points) {
+        const double c[3] = {p.x, p.y, p.z};
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::min(lo[a], c[a]);
+            hi[a] = std::max(hi[a], c[a]);
+        }
+    }
+    block.minX = lo[0];
+    block.minY = lo[1];
+    block.minZ = lo[2];
+    block.maxX = hi[0];
+    block.maxY = hi[1];
+    block.maxZ = hi[2];
+    // The CDT's grid origin (the centre of the points' bounding box): vertex x, y are floats
+    // relative to it (sub-millimetre for blocks of tens of km) and the exact grid coordinates
+    // stored beside them are relative to it too.
+    static_assert(format::kGridUnit == 1e-3);
+    block.originX = cdt.originX;
+    block.originY = cdt.originY;
+
+    in.cdt = &cdt;
+    in.points = &set;
+    in.records = &records;
+    in.originX = block.originX;
+    in.originY = block.originY;
+    in.ratio = options.lodRatio;
+    if (!buildLodIndex(in, block, error)) return false;
+
+    stats.vertices = block.vertices.size();
+    stats.steps = records.steps.size();
+    stats.kept = records.kept.size();
+    stats.deferrals = records.deferrals;
+    stats.fullTriangles = in.initialTriangles.size();
+    stats.coarsestTriangles = block.levels.back().triangleCount;
+    stats.riverEdges = in.initialEdges.size();
+    stats.indexTriangles = block.terrainIndices.size();
+    stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return true;
+}
+
+}  // namespace unilod

@@ -1,0 +1,256 @@
+// `unilod build` pipeline (build.h).
+#include "build.h"
+
+#include <ogr_spatialref.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "blockbuild.h"
+#include "dem.h"
+#include "rivers.h"
+
+namespace unilod {
+
+namespace {
+
+std::string crsDisplayName(const std::string& wkt) {
+    if (wkt.empty()) return "none";
+    OGRSpatialReference srs;
+    if (srs.importFromWkt(wkt.c_str()) != OGRERR_NONE) return "unknown";
+    std::string name = srs.GetName() != nullptr ? srs.GetName() : "unnamed";
+    const char* auth = srs.GetAuthorityName(nullptr);
+    const char* code = srs.GetAuthorityCode(nullptr);
+    if (auth != nullptr && code != nullptr) name += std::string(" (") + auth + ":" + code + ")";
+    return name;
+}
+
+bool checkOutput(const BuildOptions& o, std::string& error) {
+    namespace fs = std::filesystem;
+    if (o.outPath.empty()) {
+        error = "no output file given (-o OUT.ulod)";
+        return false;
+    }
+    std::error_code ec;
+    const fs::path out(o.outPath);
+    if (fs::exists(out, ec)) {
+        if (fs::is_directory(out, ec)) {
+            error = "output '" + o.outPath + "' is a directory";
+            return false;
+        }
+        if (!o.force) {
+            error = "output '" + o.outPath + "' already exists (use --force to overwrite it)";
+            return false;
+        }
+    }
+    const fs::path dir = out.has_parent_path() ? out.parent_path() : fs::path(".");
+    if (!fs::is_directory(dir, ec) || access(dir.c_str(), W_OK) != 0) {
+        error = "output '" + o.outPath + "': directory '" + dir.string() +
+                "' does not exist or is not writable";
+        return false;
+    }
+    return true;
+}
+
+}  // namespace
+
+bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) {
+    const auto start = std::chrono::steady_clock::now();
+    summary = {};
+    auto warn = [&](const std::string& w) {
+        if (o.warn) o.warn(w);
+    };
+    if (!checkOutput(o, error)) return false;
+    if (o.stride < 1) {
+        error = "stride must be at least 1 (got " + std::to_string(o.stride) + ")";
+        return false;
+    }
+    if (o.blockSize < 1) {
+        error = "block size must be positive (got " + std::to_string(o.blockSize) + ")";
+        return false;
+    }
+    if (o.threads < 0) {
+        error = "threads must be >= 0 (got " + std::to_string(o.threads) + ")";
+        return false;
+    }
+
+    // BAI table before the long work, so that a typo fails fast.
+    BlockBuildOptions blockOptions;
+    blockOptions.importance.useBai = o.useBai;
+    blockOptions.importance.baiRow = o.baiRow;
+    if (!o.baiTablePath.empty() &&
+        !BaiTable::load(o.baiTablePath, blockOptions.importance.baiTable, error)) {
+        return false;
+    }
+    if (o.useBai && blockOptions.importance.baiTable.findRow(o.baiRow) < 0) {
+        error = "the BAI table has no row for threshold " + std::to_string(o.baiRow) + " m";
+        return false;
+    }
+
+    DemGrid dem;
+    DemLoadOptions demOptions;
+    demOptions.band = o.band;
+    demOptions.targetSrs = o.targetSrs;
+    if (!loadDem(o.demPath, demOptions, dem, error)) return false;
+    summary.demWidth = dem.width;
+    summary.demHeight = dem.height;
+    summary.crsName = crsDisplayName(dem.wkt);
+    std::size_t nodata = 0;
+    for (std::size_t i = 0; i < dem.z.size(); ++i) {
+        const float z = dem.z[i];
+        if (std::isnan(z)) {
+            ++nodata;
+        } else if (z < kMinPlausibleZ || z > kMaxPlausibleZ) {
+            const std::size_t col = i % std::size_t(dem.width), row = i / std::size_t(dem.width);
+            error = "DEM '" + o.demPath + "': elevation " + std::to_string(z) + " at cell (" +
+                    std::to_string(col) + ", " + std::to_string(row) + ") is outside the plausible " +
+                    "range [" + std::to_string(int(kMinPlausibleZ)) + ", " +
+                    std::to_string(int(kMaxPlausibleZ)) + "] m (a wrong nodata value or units?)";
+            return false;
+        }
+    }
+    if (nodata > 0) {
+        warn("DEM '" + o.demPath + "': " + std::to_string(nodata) +
+             " nodata cells (nodata value, NaN or infinite) produce no points");
+    }
+
+    RiverLines rivers;
+    RiverLoadOptions riverOptions;
+    riverOptions.layer = o.layer;
+    riverOptions.where = o.where;
+    riverOptions.assumeSrs = o.assumeSrs;
+    if (!loadRivers(o.riversPath, riverOptions, dem.wkt, rivers, error)) return false;
+    if (rivers.empty()) {
+        warn("rivers '" + o.riversPath + "': no line features: building a terrain-only model");
+    } else {
+        bool any = false;
+        for (const RiverLine& line : rivers) {
+            for (const XY& v : line) {
+                if (std::isfinite(dem.sample(v.x, v.y))) {
+                    any = true;
+                    break;
+                }
+            }
+            if (any) break;
+        }
+        if (!any) {
+            error = "rivers '" + o.riversPath + "': no river vertex lies on the DEM '" + o.demPath +
+                    "' (a CRS mistake? try --assume-crs or check the data)";
+            return false;
+        }
+    }
+    summary.riverLines = rivers.size();
+
+    BlockOptions blocks;
+    blocks.blockSize = o.blockSize;
+    blocks.stride = o.stride;
+    BlockSource source;
+    if (!source.init(dem, rivers, blocks, error)) {
+        error = "DEM '" + o.demPath + "': " + error;
+        return false;
+    }
+    summary.crossings = source.stats().crossings;
+    summary.droppedDemPoints = source.stats().droppedDemPoints;
+
+    // Blocks in parallel; each result lands in its slot, so the file does not depend on timing.
+    const std::size_t n = source.blockCount();
+    std::vector<format::Block> results(n);
+    std::vector<BlockBuildStats> stats(n);
+    std::vector<std::string> errors(n);
+    std::atomic<std::size_t> next{0}, done{0};
+    std::atomic<bool> failed{false};
+    const unsigned threads =
+        o.threads > 0 ? unsigned(o.threads) : std::max(1u, std::thread::hardware_concurrency());
+    auto work = [&](bool reporter) {
+        for (std::size_t i; !failed && (i = next++) < n;) {
+            const PointSet set = source.points(i);
+            const BlockRect& r = source.rect(i);
+            if (!buildBlock(set, r.col, r.row, blockOptions, results[i], stats[i], errors[i])) {
+                failed = true;
+            }
+            const std::size_t d = ++done;
+            if (reporter && o.progress) o.progress(d, n);
+        }
+    };
+    std::vector<std::thread> pool;
+    for (unsigned t = 1; t < threads && t < n; ++t) pool.emplace_back(work, false);
+    work(true);
+    for (auto& t : pool) t.join();
+    if (o.progress) o.progress(done.load(), n);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!errors[i].empty()) {
+            error = "block (" + std::to_string(source.rect(i).col) + "," +
+                    std::to_string(source.rect(i).row) + "): " + errors[i];
+            return false;
+        }
+    }
+
+    format::Header header;
+    header.crsWkt = dem.wkt;
+    header.originX = dem.centreX(0);
+    header.originY = dem.centreY(0);
+    header.minX = header.minY = header.minZ = HUGE_VAL;
+    header.maxX = header.maxY = header.maxZ = -HUGE_VAL;
+    for (std::size_t i = 0; i < n; ++i) {
+        const format::Block& b = results[i];
+        header.minX = std::min(header.minX, b.minX);
+        header.minY = std::min(header.minY, b.minY);
+        header.minZ = std::min(header.minZ, b.minZ);
+        header.maxX = std::max(header.maxX, b.maxX);
+        header.maxY = std::max(header.maxY, b.maxY);
+        header.maxZ = std::max(header.maxZ, b.maxZ);
+        const BlockBuildStats& s = stats[i];
+        summary.demPoints += s.points - s.riverPoints;
+        summary.riverPoints += s.riverPoints;
+        summary.lockedPoints += s.lockedPoints;
+        summary.steps += s.steps;
+        summary.kept += s.kept;
+        summary.deferrals += s.deferrals;
+        summary.fullTriangles += s.fullTriangles;
+        summary.coarsestTriangles += s.coarsestTriangles;
+        summary.indexTriangles += s.indexTriangles;
+    }
+    header.blocksX = source.blocksX();
+    header.blocksY = source.blocksY();
+    header.blockWidth = o.blockSize * std::fabs(dem.cellX);
+    header.blockHeight = o.blockSize * std::fabs(dem.cellY);
+    header.metrics = format::kMetricMax | format::kMetricPaper;
+    header.defaultMetric = o.defaultMetric;
+    // Provenance; nothing here may depend on the thread count or the clock.
+    nlohmann::json info = {
+        {"generator", "unilod build"},
+        {"dem", o.demPath},
+        {"rivers", o.riversPath},
+        {"band", o.band},
+        {"t_srs", o.targetSrs},
+        {"layer", o.layer},
+        {"where", o.where},
+        {"assume_crs", o.assumeSrs},
+        {"stride", o.stride},
+        {"block_size", o.blockSize},
+        {"bai", o.useBai},
+        {"bai_row", o.baiRow},
+        {"bai_table", o.baiTablePath},
+        {"min_river_length", o.minRiverLength},
+        {"lod_triangle_ratio", blockOptions.lodRatio},
+        {"grid_unit_m", format::kGridUnit},
+    };
+    header.buildInfo = info.dump();
+
+    if (!format::writeUlod(o.outPath, header, results, error)) return false;
+    std::error_code ec;
+    summary.outputBytes = std::filesystem::file_size(o.outPath, ec);
+    summary.blocks = n;
+    summary.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return true;
+}
+
+}  // namespace unilod

@@ -1,0 +1,61 @@
+// `unilod build`: DEM + river network -> one .ulod file (issue 4). The library half of the
+// command, so that tests call runBuild(options) directly (STYLE.md: library plus thin main).
+//
+// Pipeline: load the DEM (GDAL; geographic -> UTM of its centre or --t-srs) and the rivers (OGR,
+// reprojected to the DEM's CRS); check the data; clean the rivers; partition into blocks with
+// locked shared borders (blocks.h); per block, in parallel: importance order, constrained
+// Delaunay, deletion sequence with records and model error, LOD index data (blockbuild.h); write
+// the blocks in grid order, so the file is byte-identical for any thread count.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+
+#include "blocks.h"
+#include "importance.h"
+#include "ulod.h"
+
+namespace unilod {
+
+// Elevations outside this range are refused as absurd (a broken nodata value, wrong units...):
+// the lowest and highest points on Earth with a wide margin.
+inline constexpr double kMinPlausibleZ = -12000.0, kMaxPlausibleZ = 10000.0;
+
+struct BuildOptions {
+    std::string demPath, riversPath, outPath;
+    int band = 0;             // 0: the only band
+    std::string targetSrs;    // --t-srs; empty: automatic
+    std::string layer, where, assumeSrs;
+    int stride = 1;
+    int blockSize = kDefaultBlockSize;
+    int threads = 0;          // 0: all cores
+    bool useBai = true;
+    std::string baiTablePath;  // empty: the paper's Table 1
+    double baiRow = kDefaultBaiRow;
+    std::uint32_t defaultMetric = format::kMetricMax;
+    double minRiverLength = 0;
+    bool force = false;       // overwrite an existing output
+    // Progress: blocks done of total (called from the calling thread).
+    std::function<void(std::size_t, std::size_t)> progress;
+    // Warnings for accepted-but-odd input (empty river layer, NaN cells...).
+    std::function<void(const std::string&)> warn;
+};
+
+struct BuildSummary {
+    int demWidth = 0, demHeight = 0;
+    std::string crsName;
+    std::size_t demPoints = 0, riverPoints = 0, lockedPoints = 0, riverLines = 0;
+    std::size_t blocks = 0, steps = 0, kept = 0, deferrals = 0;
+    std::size_t fullTriangles = 0, coarsestTriangles = 0, indexTriangles = 0;
+    std::size_t crossings = 0, droppedDemPoints = 0;
+    std::uint64_t outputBytes = 0;
+    double seconds = 0;
+    std::string cleaning;  // what river cleaning changed
+};
+
+// Returns false with `error` (naming the file and the problem) on bad input; then no output file
+// exists (an existing one is untouched).
+bool runBuild(const BuildOptions& options, BuildSummary& summary, std::string& error);
+
+}  // namespace unilod

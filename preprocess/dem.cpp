@@ -1,0 +1,258 @@
+// DEM ingestion: GDAL open, band choice, reprojection of geographic rasters to UTM (GDALWarp into
+// a MEM dataset), nodata normalisation to NaN, and bilinear sampling between cell centres
+// (DESIGN.md "Coordinates": everything downstream works in metres in one planar CRS).
+#include "dem.h"
+
+#include <cpl_conv.h>
+#include <gdal_priv.h>
+#include <gdal_utils.h>
+#include <ogr_spatialref.h>
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <limits>
+#include <memory>
+
+#include "gdal_errors.h"
+
+// Bilinear samples must be bit-identical on every platform (the synthetic data's river altitudes
+// are compared exactly): no fused multiply-add contraction. GCC does not contract in ISO mode.
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#endif
+
+namespace unilod {
+
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// GDAL's C option lists want a NULL-terminated char* array.
+struct ArgList {
+    std::vector<std::string> args;
+    std::vector<char*> pointers() {
+        std::vector<char*> p;
+        for (std::string& a : args)
+            p.push_back(a.data());
+        p.push_back(nullptr);
+        return p;
+    }
+};
+
+// A dataset holding only band `band` of `src` (a virtual VRT copy, no pixels are read), so that
+// GDALWarp of GDAL 3.6 (which has no -srcband) warps just that band.
+GDALDatasetUniquePtr extractBand(GDALDataset* src, int band) {
+    ArgList list{{"-of", "VRT", "-b", std::to_string(band)}};
+    std::vector<char*> argv = list.pointers();
+    GDALTranslateOptions* opts = GDALTranslateOptionsNew(argv.data(), nullptr);
+    if (opts == nullptr) return nullptr;
+    GDALDatasetH out = GDALTranslate("", GDALDataset::ToHandle(src), opts, nullptr);
+    GDALTranslateOptionsFree(opts);
+    return GDALDatasetUniquePtr(GDALDataset::FromHandle(out));
+}
+
+// Warps the single-band `src` to `dstWkt` in memory: Float32 with NaN as nodata, so that cells
+// outside the source footprint (the skewed corners of a reprojected grid) are nodata, not 0.
+GDALDatasetUniquePtr warpToMemory(GDALDataset* src, const std::string& dstWkt) {
+    ArgList list{
+        {"-of", "MEM", "-r", "bilinear", "-t_srs", dstWkt, "-ot", "Float32", "-dstnodata", "nan"}};
+    std::vector<char*> argv = list.pointers();
+    GDALWarpAppOptions* opts = GDALWarpAppOptionsNew(argv.data(), nullptr);
+    if (opts == nullptr) return nullptr;
+    GDALDatasetH srcHandle = GDALDataset::ToHandle(src);
+    int usageError = 0;
+    GDALDatasetH out = GDALWarp("", nullptr, 1, &srcHandle, opts, &usageError);
+    GDALWarpAppOptionsFree(opts);
+    return GDALDatasetUniquePtr(GDALDataset::FromHandle(out));
+}
+
+std::string toWkt(const OGRSpatialReference& srs) {
+    char* text = nullptr;
+    srs.exportToWkt(&text);
+    std::string wkt = text != nullptr ? text : "";
+    CPLFree(text);
+    return wkt;
+}
+
+}  // namespace
+
+int utmEpsgFor(double lon, double lat) {
+    // Normalise 0..360 longitudes; zones are 6 degrees wide starting at -180.
+    double l = std::fmod(lon + 180.0, 360.0);
+    if (l < 0) l += 360.0;
+    int zone = static_cast<int>(std::floor(l / 6.0)) + 1;
+    zone = zone < 1 ? 1 : (zone > 60 ? 60 : zone);
+    return (lat >= 0 ? 32600 : 32700) + zone;
+}
+
+double DemGrid::sample(double x, double y) const {
+    constexpr double kNaNd = std::numeric_limits<double>::quiet_NaN();
+    if (width <= 0 || height <= 0) return kNaNd;
+    // Coordinates computed as origin + i * cell come back as i +- 1 ulp: snap them, so that a
+    // point on a row or column of centres does not pick up a zero-weight nodata neighbour.
+    const auto snap = [](double f) {
+        const double r = std::round(f);
+        return std::abs(f - r) < 1e-9 ? r : f;
+    };
+    const double fx = snap((x - originX) / cellX);
+    const double fy = snap((y - originY) / cellY);
+    // The negated comparisons also reject NaN coordinates.
+    if (!(fx >= 0 && fx <= width - 1 && fy >= 0 && fy <= height - 1)) return kNaNd;
+    const int c0 = std::min(static_cast<int>(fx), width - 1);
+    const int r0 = std::min(static_cast<int>(fy), height - 1);
+    const double tx = fx - c0, ty = fy - r0;
+    const int c1 = tx > 0 ? c0 + 1 : c0;  // tx > 0 implies c0 < width - 1
+    const int r1 = ty > 0 ? r0 + 1 : r0;
+    const double z00 = at(c0, r0), z10 = at(c1, r0), z01 = at(c0, r1), z11 = at(c1, r1);
+    // A NaN corner with weight > 0 propagates; c1 == c0 (r1 == r0) makes the zero-weight corner a
+    // copy of a used one, so only cells that really contribute can poison the result.
+    const double top = tx > 0 ? z00 + (z10 - z00) * tx : z00;
+    const double bottom = tx > 0 ? z01 + (z11 - z01) * tx : z01;
+    return ty > 0 ? top + (bottom - top) * ty : top;
+}
+
+bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& dem,
+             std::string& error) {
+    QuietGdalErrors quiet;
+    dem = DemGrid{};
+
+    VSIStatBufL st;
+    if (VSIStatL(path.c_str(), &st) != 0) {
+        error = "DEM '" + path + "': no such file";
+        return false;
+    }
+    GDALDatasetUniquePtr ds(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER));
+    if (!ds) {
+        error = "DEM '" + path + "': not a raster GDAL can read" + gdalErrorSuffix();
+        return false;
+    }
+    const int bands = ds->GetRasterCount();
+    if (bands == 0) {
+        error = "DEM '" + path + "': the file has no raster bands";
+        return false;
+    }
+    int band = options.band;
+    if (band < 0 || band > bands) {
+        error = "DEM '" + path + "': band " + std::to_string(band) +
+                " out of range (the file has " + std::to_string(bands) + " band" +
+                (bands == 1 ? "" : "s") + ")";
+        return false;
+    }
+    if (band == 0) {
+        if (bands > 1) {
+            error = "DEM '" + path + "': the file has " + std::to_string(bands) +
+                    " bands; choose the altitude band (--band N)";
+            return false;
+        }
+        band = 1;
+    }
+
+    double gt[6] = {0, 1, 0, 0, 0, 1};
+    ds->GetGeoTransform(gt);  // without one GDAL leaves the identity: pixel coordinates
+    if (gt[2] != 0 || gt[4] != 0) {
+        error = "DEM '" + path + "': rotated or sheared grids are not supported";
+        return false;
+    }
+
+    // Choose the working CRS.
+    const OGRSpatialReference* srcSrs = ds->GetSpatialRef();
+    OGRSpatialReference target;
+    bool warp = false;
+    if (!options.targetSrs.empty()) {
+        if (target.SetFromUserInput(options.targetSrs.c_str()) != OGRERR_NONE) {
+            error = "DEM '" + path + "': cannot parse the target CRS '" + options.targetSrs + "'";
+            return false;
+        }
+        if (!target.IsProjected()) {
+            error = "DEM '" + path + "': the target CRS '" + options.targetSrs +
+                    "' is not a projected (metric) CRS";
+            return false;
+        }
+        if (srcSrs == nullptr) {
+            error = "DEM '" + path + "': the raster has no CRS, cannot reproject it to '" +
+                    options.targetSrs + "'";
+            return false;
+        }
+        warp = !srcSrs->IsSame(&target);
+    } else if (srcSrs != nullptr && srcSrs->IsGeographic()) {
+        // GDAL's geotransform of a geographic raster is in longitude, latitude order whatever the
+        // CRS's official axis order is; the zone only needs the centre to a few kilometres, so
+        // the source datum does not matter.
+        const double w = ds->GetRasterXSize(), h = ds->GetRasterYSize();
+        const double lon = gt[0] + 0.5 * w * gt[1];
+        const double lat = gt[3] + 0.5 * h * gt[5];
+        if (target.importFromEPSG(utmEpsgFor(lon, lat)) != OGRERR_NONE) {
+            error = "DEM '" + path + "': cannot create the UTM CRS" + gdalErrorSuffix();
+            return false;
+        }
+        warp = true;
+    } else if (srcSrs != nullptr) {
+        target = *srcSrs;
+    }
+
+    GDALDataset* source = ds.get();
+    GDALDatasetUniquePtr single, warped;
+    int readBand = band;
+    if (warp) {
+        if (bands > 1) {
+            single = extractBand(ds.get(), band);
+            if (!single) {
+                error = "DEM '" + path + "': cannot select band " + std::to_string(band) +
+                        gdalErrorSuffix();
+                return false;
+            }
+            source = single.get();
+        }
+        warped = warpToMemory(source, toWkt(target));
+        if (!warped) {
+            error = "DEM '" + path + "': reprojection failed" + gdalErrorSuffix();
+            return false;
+        }
+        source = warped.get();
+        readBand = 1;
+        source->GetGeoTransform(gt);
+    }
+
+    GDALRasterBand* rb = source->GetRasterBand(readBand);
+    assert(rb != nullptr);
+    int hasNoData = 0;
+    const double noData = rb->GetNoDataValue(&hasNoData);
+    const int w = source->GetRasterXSize(), h = source->GetRasterYSize();
+    dem.width = w;
+    dem.height = h;
+    dem.cellX = gt[1];
+    dem.cellY = gt[5];
+    dem.originX = gt[0] + 0.5 * gt[1];
+    dem.originY = gt[3] + 0.5 * gt[5];
+    dem.z.assign(static_cast<std::size_t>(w) * h, kNaN);
+    if (srcSrs != nullptr) dem.wkt = toWkt(target);
+
+    // Row by row in double, so that the nodata comparison is exact for every band type.
+    std::vector<double> row(static_cast<std::size_t>(w));
+    std::size_t valid = 0;
+    for (int r = 0; r < h; ++r) {
+        if (rb->RasterIO(GF_Read, 0, r, w, 1, row.data(), w, 1, GDT_Float64, 0, 0, nullptr) !=
+            CE_None) {
+            error =
+                "DEM '" + path + "': read error at row " + std::to_string(r) + gdalErrorSuffix();
+            dem = DemGrid{};
+            return false;
+        }
+        float* out = dem.z.data() + static_cast<std::size_t>(r) * w;
+        for (int c = 0; c < w; ++c) {
+            const double v = row[c];
+            if (!std::isfinite(v) || (hasNoData && v == noData)) continue;
+            out[c] = static_cast<float>(v);
+            ++valid;
+        }
+    }
+    if (valid == 0) {
+        error = "DEM '" + path + "': every cell is nodata";
+        dem = DemGrid{};
+        return false;
+    }
+    return true;
+}
+
+}  // namespace unilod

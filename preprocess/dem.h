@@ -1,0 +1,51 @@
+// DEM ingestion (DESIGN.md "Coordinates", "Point set"): any single-band raster GDAL reads, brought
+// into a planar metric working CRS so that every later stage computes in metres. A geographic DEM
+// is warped to the UTM zone of its centre (or to a CRS the user names); a projected DEM is kept.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace unilod {
+
+// A north-up grid of altitudes in the working CRS.
+//
+// Nodata: cells equal to the band's nodata value, NaN cells and +-infinite cells are all stored
+// as NaN; nothing downstream has to know the file's nodata convention.
+struct DemGrid {
+    int width = 0, height = 0;
+    // Centre of cell (column 0, row 0) — the first row of the file, the northern one for north-up
+    // rasters — and the step between cell centres (cellY < 0 for north-up rasters).
+    double originX = 0, originY = 0;
+    double cellX = 1, cellY = -1;
+    std::vector<float> z;  // row-major, width * height, NaN = nodata
+    std::string wkt;       // working CRS as WKT; empty when the source had no CRS
+
+    double centreX(int col) const { return originX + col * cellX; }
+    double centreY(int row) const { return originY + row * cellY; }
+    float at(int col, int row) const { return z[static_cast<std::size_t>(row) * width + col]; }
+
+    // Bilinear interpolation between the four surrounding cell centres. NaN when (x, y) lies
+    // outside the hull of the cell centres or when a cell with non-zero weight is nodata (a point
+    // exactly on a row or column of centres only uses that row or column).
+    double sample(double x, double y) const;
+};
+
+struct DemLoadOptions {
+    int band = 0;           // 1-based band; 0 = "the only band" (multi-band rasters need one)
+    std::string targetSrs;  // any SRS GDAL understands (EPSG:32616, WKT, PROJ); empty = automatic
+};
+
+// Loads `path` into `dem`. Working CRS: `targetSrs` when given (the raster is warped to it unless
+// it is already in it); otherwise a geographic raster is warped (bilinear) to the UTM zone of its
+// centre (EPSG:326xx north, 327xx south) and a projected raster, or one without a CRS, keeps its
+// grid. Returns false with `error` naming the file and the problem (missing file, not a raster, no
+// bands, multi-band without a band, band out of range, rotated grid, all cells nodata, GDAL
+// failures).
+bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& dem,
+             std::string& error);
+
+// EPSG code of the WGS 84 UTM zone containing (lon, lat) in degrees.
+int utmEpsgFor(double lon, double lat);
+
+}  // namespace unilod

@@ -1,0 +1,58 @@
+// The merged point set of paper §3 from a loaded DEM and river lines (DESIGN.md "Point set").
+//
+// This is the plain assembly used by `unilod order`: cell centres, river vertices with bilinear
+// DEM altitudes, junctions as shared ids, endpoints and junctions locked. Full river cleaning
+// (snapping endpoints within a tolerance, splitting lines where they touch or cross, dropping
+// rivers shorter than a minimum length) comes with `unilod build` later; lines are taken as given.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "dem.h"
+#include "points.h"
+#include "rivers.h"
+
+namespace unilod {
+
+struct PointSetOptions {
+    int stride = 1;  // DEM points: every stride-th row and column, starting at (0, 0); >= 1
+    // DEM points closer than this (metres, horizontally) to a river segment are dropped: a cell
+    // centre on a river edge would make sliver triangles. 0 = keep every DEM point.
+    double riverClearance = 0;
+    // Lock the DEM points of the first / last kept row and column (a block border).
+    bool lockBorder = false;
+};
+
+// DEM points (kind Dem) come first, in row-major order; then river points in line order.
+//
+// River points: the vertices of each line whose DEM altitude (DemGrid::sample) is finite; a vertex
+// outside the DEM or on nodata ends the current piece and the line continues as a new polyline
+// after it. Consecutive duplicate vertices are dropped; pieces with fewer than two vertices are
+// dropped. Vertices with exactly equal (x, y) in any lines become one point id (a junction).
+// Locked: first and last vertex of every polyline, and every id used more than once (junctions).
+PointSet buildPointSet(const DemGrid& dem, const RiverLines& rivers,
+                       const PointSetOptions& options);
+
+// --- Building blocks shared with the block partition (blocks.h) ------------------------------
+
+struct RiverVertex {
+    double x = 0, y = 0, z = 0;
+};
+using RiverPiece = std::vector<RiverVertex>;
+
+// The river pieces of buildPointSet: runs of vertices whose bilinear DEM altitude is finite,
+// consecutive duplicates dropped, pieces of fewer than two vertices dropped.
+std::vector<RiverPiece> sampleRiverPieces(const DemGrid& dem, const RiverLines& rivers);
+
+// One byte per DEM cell: 1 where the cell centre is closer than `clearance` (horizontally) to a
+// segment of `pieces`. Empty when clearance <= 0.
+std::vector<std::uint8_t> riverClearanceMask(const DemGrid& dem,
+                                             const std::vector<RiverPiece>& pieces,
+                                             double clearance);
+
+// Appends the pieces to `set` as river points and polylines: one id per distinct (x, y) (a
+// junction), first and last vertex of every piece and every junction locked.
+void appendRiverPieces(const std::vector<RiverPiece>& pieces, PointSet& set);
+
+}  // namespace unilod

@@ -1,0 +1,186 @@
+// River line ingestion through OGR: layer choice, attribute filter, and transformation to the
+// DEM's working CRS, so that river vertices and DEM cells share one metric frame (DESIGN.md
+// "Coordinates"). Axis order is forced to x = easting / longitude on both ends, whatever the
+// CRS definitions say, because that is how vector files store coordinates.
+#include "rivers.h"
+
+#include <gdal_priv.h>
+#include <ogr_spatialref.h>
+#include <ogrsf_frmts.h>
+
+#include <memory>
+
+#include "gdal_errors.h"
+
+namespace unilod {
+
+namespace {
+
+bool isLineType(OGRwkbGeometryType t) {
+    const OGRwkbGeometryType flat = wkbFlatten(t);
+    return flat == wkbLineString || flat == wkbMultiLineString;
+}
+
+// True when some feature of a layer of unknown / mixed geometry type is a line.
+bool hasLineFeature(OGRLayer* layer) {
+    layer->ResetReading();
+    for (const auto& feature : *layer) {
+        const OGRGeometry* g = feature->GetGeometryRef();
+        if (g != nullptr && isLineType(g->getGeometryType())) return true;
+    }
+    return false;
+}
+
+struct TransformDeleter {
+    void operator()(OGRCoordinateTransformation* ct) const {
+        OGRCoordinateTransformation::DestroyCT(ct);
+    }
+};
+
+}  // namespace
+
+bool loadRivers(const std::string& path, const RiverLoadOptions& options,
+                const std::string& workingWkt, RiverLines& out, std::string& error) {
+    QuietGdalErrors quiet;
+    out.clear();
+    const std::string what = "rivers '" + path + "'";
+
+    VSIStatBufL st;
+    if (VSIStatL(path.c_str(), &st) != 0) {
+        error = what + ": no such file";
+        return false;
+    }
+    GDALDatasetUniquePtr ds(GDALDataset::Open(path.c_str(), GDAL_OF_VECTOR));
+    if (!ds) {
+        error = what + ": not a vector file GDAL/OGR can read" + gdalErrorSuffix();
+        return false;
+    }
+
+    OGRLayer* layer = nullptr;
+    if (!options.layer.empty()) {
+        layer = ds->GetLayerByName(options.layer.c_str());
+        if (layer == nullptr) {
+            error = what + ": no layer named '" + options.layer + "'";
+            return false;
+        }
+        const OGRwkbGeometryType t = layer->GetGeomType();
+        if (!isLineType(t) && !(wkbFlatten(t) == wkbUnknown && hasLineFeature(layer))) {
+            error = what + ": layer '" + options.layer + "' has no line geometry";
+            return false;
+        }
+    } else {
+        // Declared line layers first; then layers of undeclared type that hold lines (GeoJSON
+        // with mixed geometries).
+        for (OGRLayer* l : ds->GetLayers()) {
+            if (isLineType(l->GetGeomType())) {
+                layer = l;
+                break;
+            }
+        }
+        for (int i = 0; layer == nullptr && i < ds->GetLayerCount(); ++i) {
+            OGRLayer* l = ds->GetLayer(i);
+            if (wkbFlatten(l->GetGeomType()) == wkbUnknown && hasLineFeature(l)) layer = l;
+        }
+        if (layer == nullptr) {
+            error = what + ": no layer with line geometry (LineString / MultiLineString)";
+            return false;
+        }
+    }
+    const std::string layerName = layer->GetName();
+
+    if (!options.where.empty() && layer->SetAttributeFilter(options.where.c_str()) != OGRERR_NONE) {
+        error = what + ": invalid where clause '" + options.where + "'" + gdalErrorSuffix();
+        return false;
+    }
+
+    // Transformation to the working CRS.
+    std::unique_ptr<OGRCoordinateTransformation, TransformDeleter> ct;
+    if (!workingWkt.empty()) {
+        OGRSpatialReference src;
+        if (const OGRSpatialReference* declared = layer->GetSpatialRef()) {
+            src = *declared;
+        } else if (!options.assumeSrs.empty()) {
+            if (src.SetFromUserInput(options.assumeSrs.c_str()) != OGRERR_NONE) {
+                error = what + ": cannot parse the assumed CRS '" + options.assumeSrs + "'";
+                return false;
+            }
+        } else {
+            error = what + ": layer '" + layerName +
+                    "' has no CRS while the DEM has one; name it with --rivers-srs";
+            return false;
+        }
+        OGRSpatialReference dst;
+        if (dst.importFromWkt(workingWkt.c_str()) != OGRERR_NONE) {
+            error = what + ": invalid working CRS" + gdalErrorSuffix();
+            return false;
+        }
+        src.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+        dst.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+        if (!src.IsSame(&dst)) {
+            ct.reset(OGRCreateCoordinateTransformation(&src, &dst));
+            if (!ct) {
+                error = what + ": no transformation from the layer's CRS to the DEM's" +
+                        gdalErrorSuffix();
+                return false;
+            }
+        }
+    }
+
+    // Appends one line, transformed. False on a transformation failure.
+    std::vector<double> xs, ys;
+    std::vector<int> ok;
+    auto addLine = [&](const OGRLineString& line) {
+        const int n = line.getNumPoints();
+        xs.resize(n);
+        ys.resize(n);
+        for (int i = 0; i < n; ++i) {
+            xs[i] = line.getX(i);
+            ys[i] = line.getY(i);
+        }
+        if (ct && n > 0) {
+            ok.assign(n, 0);
+            if (!ct->Transform(n, xs.data(), ys.data(), nullptr, ok.data())) return false;
+            for (int v : ok) {
+                if (!v) return false;
+            }
+        }
+        RiverLine& l = out.emplace_back();
+        l.reserve(n);
+        for (int i = 0; i < n; ++i)
+            l.push_back({xs[i], ys[i]});
+        return true;
+    };
+
+    layer->ResetReading();
+    for (const auto& feature : *layer) {
+        const OGRGeometry* g = feature->GetGeometryRef();
+        if (g == nullptr) continue;
+        bool good = true;
+        switch (wkbFlatten(g->getGeometryType())) {
+            case wkbLineString:
+                good = addLine(*g->toLineString());
+                break;
+            case wkbMultiLineString:
+                for (const OGRLineString* part : *g->toMultiLineString()) {
+                    good = good && addLine(*part);
+                }
+                break;
+            default:
+                break;  // points, polygons: not rivers
+        }
+        if (!good) {
+            error = what + ": feature " + std::to_string(feature->GetFID()) +
+                    " cannot be transformed to the DEM's CRS" + gdalErrorSuffix();
+            out.clear();
+            return false;
+        }
+    }
+    if (out.empty()) {
+        error = what + ": layer '" + layerName + "' has no line features" +
+                (options.where.empty() ? "" : " matching the where clause");
+        return false;
+    }
+    return true;
+}
+
+}  // namespace unilod

@@ -1,0 +1,185 @@
+// Blocks and LOD index data (issue 4 "Blocks", "LOD index data"): shared locked borders, border
+// crossings, the stored levels against the records, the 1.3x triangle bound and the 4x memory
+// bound, determinism.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+
+#include "blockbuild.h"
+#include "blocks.h"
+#include "synthetic.h"
+
+using namespace unilod;
+
+namespace {
+
+using Tri = std::array<std::uint32_t, 3>;
+Tri canonical(const format::Triangle& t) {
+    Tri v{t.a, t.b, t.c};
+    std::rotate(v.begin(), std::min_element(v.begin(), v.end()), v.end());
+    return v;
+}
+
+std::set<Tri> levelSet(const format::Block& b, const format::Level& l) {
+    std::set<Tri> s;
+    for (std::uint32_t i = 0; i < l.triangleCount; ++i) {
+        EXPECT_TRUE(s.insert(canonical(b.terrainIndices[l.triangleFirst + i])).second)
+            << "triangle twice in a level range";
+    }
+    return s;
+}
+
+struct Fixture {
+    SyntheticData data;
+    BlockSource source;
+    Fixture(std::size_t points, int blockSize) {
+        SyntheticOptions opt;
+        opt.targetPoints = points;
+        opt.seed = 7;
+        data = generateSyntheticData(opt);
+        BlockOptions bo;
+        bo.blockSize = blockSize;
+        std::string err;
+        EXPECT_TRUE(source.init(data.dem, data.rivers, bo, err)) << err;
+    }
+};
+
+}  // namespace
+
+TEST(Blocks, SharedBordersAndCrossings) {
+    Fixture f(40000, 64);
+    ASSERT_GE(f.source.blockCount(), 4u);
+    EXPECT_GT(f.source.stats().crossings, 0u);
+    std::vector<PointSet> sets;
+    for (std::size_t i = 0; i < f.source.blockCount(); ++i) sets.push_back(f.source.points(i));
+    const DemGrid& dem = f.data.dem;
+    int sharedChecked = 0;
+    for (std::size_t i = 0; i < sets.size(); ++i) {
+        const BlockRect& r = f.source.rect(i);
+        if (r.col + 1 >= f.source.blocksX()) continue;
+        const std::size_t j = i + 1;  // right neighbour
+        const double x = dem.centreX(r.cellCol1);
+        std::set<std::pair<double, double>> a, b;
+        for (const Point& p : sets[i].points) {
+            if (p.x == x) {
+                EXPECT_TRUE(p.locked);
+                a.insert({p.x, p.y});
+            }
+        }
+        for (const Point& p : sets[j].points) {
+            if (p.x == x) {
+                EXPECT_TRUE(p.locked);
+                b.insert({p.x, p.y});
+            }
+        }
+        EXPECT_EQ(a, b) << "border between blocks " << i << " and " << j;
+        EXPECT_GT(a.size(), 10u);
+        ++sharedChecked;
+    }
+    EXPECT_GT(sharedChecked, 0);
+    // Every river point on a border is locked, and so is every river end.
+    for (const PointSet& s : sets) {
+        for (const Polyline& line : s.rivers) {
+            EXPECT_TRUE(s.points[line.front()].locked);
+            EXPECT_TRUE(s.points[line.back()].locked);
+        }
+    }
+}
+
+TEST(LodIndex, LevelsMatchRecordsAndBounds) {
+    Fixture f(30000, 96);
+    BlockBuildOptions opt;
+    for (std::size_t i = 0; i < f.source.blockCount(); ++i) {
+        const PointSet set = f.source.points(i);
+        format::Block b;
+        BlockBuildStats stats;
+        std::string err;
+        ASSERT_TRUE(buildBlock(set, 0, 0, opt, b, stats, err)) << err;
+        const auto steps = static_cast<std::uint32_t>(b.steps.size());
+        ASSERT_GT(steps, 100u);
+        ASSERT_GE(b.levels.size(), 3u);
+        const std::uint32_t t0 = b.levels[0].triangleCount;
+        EXPECT_EQ(b.levels[0].step, 0u);
+        EXPECT_EQ(b.levels.back().step, steps);
+
+        // Memory: the index data is at most 4x the full-resolution triangle list.
+        EXPECT_LE(b.terrainIndices.size(), 4u * t0);
+
+        // Visible triangles: for every step k, the finest level at or before k draws at most
+        // 1.3x the triangles alive after k deletions.
+        std::size_t j = 0;
+        for (std::uint32_t k = 0; k <= steps; ++k) {
+            while (j + 1 < b.levels.size() && b.levels[j + 1].step <= k) ++j;
+            const std::uint32_t tk = k == 0 ? t0 : b.steps[k - 1].trianglesAlive;
+            ASSERT_LE(double(b.levels[j].triangleCount), 1.3 * tk) << "step " << k;
+            if (k > 0) {
+                ASSERT_EQ(b.steps[k - 1].vertex, b.vertices.size() - k);
+            }
+        }
+
+        // Replaying the records from level 0 gives every stored level's triangle set.
+        std::set<Tri> alive = levelSet(b, b.levels[0]);
+        std::size_t level = 1;
+        for (std::uint32_t s = 0; s < steps; ++s) {
+            for (std::uint32_t r = b.removedTriangleOffset[s]; r < b.removedTriangleOffset[s + 1]; ++r) {
+                ASSERT_EQ(alive.erase(canonical(b.removedTriangles[r])), 1u);
+            }
+            for (std::uint32_t a = b.addedTriangleOffset[s]; a < b.addedTriangleOffset[s + 1]; ++a) {
+                ASSERT_TRUE(alive.insert(canonical(b.addedTriangles[a])).second);
+            }
+            if (level < b.levels.size() && b.levels[level].step == s + 1) {
+                ASSERT_EQ(alive, levelSet(b, b.levels[level])) << "level " << level;
+                ++level;
+            }
+        }
+        EXPECT_EQ(level, b.levels.size());
+
+        // Every index of a level refers to the level's vertex prefix; errors match and grow.
+        for (const format::Level& l : b.levels) {
+            EXPECT_EQ(l.vertexCount, b.vertices.size() - l.step);
+            for (std::uint32_t t = 0; t < l.triangleCount; ++t) {
+                const auto& tri = b.terrainIndices[l.triangleFirst + t];
+                ASSERT_LT(std::max({tri.a, tri.b, tri.c}), l.vertexCount);
+            }
+            for (std::uint32_t e = 0; e < l.riverCount; ++e) {
+                ASSERT_LT(b.riverIndices[l.riverFirst + e].b, l.vertexCount);
+            }
+            EXPECT_EQ(l.errorMax, b.errorMax[l.step]);
+            EXPECT_EQ(l.errorPaper, b.errorPaper[l.step]);
+        }
+        EXPECT_TRUE(std::is_sorted(b.errorMax.begin(), b.errorMax.end()));
+        EXPECT_TRUE(std::is_sorted(b.errorPaper.begin(), b.errorPaper.end()));
+        EXPECT_EQ(b.errorMax.front(), 0.0f);  // full resolution reproduces every point
+
+        // Locked points (borders, river ends, junctions, crossings) are in the coarsest level.
+        std::size_t lockedVertices = 0;
+        for (std::uint32_t v = 0; v < b.vertices.size(); ++v) {
+            if (b.vertices[v].flags & format::kVertexLocked) {
+                ++lockedVertices;
+                EXPECT_LT(v, b.levels.back().vertexCount);
+            }
+        }
+        EXPECT_GT(lockedVertices, 4u);
+    }
+}
+
+TEST(LodIndex, Deterministic) {
+    Fixture f(20000, 100);
+    const PointSet set = f.source.points(0);
+    format::Block a, b;
+    BlockBuildStats stats;
+    std::string err;
+    ASSERT_TRUE(buildBlock(set, 0, 0, {}, a, stats, err)) << err;
+    ASSERT_TRUE(buildBlock(set, 0, 0, {}, b, stats, err)) << err;
+    auto bytes = [](const auto& v) {
+        return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(v[0]));
+    };
+    EXPECT_EQ(bytes(a.vertices), bytes(b.vertices));
+    EXPECT_EQ(bytes(a.terrainIndices), bytes(b.terrainIndices));
+    EXPECT_EQ(bytes(a.riverIndices), bytes(b.riverIndices));
+    EXPECT_EQ(bytes(a.levels), bytes(b.levels));
+    EXPECT_EQ(bytes(a.errorPaper), bytes(b.errorPaper));
+}

@@ -1,0 +1,304 @@
+// DEM ingestion (preprocess/dem.h): the bundled geographic DEM warped to UTM, exact bilinear
+// sampling on small hand-made GeoTIFFs, nodata -> NaN, and every error case naming the file.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+
+#include <gdal_priv.h>
+#include <ogr_spatialref.h>
+
+#include "dem.h"
+
+using namespace unilod;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kAssets = UNILOD_ASSETS_DIR;
+
+struct TempDir {
+    fs::path path;
+    explicit TempDir(const std::string& name)
+        : path(fs::temp_directory_path() /
+               ("unilod_test_dem_" + name + "_" + std::to_string(getpid()))) {
+        fs::remove_all(path);
+        fs::create_directories(path);
+    }
+    ~TempDir() {
+        std::error_code ec;
+        fs::remove_all(path, ec);
+    }
+    std::string file(const std::string& name) const { return (path / name).string(); }
+};
+
+// Writes a north-up GeoTIFF whose cell (c, r) of band b holds values[b][r * w + c].
+void writeTiff(const std::string& path, int w, int h,
+               const std::vector<std::vector<double>>& values, GDALDataType type,
+               const double gt[6], int epsg, std::optional<double> noData = std::nullopt) {
+    GDALAllRegister();
+    GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
+    ASSERT_NE(driver, nullptr);
+    GDALDatasetUniquePtr ds(
+        driver->Create(path.c_str(), w, h, static_cast<int>(values.size()), type, nullptr));
+    ASSERT_TRUE(ds);
+    double g[6];
+    std::copy(gt, gt + 6, g);
+    ds->SetGeoTransform(g);
+    if (epsg != 0) {
+        OGRSpatialReference srs;
+        srs.importFromEPSG(epsg);
+        ds->SetSpatialRef(&srs);
+    }
+    for (std::size_t b = 0; b < values.size(); ++b) {
+        GDALRasterBand* band = ds->GetRasterBand(static_cast<int>(b) + 1);
+        if (noData) band->SetNoDataValue(*noData);
+        std::vector<double> v = values[b];
+        ASSERT_EQ(band->RasterIO(GF_Write, 0, 0, w, h, v.data(), w, h, GDT_Float64, 0, 0, nullptr),
+                  CE_None);
+    }
+}
+
+// 4 x 3 grid of 10 m cells, upper-left corner (500000, 4000000), EPSG:32616.
+const double kGt[6] = {500000.0, 10.0, 0.0, 4000000.0, 0.0, -10.0};
+
+}  // namespace
+
+TEST(Dem, BundledDemIsWarpedToUtm) {
+    DemGrid dem;
+    std::string error;
+    ASSERT_TRUE(loadDem(kAssets + "/jacksboro_dem.tif", {}, dem, error)) << error;
+    EXPECT_GT(dem.width, 300);
+    EXPECT_GT(dem.height, 300);
+    EXPECT_EQ(dem.z.size(), static_cast<std::size_t>(dem.width) * dem.height);
+    // 3 arc-seconds is ~75 m (east) by ~93 m (north) at 36.5 N; GDAL picks square cells between.
+    EXPECT_GT(std::abs(dem.cellX), 60.0);
+    EXPECT_LT(std::abs(dem.cellX), 100.0);
+    EXPECT_LT(dem.cellY, 0.0);
+
+    // The working CRS is the UTM zone of the centre, longitude ~ -84.1: zone 16 or 17 north.
+    OGRSpatialReference srs;
+    ASSERT_EQ(srs.importFromWkt(dem.wkt.c_str()), OGRERR_NONE);
+    EXPECT_TRUE(srs.IsProjected());
+    int north = 0;
+    const int zone = srs.GetUTMZone(&north);
+    EXPECT_TRUE(zone == 16 || zone == 17) << zone;
+    EXPECT_TRUE(north);
+    // The grid centre, back in longitude / latitude, is the DEM's centre.
+    OGRSpatialReference wgs84;
+    wgs84.importFromEPSG(4326);
+    wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    std::unique_ptr<OGRCoordinateTransformation> ct(
+        OGRCreateCoordinateTransformation(&srs, &wgs84));
+    ASSERT_TRUE(ct);
+    double x = dem.centreX(dem.width / 2), y = dem.centreY(dem.height / 2);
+    ASSERT_TRUE(ct->Transform(1, &x, &y));
+    EXPECT_NEAR(x, -84.413750 + 0.5 * 403 * 0.000833333, 0.01);
+    EXPECT_NEAR(y, 36.732917 - 0.5 * 344 * 0.000833333, 0.01);
+
+    // The source spans 236..1076 m; bilinear resampling can only shrink that range a little.
+    float zMin = 1e9f, zMax = -1e9f;
+    std::size_t valid = 0;
+    for (float z : dem.z) {
+        if (std::isnan(z)) continue;
+        ++valid;
+        zMin = std::min(zMin, z);
+        zMax = std::max(zMax, z);
+    }
+    EXPECT_GE(zMin, 236.0f - 0.01f);
+    EXPECT_LE(zMin, 236.0f + 15.0f);
+    EXPECT_LE(zMax, 1076.0f + 0.01f);
+    EXPECT_GE(zMax, 1076.0f - 40.0f);
+    // The rotated footprint leaves nodata corners, but most of the grid is data.
+    EXPECT_GT(valid, dem.z.size() * 8 / 10);
+    EXPECT_LT(valid, dem.z.size());
+}
+
+TEST(Dem, TargetSrsIsHonoured) {
+    DemGrid dem;
+    std::string error;
+    DemLoadOptions o;
+    o.targetSrs = "EPSG:32617";
+    ASSERT_TRUE(loadDem(kAssets + "/jacksboro_dem.tif", o, dem, error)) << error;
+    OGRSpatialReference srs;
+    ASSERT_EQ(srs.importFromWkt(dem.wkt.c_str()), OGRERR_NONE);
+    int north = 0;
+    EXPECT_EQ(srs.GetUTMZone(&north), 17);
+
+    o.targetSrs = "EPSG:4326";  // not metric
+    EXPECT_FALSE(loadDem(kAssets + "/jacksboro_dem.tif", o, dem, error));
+    EXPECT_NE(error.find("jacksboro_dem.tif"), std::string::npos) << error;
+    o.targetSrs = "no such crs";
+    EXPECT_FALSE(loadDem(kAssets + "/jacksboro_dem.tif", o, dem, error));
+}
+
+TEST(Dem, ProjectedGridKeptAndSampledBilinearly) {
+    TempDir dir("bilinear");
+    const std::string path = dir.file("grid.tif");
+    // z(c, r) = c^2 + 7 r + c r: not bilinear overall, so only the right four cells give the
+    // right value.
+    std::vector<double> v;
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 4; ++c)
+            v.push_back(c * c + 7.0 * r + c * r);
+    }
+    writeTiff(path, 4, 3, {v}, GDT_Float32, kGt, 32616);
+
+    DemGrid dem;
+    std::string error;
+    ASSERT_TRUE(loadDem(path, {}, dem, error)) << error;
+    EXPECT_EQ(dem.width, 4);
+    EXPECT_EQ(dem.height, 3);
+    EXPECT_DOUBLE_EQ(dem.originX, 500005.0);
+    EXPECT_DOUBLE_EQ(dem.originY, 3999995.0);
+    EXPECT_DOUBLE_EQ(dem.cellX, 10.0);
+    EXPECT_DOUBLE_EQ(dem.cellY, -10.0);
+    for (std::size_t i = 0; i < v.size(); ++i)
+        EXPECT_EQ(dem.z[i], static_cast<float>(v[i]));
+    OGRSpatialReference srs;
+    ASSERT_EQ(srs.importFromWkt(dem.wkt.c_str()), OGRERR_NONE);
+    EXPECT_STREQ(srs.GetAuthorityCode(nullptr), "32616");
+
+    auto z = [&](int c, int r) { return c * c + 7.0 * r + c * r; };
+    // Cell centres: exact values.
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 4; ++c) {
+            EXPECT_DOUBLE_EQ(dem.sample(dem.centreX(c), dem.centreY(r)), z(c, r));
+        }
+    }
+    // Between centres (1, 0), (2, 0), (1, 1), (2, 1) at fractions tx = 0.25, ty = 0.5.
+    const double tx = 0.25, ty = 0.5;
+    const double expected = (1 - tx) * (1 - ty) * z(1, 0) + tx * (1 - ty) * z(2, 0) +
+                            (1 - tx) * ty * z(1, 1) + tx * ty * z(2, 1);
+    EXPECT_NEAR(dem.sample(500015.0 + 2.5, 3999995.0 - 5.0), expected, 1e-12);
+    // The far corner centre and the edges are inside; beyond the last centres is outside.
+    EXPECT_DOUBLE_EQ(dem.sample(dem.centreX(3), dem.centreY(2)), z(3, 2));
+    EXPECT_NEAR(dem.sample(dem.centreX(3), dem.centreY(0) - 2.0),
+                z(3, 0) + 0.2 * (z(3, 1) - z(3, 0)), 1e-12);
+    EXPECT_TRUE(std::isnan(dem.sample(dem.centreX(3) + 0.001, dem.centreY(0))));
+    EXPECT_TRUE(std::isnan(dem.sample(dem.centreX(0), dem.centreY(0) + 0.001)));
+    EXPECT_TRUE(std::isnan(dem.sample(500000.0, 4000000.0)));  // the grid corner: half a cell out
+}
+
+TEST(Dem, NodataBecomesNaN) {
+    TempDir dir("nodata");
+    const std::string path = dir.file("nodata.tif");
+    std::vector<double> v(12, 100.0);
+    v[1 * 4 + 2] = -9999.0;  // nodata at (2, 1)
+    v[0] = std::nan("");     // NaN cell
+    v[11] = INFINITY;        // infinite cell
+    writeTiff(path, 4, 3, {v}, GDT_Float32, kGt, 32616, -9999.0);
+    DemGrid dem;
+    std::string error;
+    ASSERT_TRUE(loadDem(path, {}, dem, error)) << error;
+    EXPECT_TRUE(std::isnan(dem.at(2, 1)));
+    EXPECT_TRUE(std::isnan(dem.at(0, 0)));
+    EXPECT_TRUE(std::isnan(dem.at(3, 2)));
+    EXPECT_EQ(dem.at(1, 1), 100.0f);
+    // Touching the nodata cell: NaN; on a centre row that does not use it: a value.
+    EXPECT_TRUE(std::isnan(dem.sample(dem.centreX(1) + 5.0, dem.centreY(1) - 5.0)));
+    EXPECT_TRUE(std::isnan(dem.sample(dem.centreX(2), dem.centreY(1))));
+    EXPECT_EQ(dem.sample(dem.centreX(1) + 5.0, dem.centreY(2)), 100.0);
+    EXPECT_EQ(dem.sample(dem.centreX(1), dem.centreY(1) - 5.0), 100.0);
+    // Next to the nodata column, a hair off the centre column still counts as on it.
+    EXPECT_EQ(dem.sample(dem.centreX(1) + 5e-9, dem.centreY(1) - 5.0), 100.0);
+    EXPECT_TRUE(std::isnan(dem.sample(dem.centreX(1) + 1e-6, dem.centreY(1) - 5.0)));
+}
+
+TEST(Dem, IntegerNodataBecomesNaN) {
+    TempDir dir("int16");
+    const std::string path = dir.file("int16.tif");
+    std::vector<double> v(12, 5.0);
+    v[5] = -32768;
+    writeTiff(path, 4, 3, {v}, GDT_Int16, kGt, 32616, -32768);
+    DemGrid dem;
+    std::string error;
+    ASSERT_TRUE(loadDem(path, {}, dem, error)) << error;
+    EXPECT_TRUE(std::isnan(dem.z[5]));
+    EXPECT_EQ(dem.z[4], 5.0f);
+}
+
+TEST(Dem, MultiBandNeedsABand) {
+    TempDir dir("multiband");
+    const std::string path = dir.file("two.tif");
+    writeTiff(path, 4, 3, {std::vector<double>(12, 1.0), std::vector<double>(12, 2.0)}, GDT_Float32,
+              kGt, 32616);
+    DemGrid dem;
+    std::string error;
+    EXPECT_FALSE(loadDem(path, {}, dem, error));
+    EXPECT_NE(error.find(path), std::string::npos) << error;
+    EXPECT_NE(error.find("2 bands"), std::string::npos) << error;
+
+    DemLoadOptions o;
+    o.band = 2;
+    ASSERT_TRUE(loadDem(path, o, dem, error)) << error;
+    EXPECT_EQ(dem.z[0], 2.0f);
+    o.band = 3;
+    EXPECT_FALSE(loadDem(path, o, dem, error));
+    EXPECT_NE(error.find("out of range"), std::string::npos) << error;
+}
+
+TEST(Dem, GeographicMultiBandWarpsTheChosenBand) {
+    TempDir dir("geo");
+    const std::string path = dir.file("geo.tif");
+    const double gt[6] = {-84.2, 0.001, 0, 36.5, 0, -0.001};
+    writeTiff(path, 4, 3, {std::vector<double>(12, 1.0), std::vector<double>(12, 250.0)},
+              GDT_Float32, gt, 4326);
+    DemGrid dem;
+    std::string error;
+    DemLoadOptions o;
+    o.band = 2;
+    ASSERT_TRUE(loadDem(path, o, dem, error)) << error;
+    OGRSpatialReference srs;
+    ASSERT_EQ(srs.importFromWkt(dem.wkt.c_str()), OGRERR_NONE);
+    int north = 0;
+    EXPECT_EQ(srs.GetUTMZone(&north), 16);  // -84.2 is in zone 16 (-90..-84)
+    std::size_t valid = 0;
+    for (float z : dem.z) {
+        if (std::isnan(z)) continue;
+        ++valid;
+        EXPECT_NEAR(z, 250.0f, 1e-3f);
+    }
+    EXPECT_GT(valid, 0u);
+}
+
+TEST(Dem, Errors) {
+    TempDir dir("errors");
+    DemGrid dem;
+    std::string error;
+
+    const std::string missing = dir.file("missing.tif");
+    EXPECT_FALSE(loadDem(missing, {}, dem, error));
+    EXPECT_NE(error.find(missing), std::string::npos) << error;
+    EXPECT_NE(error.find("no such file"), std::string::npos) << error;
+
+    const std::string text = dir.file("notes.txt");
+    std::ofstream(text) << "this is not a raster\n";
+    EXPECT_FALSE(loadDem(text, {}, dem, error));
+    EXPECT_NE(error.find(text), std::string::npos) << error;
+    EXPECT_NE(error.find("not a raster"), std::string::npos) << error;
+
+    const std::string empty = dir.file("nodata.tif");
+    writeTiff(empty, 4, 3, {std::vector<double>(12, -1.0)}, GDT_Float32, kGt, 32616, -1.0);
+    EXPECT_FALSE(loadDem(empty, {}, dem, error));
+    EXPECT_NE(error.find(empty), std::string::npos) << error;
+    EXPECT_NE(error.find("nodata"), std::string::npos) << error;
+    EXPECT_TRUE(dem.z.empty());
+
+    // A vector file is not a raster either.
+    EXPECT_FALSE(loadDem(kAssets + "/jacksboro_rivers_grass.geojson", {}, dem, error));
+    EXPECT_NE(error.find("jacksboro_rivers_grass.geojson"), std::string::npos) << error;
+}
+
+TEST(Dem, UtmZoneChoice) {
+    EXPECT_EQ(utmEpsgFor(-84.1, 36.5), 32616);
+    EXPECT_EQ(utmEpsgFor(-83.9, 36.5), 32617);
+    EXPECT_EQ(utmEpsgFor(3.0, -10.0), 32731);
+    EXPECT_EQ(utmEpsgFor(-180.0, 0.0), 32601);
+    EXPECT_EQ(utmEpsgFor(179.9, 1.0), 32660);
+    EXPECT_EQ(utmEpsgFor(181.0, 1.0), 32601);  // wraps
+}

@@ -1,0 +1,196 @@
+// River ingestion (preprocess/rivers.h): the bundled GRASS network reprojected onto the bundled
+// DEM's working CRS, layer choice, where clauses, multi-part and 3D lines, CRS errors.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include <cpl_conv.h>
+#include <ogr_spatialref.h>
+
+#include "dem.h"
+#include "rivers.h"
+
+using namespace unilod;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kAssets = UNILOD_ASSETS_DIR;
+
+struct TempDir {
+    fs::path path;
+    explicit TempDir(const std::string& name)
+        : path(fs::temp_directory_path() /
+               ("unilod_test_rivers_" + name + "_" + std::to_string(getpid()))) {
+        fs::remove_all(path);
+        fs::create_directories(path);
+    }
+    ~TempDir() {
+        std::error_code ec;
+        fs::remove_all(path, ec);
+    }
+    std::string write(const std::string& name, const std::string& text) const {
+        const std::string p = (path / name).string();
+        std::ofstream(p) << text;
+        return p;
+    }
+};
+
+const DemGrid& bundledDem() {
+    static const DemGrid dem = [] {
+        DemGrid d;
+        std::string error;
+        EXPECT_TRUE(loadDem(kAssets + "/jacksboro_dem.tif", {}, d, error)) << error;
+        return d;
+    }();
+    return dem;
+}
+
+}  // namespace
+
+TEST(Rivers, BundledGrassNetworkInsideTheDem) {
+    const DemGrid& dem = bundledDem();
+    ASSERT_FALSE(dem.wkt.empty());
+    RiverLines lines;
+    std::string error;
+    ASSERT_TRUE(loadRivers(kAssets + "/jacksboro_rivers_grass.geojson", {}, dem.wkt, lines, error))
+        << error;
+    EXPECT_EQ(lines.size(), 142u);
+    const double xMin = dem.originX - 0.5 * std::abs(dem.cellX);
+    const double xMax = dem.centreX(dem.width - 1) + 0.5 * std::abs(dem.cellX);
+    const double yMax = dem.originY + 0.5 * std::abs(dem.cellY);
+    const double yMin = dem.centreY(dem.height - 1) - 0.5 * std::abs(dem.cellY);
+    std::size_t vertices = 0;
+    for (const RiverLine& line : lines) {
+        EXPECT_GE(line.size(), 2u);
+        for (const XY& p : line) {
+            ++vertices;
+            EXPECT_GE(p.x, xMin);
+            EXPECT_LE(p.x, xMax);
+            EXPECT_GE(p.y, yMin);
+            EXPECT_LE(p.y, yMax);
+        }
+    }
+    EXPECT_GT(vertices, 1000u);
+    // Metres, not degrees: UTM eastings and northings.
+    EXPECT_GT(lines[0][0].x, 100000.0);
+    EXPECT_GT(lines[0][0].y, 3000000.0);
+}
+
+TEST(Rivers, BundledGshhgNetworkLoads) {
+    RiverLines lines;
+    std::string error;
+    ASSERT_TRUE(
+        loadRivers(kAssets + "/jacksboro_rivers_gshhg.geojson", {}, bundledDem().wkt, lines, error))
+        << error;
+    EXPECT_GT(lines.size(), 0u);
+}
+
+TEST(Rivers, WhereClauseAndLayerName) {
+    RiverLines lines;
+    std::string error;
+    RiverLoadOptions o;
+    o.where = "cat = 59";
+    ASSERT_TRUE(
+        loadRivers(kAssets + "/jacksboro_rivers_grass.geojson", o, bundledDem().wkt, lines, error))
+        << error;
+    EXPECT_EQ(lines.size(), 1u);
+    o.where = "no_such_field = 1";
+    EXPECT_FALSE(
+        loadRivers(kAssets + "/jacksboro_rivers_grass.geojson", o, bundledDem().wkt, lines, error));
+    EXPECT_NE(error.find("where"), std::string::npos) << error;
+
+    o.where.clear();
+    o.layer = "streams";
+    EXPECT_TRUE(
+        loadRivers(kAssets + "/jacksboro_rivers_grass.geojson", o, bundledDem().wkt, lines, error))
+        << error;
+    o.layer = "lakes";
+    EXPECT_FALSE(
+        loadRivers(kAssets + "/jacksboro_rivers_grass.geojson", o, bundledDem().wkt, lines, error));
+    EXPECT_NE(error.find("lakes"), std::string::npos) << error;
+}
+
+TEST(Rivers, MultiLineStringsAnd3dLines) {
+    TempDir dir("multi");
+    const std::string path = dir.write("multi.geojson", R"({"type": "FeatureCollection",
+      "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32616"}},
+      "features": [
+        {"type": "Feature", "properties": {}, "geometry": {"type": "MultiLineString",
+          "coordinates": [[[500000, 4000000, 10], [500100, 4000050, 11]],
+                          [[500200, 4000000, 12], [500300, 4000000, 13], [500400, 4000010, 14]]]}},
+        {"type": "Feature", "properties": {}, "geometry": {"type": "Point",
+          "coordinates": [500000, 4000000]}},
+        {"type": "Feature", "properties": {}, "geometry": {"type": "LineString",
+          "coordinates": [[500000, 4001000], [500010, 4001010]]}}]})");
+    RiverLines lines;
+    std::string error;
+    // Same CRS as the data: coordinates unchanged (x = easting first).
+    OGRSpatialReference srs;
+    srs.importFromEPSG(32616);
+    char* wkt = nullptr;
+    srs.exportToWkt(&wkt);
+    const std::string working = wkt;
+    CPLFree(wkt);
+    ASSERT_TRUE(loadRivers(path, {}, working, lines, error)) << error;
+    ASSERT_EQ(lines.size(), 3u);  // two parts + one line; the point is skipped
+    EXPECT_EQ(lines[0].size(), 2u);
+    EXPECT_EQ(lines[1].size(), 3u);
+    EXPECT_EQ(lines[1][2], (XY{500400, 4000010}));
+    EXPECT_EQ(lines[2][0], (XY{500000, 4001000}));
+}
+
+TEST(Rivers, PointLayerIsAnError) {
+    TempDir dir("points");
+    const std::string path = dir.write("points.geojson", R"({"type": "FeatureCollection",
+      "features": [{"type": "Feature", "properties": {}, "geometry": {"type": "Point",
+      "coordinates": [-84.2, 36.5]}}]})");
+    RiverLines lines;
+    std::string error;
+    EXPECT_FALSE(loadRivers(path, {}, bundledDem().wkt, lines, error));
+    EXPECT_NE(error.find(path), std::string::npos) << error;
+    EXPECT_NE(error.find("no layer with line geometry"), std::string::npos) << error;
+    EXPECT_TRUE(lines.empty());
+}
+
+TEST(Rivers, MissingAndUnreadableFiles) {
+    TempDir dir("missing");
+    RiverLines lines;
+    std::string error;
+    const std::string missing = (dir.path / "nothing.geojson").string();
+    EXPECT_FALSE(loadRivers(missing, {}, bundledDem().wkt, lines, error));
+    EXPECT_NE(error.find(missing), std::string::npos) << error;
+    EXPECT_NE(error.find("no such file"), std::string::npos) << error;
+
+    const std::string garbage = dir.write("broken.geojson", "{ \"type\": \"FeatureCollection\", ");
+    EXPECT_FALSE(loadRivers(garbage, {}, bundledDem().wkt, lines, error));
+    EXPECT_NE(error.find(garbage), std::string::npos) << error;
+
+    // A raster is not a vector file.
+    EXPECT_FALSE(loadRivers(kAssets + "/jacksboro_dem.tif", {}, bundledDem().wkt, lines, error));
+    EXPECT_NE(error.find("jacksboro_dem.tif"), std::string::npos) << error;
+}
+
+TEST(Rivers, LayerWithoutCrs) {
+    TempDir dir("nocrs");
+    // CSV with a WKT column: OGR reads the lines but knows no CRS.
+    const std::string path =
+        dir.write("lines.csv", "WKT,id\n\"LINESTRING (-84.2 36.5,-84.1 36.6)\",1\n");
+    RiverLines lines;
+    std::string error;
+    EXPECT_FALSE(loadRivers(path, {}, bundledDem().wkt, lines, error));
+    EXPECT_NE(error.find(path), std::string::npos) << error;
+    EXPECT_NE(error.find("no CRS"), std::string::npos) << error;
+
+    RiverLoadOptions o;
+    o.assumeSrs = "EPSG:4326";
+    ASSERT_TRUE(loadRivers(path, o, bundledDem().wkt, lines, error)) << error;
+    ASSERT_EQ(lines.size(), 1u);
+    EXPECT_GT(lines[0][0].x, 100000.0);  // now in UTM metres
+
+    // Without a working CRS coordinates are taken as they are.
+    ASSERT_TRUE(loadRivers(path, {}, "", lines, error)) << error;
+    EXPECT_EQ(lines[0][0], (XY{-84.2, 36.5}));
+}

@@ -1,0 +1,121 @@
+// `unilod build DEM RIVERS -o OUT.ulod`: the unified LOD model file (issue 4; pipeline in
+// preprocess/build.h). Progress on stderr, a summary on stdout; errors name the file and the
+// problem, exit 1, and leave no output file.
+#include <unistd.h>
+
+#include <cstdio>
+#include <string>
+
+#include "build.h"
+#include "commands.h"
+
+namespace unilod::cli {
+
+namespace {
+
+struct BuildCli {
+    BuildOptions o;
+    std::string metric = "max";
+    bool noBai = false;
+    bool quiet = false;
+};
+
+void printProgress(std::size_t done, std::size_t total) {
+    const int width = 40;
+    const int filled = total ? int(width * done / total) : width;
+    std::fprintf(stderr, "\r  blocks [%.*s%*s] %zu/%zu", filled,
+                 "########################################", width - filled, "", done, total);
+    if (done == total) std::fputc('\n', stderr);
+    std::fflush(stderr);
+}
+
+std::string megabytes(std::uint64_t bytes) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.2f MB", double(bytes) / 1e6);
+    return buf;
+}
+
+int run(BuildCli& c) {
+    c.o.useBai = !c.noBai;
+    c.o.defaultMetric = c.metric == "paper" ? format::kMetricPaper : format::kMetricMax;
+    const bool tty = isatty(STDERR_FILENO) != 0;
+    if (!c.quiet) {
+        std::fprintf(stderr, "unilod build: %s + %s -> %s\n", c.o.demPath.c_str(),
+                     c.o.riversPath.c_str(), c.o.outPath.c_str());
+        std::size_t lastPrinted = 0;
+        c.o.progress = [tty, lastPrinted](std::size_t done, std::size_t total) mutable {
+            // On a terminal: a bar; in logs: a line every 10%.
+            if (tty) {
+                printProgress(done, total);
+            } else if (done == total || done * 10 / total > lastPrinted * 10 / total) {
+                std::fprintf(stderr, "  blocks %zu/%zu\n", done, total);
+                lastPrinted = done;
+            }
+        };
+    }
+    c.o.warn = [](const std::string& w) { std::fprintf(stderr, "unilod build: warning: %s\n", w.c_str()); };
+    BuildSummary s;
+    std::string error;
+    if (!runBuild(c.o, s, error)) {
+        std::fprintf(stderr, "unilod build: error: %s\n", error.c_str());
+        return 1;
+    }
+    std::printf("unilod build summary\n");
+    std::printf("  DEM              %s (%d x %d cells, %s)\n", c.o.demPath.c_str(), s.demWidth,
+                s.demHeight, s.crsName.c_str());
+    std::printf("  rivers           %s (%zu lines)\n", c.o.riversPath.c_str(), s.riverLines);
+    std::printf("  points           %zu DEM + %zu river (%zu locked, %zu border crossings, "
+                "%zu DEM points dropped next to rivers)\n",
+                s.demPoints, s.riverPoints, s.lockedPoints, s.crossings, s.droppedDemPoints);
+    std::printf("  blocks           %zu (block size %d cells, stride %d)\n", s.blocks,
+                c.o.blockSize, c.o.stride);
+    std::printf("  deletion steps   %zu (%zu ranked points kept, %zu deferred deletions)\n",
+                s.steps, s.kept, s.deferrals);
+    std::printf("  triangles        %zu full resolution, %zu coarsest; index data %.2fx full\n",
+                s.fullTriangles, s.coarsestTriangles,
+                s.fullTriangles ? double(s.indexTriangles) / double(s.fullTriangles) : 0.0);
+    std::printf("  BAI              %s\n", c.o.useBai ? "on" : "off (plain 3D_DP)");
+    std::printf("  default metric   %s\n", c.metric.c_str());
+    std::printf("  output           %s (%s)\n", c.o.outPath.c_str(), megabytes(s.outputBytes).c_str());
+    std::printf("  seconds          %.2f\n", s.seconds);
+    return 0;
+}
+
+}  // namespace
+
+void addBuildCommand(CLI::App& app, int& exitCode) {
+    auto c = std::make_shared<BuildCli>();
+    CLI::App* sub = app.add_subcommand(
+        "build", "Build the unified LOD model (.ulod) of a DEM and a river network");
+    sub->add_option("DEM", c->o.demPath, "DEM raster (any single-band raster GDAL reads)")
+        ->required();
+    sub->add_option("RIVERS", c->o.riversPath, "river lines (any OGR line layer)")->required();
+    sub->add_option("-o,--output", c->o.outPath, "output .ulod file")->required();
+    sub->add_flag("--force", c->o.force, "overwrite an existing output file");
+    sub->add_option("--band", c->o.band, "raster band (1-based) for multi-band rasters")
+        ->check(CLI::PositiveNumber);
+    sub->add_option("--t-srs", c->o.targetSrs,
+                    "working CRS (default: a projected DEM's own, a geographic DEM's UTM zone)");
+    sub->add_option("--layer", c->o.layer, "river layer name (default: the first line layer)");
+    sub->add_option("--where", c->o.where, "OGR SQL attribute filter for the rivers");
+    sub->add_option("--assume-crs", c->o.assumeSrs, "CRS of a river layer that declares none");
+    sub->add_option("--stride", c->o.stride, "take every k-th DEM cell (default 1)")
+        ->check(CLI::Range(1, 1 << 20));
+    sub->add_option("--block-size", c->o.blockSize,
+                    "block side in DEM cells (default " + std::to_string(kDefaultBlockSize) + ")")
+        ->check(CLI::Range(1, 1 << 24));
+    sub->add_option("--threads", c->o.threads, "worker threads (default: all cores)")
+        ->check(CLI::Range(0, 1024));
+    sub->add_flag("--no-bai", c->noBai, "plain 3D_DP (no Bending Adjustment Index)");
+    sub->add_option("--bai-table", c->o.baiTablePath, "BAI constants table file (see README)");
+    sub->add_option("--bai-row", c->o.baiRow, "simplification-threshold row of the BAI table (m)");
+    sub->add_option("--metric", c->metric, "default error metric recorded in the file")
+        ->check(CLI::IsMember({"max", "paper"}));
+    sub->add_option("--min-river-length", c->o.minRiverLength,
+                    "drop rivers shorter than this (metres)")
+        ->check(CLI::NonNegativeNumber);
+    sub->add_flag("-q,--quiet", c->quiet, "no progress output");
+    sub->callback([c, &exitCode] { exitCode = run(*c); });
+}
+
+}  // namespace unilod::cli

@@ -1,0 +1,414 @@
+// `unilod order DEM RIVERS`: the importance order of the improved 3D_DP (paper §2, §3.1) on real
+// data: load the DEM and the rivers (GDAL/OGR, reprojected to one metric CRS), build the point
+// set, rank it, print a summary (text or JSON) and optionally the deletion order as CSV.
+//
+// Errors name the file and the problem on stderr and exit with 1; the CSV goes through a
+// temporary file renamed into place only after everything succeeded, so a failed run leaves no
+// partial output.
+#include <ogr_spatialref.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "bai.h"
+#include "commands.h"
+#include "dem.h"
+#include "importance.h"
+#include "pointset.h"
+#include "rivers.h"
+
+namespace unilod::cli {
+
+namespace {
+
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+struct OrderOptions {
+    std::string dem, rivers;
+    int band = 0;
+    std::string targetSrs;
+    std::string layer, where, riversSrs;
+    int stride = 1;
+    bool noBai = false;
+    double baiRow = kDefaultBaiRow;
+    std::string baiTable;
+    std::string out;
+    bool json = false;
+    bool quiet = false;
+};
+
+// DEM points closer than this fraction of a cell to a river segment are dropped (DESIGN.md: they
+// make slivers); 1% keeps every point that is not practically on the river.
+constexpr double kRiverClearanceCells = 0.01;
+
+double secondsSince(Clock::time_point t) {
+    return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+// A CSV written to `path.tmp-PID` and renamed onto `path` by commit(); removed when abandoned.
+class AtomicFile {
+public:
+    bool open(const std::string& path, std::string& error) {
+        path_ = path;
+        tmp_ = path + ".tmp-" + std::to_string(getpid());
+        file_ = std::fopen(tmp_.c_str(), "w");
+        if (file_ == nullptr) {
+            error = "output '" + path + "': cannot create '" + tmp_ + "'";
+            return false;
+        }
+        return true;
+    }
+    std::FILE* get() const { return file_; }
+    bool commit(std::string& error) {
+        const bool written = std::ferror(file_) == 0;
+        const bool closed = std::fclose(file_) == 0;
+        file_ = nullptr;
+        std::error_code ec;
+        if (!written || !closed) {
+            error = "output '" + path_ + "': write failed";
+        } else {
+            std::filesystem::rename(tmp_, path_, ec);
+            if (!ec) {
+                tmp_.clear();
+                return true;
+            }
+            error = "output '" + path_ + "': cannot rename the temporary file: " + ec.message();
+        }
+        std::filesystem::remove(tmp_, ec);
+        tmp_.clear();
+        return false;
+    }
+    ~AtomicFile() {
+        if (file_ != nullptr) std::fclose(file_);
+        if (!tmp_.empty()) {
+            std::error_code ec;
+            std::filesystem::remove(tmp_, ec);
+        }
+    }
+
+private:
+    std::string path_, tmp_;
+    std::FILE* file_ = nullptr;
+};
+
+json quantiles(std::vector<double> v) {
+    if (v.empty()) return json{{"count", 0}};
+    std::sort(v.begin(), v.end());
+    const auto at = [&](double q) {
+        return v[static_cast<std::size_t>(std::lround(q * static_cast<double>(v.size() - 1)))];
+    };
+    return json{{"count", v.size()},
+                {"min", v.front()},
+                {"median", at(0.5)},
+                {"p90", at(0.9)},
+                {"max", v.back()}};
+}
+
+std::string crsName(const std::string& wkt) {
+    if (wkt.empty()) return "none (coordinates used as they are)";
+    OGRSpatialReference srs;
+    if (srs.importFromWkt(wkt.c_str()) != OGRERR_NONE) return "unknown";
+    std::string name = srs.GetName() != nullptr ? srs.GetName() : "unnamed";
+    const char* auth = srs.GetAuthorityName(nullptr);
+    const char* code = srs.GetAuthorityCode(nullptr);
+    if (auth != nullptr && code != nullptr) name += std::string(" (") + auth + ":" + code + ")";
+    return name;
+}
+
+json pointJson(const PointSet& set, PointId id) {
+    if (id == kNoPoint) return nullptr;
+    const Point& p = set.points[id];
+    return json{{"id", id}, {"x", p.x}, {"y", p.y}, {"z", p.z}};
+}
+
+void printText(const json& s) {
+    const auto& in = s["input"];
+    const auto& pts = s["points"];
+    std::printf("unilod order summary\n");
+    std::printf("  DEM            %s (%d x %d cells, %s)\n", in["dem"].get<std::string>().c_str(),
+                in["width"].get<int>(), in["height"].get<int>(),
+                in["crs"].get<std::string>().c_str());
+    std::printf("  rivers         %s\n", in["rivers"].get<std::string>().c_str());
+    std::printf("  DEM points     %zu (stride %d, %zu dropped next to rivers)\n",
+                pts["dem"].get<std::size_t>(), in["stride"].get<int>(),
+                pts["demDroppedNearRivers"].get<std::size_t>());
+    std::printf("  river points   %zu in %zu polylines\n", pts["river"].get<std::size_t>(),
+                pts["polylines"].get<std::size_t>());
+    std::printf("  locked points  %zu\n", pts["locked"].get<std::size_t>());
+    for (const char* k : {"O", "A", "B"}) {
+        const auto& p = s["basePlane"][k];
+        if (p.is_null()) {
+            std::printf("  %s              none\n", k);
+        } else {
+            std::printf("  %s              id %u (%.3f, %.3f, %.3f)\n", k, p["id"].get<unsigned>(),
+                        p["x"].get<double>(), p["y"].get<double>(), p["z"].get<double>());
+        }
+    }
+    std::printf("  chain length   %zu\n", s["chainLength"].get<std::size_t>());
+    std::printf("  BAI            %s\n", s["bai"]["enabled"].get<bool>()
+                                             ? ("on, row " + s["bai"]["row"].dump() + " m").c_str()
+                                             : "off (plain 3D_DP)");
+    for (const char* k : {"dem", "river"}) {
+        const auto& q = s["importance"][k];
+        if (q["count"].get<std::size_t>() == 0) {
+            std::printf("  importance %-5s (no ranked points)\n", k);
+            continue;
+        }
+        std::printf("  importance %-5s min %.3f  median %.3f  p90 %.3f  max %.3f  (%zu points)\n",
+                    k, q["min"].get<double>(), q["median"].get<double>(), q["p90"].get<double>(),
+                    q["max"].get<double>(), q["count"].get<std::size_t>());
+    }
+    std::printf("  bends          %zu\n", s["bends"]["count"].get<std::size_t>());
+    if (!s["bends"]["top"].empty()) {
+        std::printf(
+            "  largest BAI    polyline        W (m)        L (m)       S (m2)   mean z"
+            "        BAI      C\n");
+        for (const auto& b : s["bends"]["top"]) {
+            std::printf("                 %8zu %12.1f %12.1f %12.0f %8.1f %10.3f %6.2f\n",
+                        b["polyline"].get<std::size_t>(), b["W"].get<double>(),
+                        b["L"].get<double>(), b["S"].get<double>(), b["meanZ"].get<double>(),
+                        b["bai"].get<double>(), b["c"].get<double>());
+        }
+    }
+    if (s.contains("output")) {
+        std::printf("  output         %s (%zu rows)\n", s["output"].get<std::string>().c_str(),
+                    s["outputRows"].get<std::size_t>());
+    }
+    std::printf("  total          %.2f s\n", s["seconds"]["total"].get<double>());
+}
+
+int runOrder(const OrderOptions& o) {
+    const Clock::time_point start = Clock::now();
+    std::string error;
+    auto fail = [&](const std::string& message) {
+        std::fprintf(stderr, "unilod order: %s\n", message.c_str());
+        return 1;
+    };
+    auto progress = [&](const char* stage, double seconds, const std::string& detail) {
+        if (!o.quiet) std::fprintf(stderr, "  %-16s %7.2f s  %s\n", stage, seconds, detail.c_str());
+    };
+
+    // Fail fast on an unwritable output before the long work.
+    AtomicFile csv;
+    if (!o.out.empty() && !csv.open(o.out, error)) return fail(error);
+
+    ImportanceOptions io;
+    io.useBai = !o.noBai;
+    io.baiRow = o.baiRow;
+    if (!o.baiTable.empty()) {
+        if (!BaiTable::load(o.baiTable, io.baiTable, error)) return fail(error);
+        if (io.baiTable.findRow(o.baiRow) < 0) {
+            return fail("BAI table '" + o.baiTable + "': no row for threshold " +
+                        json(o.baiRow).dump() + " m (--bai-row)");
+        }
+    }
+    const int baiRowIndex = io.baiTable.findRow(o.baiRow);
+
+    json seconds;
+    Clock::time_point t = Clock::now();
+    DemGrid dem;
+    DemLoadOptions dlo;
+    dlo.band = o.band;
+    dlo.targetSrs = o.targetSrs;
+    if (!loadDem(o.dem, dlo, dem, error)) return fail(error);
+    seconds["dem"] = secondsSince(t);
+    const std::string crs = crsName(dem.wkt);
+    char cells[160];
+    std::snprintf(cells, sizeof cells, "%d x %d cells of %.2f x %.2f, ", dem.width, dem.height,
+                  std::abs(dem.cellX), std::abs(dem.cellY));
+    progress("load DEM", seconds["dem"], cells + crs);
+
+    t = Clock::now();
+    RiverLines lines;
+    RiverLoadOptions rlo;
+    rlo.layer = o.layer;
+    rlo.where = o.where;
+    rlo.assumeSrs = o.riversSrs;
+    if (!loadRivers(o.rivers, rlo, dem.wkt, lines, error)) return fail(error);
+    seconds["rivers"] = secondsSince(t);
+    progress("load rivers", seconds["rivers"], std::to_string(lines.size()) + " lines");
+
+    t = Clock::now();
+    PointSetOptions pso;
+    pso.stride = o.stride;
+    pso.riverClearance = kRiverClearanceCells * std::min(std::abs(dem.cellX), std::abs(dem.cellY));
+    const PointSet set = buildPointSet(dem, lines, pso);
+    seconds["pointSet"] = secondsSince(t);
+    std::size_t demPoints = 0, riverPoints = 0, locked = 0, unlocked = 0;
+    for (const Point& p : set.points) {
+        (p.kind == PointKind::Dem ? demPoints : riverPoints) += 1;
+        (p.locked ? locked : unlocked) += 1;
+    }
+    std::size_t demValid = 0;
+    for (int r = 0; r < dem.height; r += o.stride) {
+        for (int c = 0; c < dem.width; c += o.stride)
+            demValid += !std::isnan(dem.at(c, r));
+    }
+    progress("point set", seconds["pointSet"],
+             std::to_string(demPoints) + " DEM + " + std::to_string(riverPoints) +
+                 " river points, " + std::to_string(set.rivers.size()) + " polylines, " +
+                 std::to_string(locked) + " locked");
+    if (unlocked == 0) return fail("DEM '" + o.dem + "': no point to rank (all points locked)");
+
+    t = Clock::now();
+    ImportanceResult result;
+    if (!computeImportance(set, io, result, error)) return fail(error);
+    seconds["importance"] = secondsSince(t);
+    progress("importance", seconds["importance"],
+             std::string(io.useBai ? "improved 3D_DP with BAI" : "plain 3D_DP") + ", " +
+                 std::to_string(result.order.size()) + " points ranked");
+
+    // Bends, for the summary (the importance already used them through the BAI factors).
+    t = Clock::now();
+    const Quantizer quantizer = Quantizer::forPoints(set.points);
+    struct RankedBend {
+        std::size_t polyline;
+        Bend bend;
+    };
+    std::vector<RankedBend> bends;
+    for (std::size_t i = 0; i < set.rivers.size(); ++i) {
+        for (const Bend& b :
+             computeBends(set.points, set.rivers[i], quantizer, io.baiTable, baiRowIndex)) {
+            bends.push_back({i, b});
+        }
+    }
+    const std::size_t top = std::min<std::size_t>(5, bends.size());
+    std::partial_sort(bends.begin(), bends.begin() + static_cast<std::ptrdiff_t>(top), bends.end(),
+                      [](const RankedBend& a, const RankedBend& b) {
+                          if (a.bend.bai != b.bend.bai) return a.bend.bai > b.bend.bai;
+                          return a.polyline != b.polyline ? a.polyline < b.polyline
+                                                          : a.bend.first < b.bend.first;
+                      });
+    seconds["bends"] = secondsSince(t);
+    progress("bends", seconds["bends"], std::to_string(bends.size()) + " bends");
+
+    json summary;
+    summary["input"] = {{"dem", o.dem},       {"rivers", o.rivers},   {"crs", crs},
+                        {"width", dem.width}, {"height", dem.height}, {"stride", o.stride},
+                        {"cellX", dem.cellX}, {"cellY", dem.cellY}};
+    summary["points"] = {{"dem", demPoints},     {"demDroppedNearRivers", demValid - demPoints},
+                         {"river", riverPoints}, {"polylines", set.rivers.size()},
+                         {"locked", locked},     {"ranked", result.order.size()}};
+    summary["basePlane"] = {{"O", pointJson(set, result.origin)},
+                            {"A", pointJson(set, result.anchor)},
+                            {"B", pointJson(set, result.floating)}};
+    summary["chainLength"] = result.chain.size();
+    summary["bai"] = {{"enabled", io.useBai},
+                      {"row", o.baiRow},
+                      {"table", o.baiTable.empty() ? "paper Table 1" : o.baiTable}};
+    std::vector<double> demImportance, riverImportance;
+    for (PointId id : result.order) {
+        const double v = result.importance[id];
+        if (!std::isfinite(v)) continue;  // O, A, B: always kept
+        (set.points[id].kind == PointKind::Dem ? demImportance : riverImportance).push_back(v);
+    }
+    summary["importance"] = {{"dem", quantiles(std::move(demImportance))},
+                             {"river", quantiles(std::move(riverImportance))}};
+    json topBends = json::array();
+    for (std::size_t i = 0; i < top; ++i) {
+        const Bend& b = bends[i].bend;
+        topBends.push_back({{"polyline", bends[i].polyline},
+                            {"first", b.first},
+                            {"last", b.last},
+                            {"W", b.width},
+                            {"L", b.length},
+                            {"S", b.area},
+                            {"meanZ", b.meanZ},
+                            {"bai", b.bai},
+                            {"c", b.c}});
+    }
+    summary["bends"] = {{"count", bends.size()}, {"top", topBends}};
+
+    if (!o.out.empty()) {
+        t = Clock::now();
+        std::FILE* f = csv.get();
+        std::fprintf(f, "rank,id,x,y,z,kind,locked,importance,own_importance,bai_factor\n");
+        for (std::size_t rank = 0; rank < result.order.size(); ++rank) {
+            const PointId id = result.order[rank];
+            const Point& p = set.points[id];
+            std::fprintf(f, "%zu,%u,%.3f,%.3f,%.3f,%s,%d,%.17g,%.17g,%.9g\n", rank, id, p.x, p.y,
+                         p.z, p.kind == PointKind::Dem ? "dem" : "river", p.locked ? 1 : 0,
+                         result.importance[id], result.ownImportance[id],
+                         static_cast<double>(result.baiFactor[id]));
+        }
+        if (!csv.commit(error)) return fail(error);
+        seconds["csv"] = secondsSince(t);
+        progress("write CSV", seconds["csv"], o.out);
+        summary["output"] = o.out;
+        summary["outputRows"] = result.order.size();
+    }
+    summary["importanceStats"] = {{"maxDepth", result.stats.maxDepth},
+                                  {"meanDepth", result.stats.meanDepth}};
+    seconds["total"] = secondsSince(start);
+    summary["seconds"] = seconds;
+
+    if (o.json) {
+        std::printf("%s\n", summary.dump(2).c_str());
+    } else {
+        printText(summary);
+    }
+    return 0;
+}
+
+}  // namespace
+
+void addOrderCommand(CLI::App& app, int& exitCode) {
+    auto opts = std::make_shared<OrderOptions>();
+    CLI::App* sub = app.add_subcommand(
+        "order", "Importance order of a DEM + river network (improved 3D_DP with BAI)");
+    sub->add_option("DEM", opts->dem, "DEM raster (any single-band raster GDAL reads)")->required();
+    sub->add_option("RIVERS", opts->rivers, "River lines (any OGR line layer)")->required();
+    sub->add_option("--band", opts->band, "DEM band (1-based; needed for multi-band rasters)")
+        ->check(CLI::PositiveNumber);
+    sub->add_option("--target-srs", opts->targetSrs,
+                    "Working CRS (default: the DEM's projected CRS, or the UTM zone of its centre "
+                    "for a geographic DEM)");
+    sub->add_option("--layer", opts->layer, "River layer (default: the first line layer)");
+    sub->add_option("--where", opts->where, "OGR SQL attribute filter on the river layer");
+    sub->add_option("--rivers-srs", opts->riversSrs,
+                    "CRS of the rivers when their layer declares none");
+    sub->add_option("--stride", opts->stride, "Use every K-th DEM row and column")
+        ->check(CLI::Range(1, 1000000))
+        ->capture_default_str();
+    sub->add_flag("--no-bai", opts->noBai, "Plain 3D_DP without the bending adjustment index");
+    CLI::Option* table =
+        sub->add_option("--bai-table", opts->baiTable, "BAI constants table file (Table 1 format)");
+    // Without a table file the row must be one of the paper's: checked while parsing.
+    const BaiTable paper = BaiTable::paperDefault();
+    sub->add_option("--bai-row", opts->baiRow,
+                    "Simplification-threshold row of the BAI table, metres")
+        ->capture_default_str()
+        ->check(CLI::Validator(
+            [paper, table](std::string& value) -> std::string {
+                double v = 0;
+                try {
+                    std::size_t used = 0;
+                    v = std::stod(value, &used);
+                    if (used != value.size()) return "not a number: " + value;
+                } catch (const std::exception&) {
+                    return "not a number: " + value;
+                }
+                if (table->count() > 0 || paper.findRow(v) >= 0) return "";
+                std::string rows;
+                for (const auto& r : paper.rows) {
+                    rows += (rows.empty() ? "" : ", ") + json(r.threshold).dump();
+                }
+                return "no such row in the paper's table (rows: " + rows + ")";
+            },
+            "ROW", "bai-row"));
+    sub->add_option("--out", opts->out, "Write the deletion order as CSV (rank ascending)");
+    sub->add_flag("--json", opts->json, "Print the summary as JSON");
+    sub->add_flag("-q,--quiet", opts->quiet, "No progress lines on stderr");
+    sub->callback([opts, &exitCode] { exitCode = runOrder(*opts); });
+}
+
+}  // namespace unilod::cli

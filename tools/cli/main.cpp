@@ -1,0 +1,30 @@
+// The `unilod` command: a thin main over the libraries, one subcommand per file (STYLE.md "CLI":
+// subcommands like git / PDAL, options range-checked while parsing). Exit status: 0 success,
+// 1 data error (a file, GDAL, the computation), 2 usage error.
+#include <CLI/CLI.hpp>
+
+#include "commands.h"
+
+#ifndef UNILOD_VERSION
+#define UNILOD_VERSION "unknown"
+#endif
+
+int main(int argc, char** argv) {
+    CLI::App app{
+        "unilod: unified level-of-detail model of a river network and a DEM "
+        "(Dou et al. 2024, improved 3D_DP)"};
+    app.set_version_flag("--version", std::string("unilod ") + UNILOD_VERSION);
+    app.require_subcommand(1);
+    int exitCode = 0;
+    unilod::cli::addSynthCommand(app, exitCode);
+    unilod::cli::addOrderCommand(app, exitCode);
+    unilod::cli::addBuildCommand(app, exitCode);
+    unilod::cli::addInfoCommand(app, exitCode);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        // --help and --version arrive here too, with exit code 0.
+        return app.exit(e) == 0 ? 0 : 2;
+    }
+    return exitCode;
+}
