@@ -267,13 +267,17 @@ void Cdt::traceSegment(PointId a, PointId b, Trace& trace) const {
             ++i;
         const PointId p = tv[3 * t + nextIndex(i)], q = tv[3 * t + prevIndex(i)];
         if (p != kGhost && q != kGhost) {
-            const std::int64_t o1 = orient(a, b, p);
-            if (o1 == 0 && (gx[p] - gx[a]) * dx + (gy[p] - gy[a]) * dy > 0) {
-                trace.end = p == b ? TraceEnd::Reached : TraceEnd::Vertex;
-                trace.vertex = p == b ? kNone : p;
-                return;
+            // A vertex straight ahead along an edge of a (q too: at a hull vertex the last real
+            // triangle's q is never the p of a real triangle).
+            const std::int64_t o1 = orient(a, b, p), o2 = orient(a, b, q);
+            for (const auto& [v, o] : {std::pair{p, o1}, std::pair{q, o2}}) {
+                if (o == 0 && (gx[v] - gx[a]) * dx + (gy[v] - gy[a]) * dy > 0) {
+                    trace.end = v == b ? TraceEnd::Reached : TraceEnd::Vertex;
+                    trace.vertex = v == b ? kNone : v;
+                    return;
+                }
             }
-            if (o1 < 0 && orient(a, b, q) > 0) {
+            if (o1 < 0 && o2 > 0) {
                 h = 3 * t + i;
                 break;
             }

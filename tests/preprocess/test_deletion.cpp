@@ -13,6 +13,7 @@
 #include "cdt_fixtures.h"
 #include "checker.h"
 #include "deletion.h"
+#include "importance.h"
 
 namespace unilod {
 namespace {
@@ -176,6 +177,25 @@ TEST(Deletion, VertexOnTheNewRiverEdgeDefers) {
     EXPECT_EQ(rec.steps[0].vertex, d);
     EXPECT_EQ(rec.steps[1].vertex, x);
     EXPECT_EQ(rec.deferrals, 1u);
+}
+
+TEST(Deletion, NewRiverEdgeAlongTheHullThroughAVertexIsDeferred) {
+    // A and C on the block border with a border point W between them: A-C would run along the
+    // hull through W. Bottom and top edge (the walk meets W on either side of A's fan).
+    PointSet set = frame();
+    const PointId a = add(set, 0, -20, true), x = add(set, 5, -15, false),
+                  c = add(set, 10, -20, true);
+    set.points.push_back({5, -20, 0.0, PointKind::Dem, true});
+    const PointId a2 = add(set, 10, 20, true), x2 = add(set, 5, 15, false),
+                  c2 = add(set, 0, 20, true);
+    set.points.push_back({5, 20, 0.0, PointKind::Dem, true});
+    set.rivers = {{a, x, c}, {a2, x2, c2}};
+    DeletionRecords rec;
+    runChecked(set, {x, x2}, rec);
+    EXPECT_TRUE(rec.steps.empty());
+    ASSERT_EQ(rec.kept.size(), 2u);
+    EXPECT_EQ(rec.kept[0].reason, KeptReason::Deferred);
+    EXPECT_EQ(rec.kept[1].reason, KeptReason::Deferred);
 }
 
 TEST(Deletion, CollinearRiverVertexIsDeleted) {
@@ -386,6 +406,36 @@ TEST(Deletion, JacksboroBlockSampledStepsAndLast1000) {
         "%u checked steps, final error max %.1f m paper %.1f m\n",
         set.points.size(), set.rivers.size(), total, rec.deferrals, rec.kept.size(), checked,
         rec.errorMax.back(), rec.errorPaper.back());
+}
+
+TEST(Deletion, JacksboroBlockInImportanceOrder) {
+    // The real deletion order (improved 3D_DP + BAI, importance.h) on the same block.
+    PointSet set;
+    std::string error;
+    ASSERT_TRUE(jacksboro::loadBlock(120, 150, 90, set, error)) << error;
+    ImportanceResult importance;
+    ASSERT_TRUE(computeImportance(set, {}, importance, error)) << error;
+    std::uint32_t total = 0;
+    {
+        Cdt cdt;
+        ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+        DeletionRecords rec;
+        DeletionOptions options;
+        options.maxError = options.paperError = false;
+        ASSERT_TRUE(runDeletion(set, cdt, importance.order, options, rec, error)) << error;
+        total = std::uint32_t(rec.steps.size());
+    }
+    ASSERT_GT(total, 5000u);
+    DeletionRecords rec;
+    runChecked(set, importance.order, rec, 50, total);
+    for (std::size_t s = 1; s < rec.errorMax.size(); ++s) {
+        ASSERT_GE(rec.errorMax[s], rec.errorMax[s - 1]);
+        ASSERT_GE(rec.errorPaper[s], rec.errorPaper[s - 1]);
+    }
+    std::printf(
+        "jacksboro block, importance order: %u steps, %u deferrals, %zu kept, error at "
+        "half the steps: max %.1f m, paper %.2f m\n",
+        total, rec.deferrals, rec.kept.size(), rec.errorMax[total / 2], rec.errorPaper[total / 2]);
 }
 
 }  // namespace
