@@ -412,20 +412,25 @@ void Cdt::removeVertex(PointId v) {
     const bool interior = star(v, poly_, starTris_);
     assert(interior);
     (void)interior;
-    const std::size_t k = poly_.size();
+    removeVertex(v, poly_, starTris_);
+}
+
+void Cdt::removeVertex(PointId v, const std::vector<PointId>& link,
+                       const std::vector<std::uint32_t>& triangles) {
+    const std::size_t k = link.size();
     outer_.resize(k);
     cons_.resize(k);
     for (std::size_t i = 0; i < k; ++i) {
-        outer_[i] = tn[starTris_[i]];
-        cons_[i] = isConstrained(starTris_[i]) ? 1 : 0;
+        outer_[i] = tn[triangles[i]];
+        cons_[i] = isConstrained(triangles[i]) ? 1 : 0;
     }
-    for (std::uint32_t h : starTris_)
+    for (std::uint32_t h : triangles)
         destroyTriangle(h / 3);
     vertexTriangle[v] = kNone;
     --vertexCount;
     created_.clear();
     std::uint32_t open = kNone;
-    const bool ok = triangulatePolygon(poly_, outer_, cons_, created_, open);
+    const bool ok = triangulatePolygon(link, outer_, cons_, created_, open);
     assert(ok);
     (void)ok;
     legal_.clear();

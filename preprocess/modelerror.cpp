@@ -271,6 +271,7 @@ void ModelError::removeVertex(PointId v) {
     while (s != kNil) {
         Sample& p = samples_[s];
         const std::uint32_t next = p.nearNext;
+        if (next != kNil) __builtin_prefetch(&samples_[next]);  // overlap the list walk's miss
         PointId q = kNil;
         double zq = 0;
         for (int level = 0; level < 2 && q == kNil; ++level) {

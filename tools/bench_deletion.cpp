@@ -200,6 +200,11 @@ int main(int argc, char** argv) {
         {"records_bytes_per_step",
          records.steps.empty() ? 0.0
                                : double(records.memoryBytes()) / double(records.steps.size())}};
+    const double steps = std::max<double>(1.0, double(records.steps.size()));
+    out["per_step"] = {{"removed_triangles", double(records.removedTriangles.size()) / steps},
+                       {"added_triangles", double(records.addedTriangles.size()) / steps},
+                       {"removed_river_edges", double(records.removedEdges.size()) / steps},
+                       {"added_river_edges", double(records.addedEdges.size()) / steps}};
     if (!records.errorMax.empty()) out["final_error_max_m"] = records.errorMax.back();
     if (!records.errorPaper.empty()) out["final_error_paper_m"] = records.errorPaper.back();
     std::printf("%s\n", out.dump(2).c_str());
