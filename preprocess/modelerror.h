@@ -15,9 +15,15 @@
 //   4; ties: lowest id), Eq. 5-6. Horizontal distances are taken on the block's exact grid
 //   (cdt.h, 1 mm), heights in metres. Each point keeps its nearest retained vertex; deleting v
 //   only re-assigns the points whose nearest was v (a deletion never brings another point
-//   closer). Nearest queries use a uniform grid over the alive vertices (about two per cell,
-//   rebuilt with a coarser cell whenever the alive count drops to a quarter, so a query scans
-//   O(1) cells at every level), with the coordinates stored in the cells themselves.
+//   closer). That is about N ln N re-assignments over the whole order (14 million at 10^6
+//   points), so each must be cheap: the orphans of v are matched against the alive vertices of
+//   the 3x3 (then 5x5) grid cells around v, gathered once per deletion, and a match is accepted
+//   only when it is closer than the gathered square's border; otherwise a ring search over a
+//   uniform grid of the alive vertices decides (about two per cell, rebuilt with a coarser cell
+//   whenever the alive count halves; coordinates stored in the cells). Both give exactly the
+//   brute-force answer, ties included. (The kd-tree of kdtree.h answers the same query; measured
+//   here at 2-3 us per query on a 10^6-point tree with 90 % removed, 14 million queries would
+//   exceed the 10 s budget alone.)
 // Both are reported as running maxima (non-decreasing along the order, so "h_s <= h_lim" selects
 // a prefix of the deletion order). Per-point data is packed and stored in Morton order of the
 // grid position, so that the points of one triangle or one Voronoi cell sit close in memory.
