@@ -505,28 +505,23 @@ void Cdt::insertPoint(PointId p) {
         }
     }
     // Boundary edges (u, w) with their outer half-edges, saved before the cavity dies.
-    struct Edge {
-        PointId u, w;
-        std::uint32_t outer;
-        bool cons;
-        std::uint32_t t;
-    };
-    std::vector<Edge> edges;
-    edges.reserve(boundary_.size());
+    std::vector<FanEdge>& edges = fan_;
+    edges.clear();
     for (std::uint32_t h : boundary_) {
         edges.push_back({origin(h), destination(h), tn[h], isConstrained(h), kNone});
     }
     for (std::uint32_t t : cavity_)
         destroyTriangle(t);
-    for (Edge& e : edges) {
+    for (FanEdge& e : edges) {
         e.t = createTriangle(e.u, e.w, p);
         link(3 * e.t + 2, e.outer);
         if (e.cons) tc[e.t] |= 4;
     }
-    std::sort(edges.begin(), edges.end(), [](const Edge& x, const Edge& y) { return x.u < y.u; });
-    for (const Edge& e : edges) {
+    std::sort(edges.begin(), edges.end(),
+              [](const FanEdge& x, const FanEdge& y) { return x.u < y.u; });
+    for (const FanEdge& e : edges) {
         auto it = std::lower_bound(edges.begin(), edges.end(), e.w,
-                                   [](const Edge& x, PointId key) { return x.u < key; });
+                                   [](const FanEdge& x, PointId key) { return x.u < key; });
         assert(it != edges.end() && it->u == e.w);
         link(3 * e.t, 3 * it->t + 1);
     }

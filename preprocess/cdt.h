@@ -177,6 +177,13 @@ private:
     std::vector<std::uint32_t> earPrev_, earNext_, earEdge_;
     std::vector<std::uint8_t> earCons_;
     Trace trace_;
+    struct FanEdge {  // Bowyer-Watson cavity boundary edge (u, w)
+        PointId u, w;
+        std::uint32_t outer;
+        bool cons;
+        std::uint32_t t;
+    };
+    std::vector<FanEdge> fan_;
 };
 
 // Builds the constrained Delaunay triangulation of the block's points with every river segment
