@@ -5,7 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <atomic>
+#include <condition_variable>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -159,64 +159,12 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     summary.crossings = source.stats().crossings;
     summary.droppedDemPoints = source.stats().droppedDemPoints;
 
-    // Blocks in parallel; each result lands in its slot, so the file does not depend on timing.
-    const std::size_t n = source.blockCount();
-    std::vector<format::Block> results(n);
-    std::vector<BlockBuildStats> stats(n);
-    std::vector<std::string> errors(n);
-    std::atomic<std::size_t> next{0}, done{0};
-    std::atomic<bool> failed{false};
-    const unsigned threads =
-        o.threads > 0 ? unsigned(o.threads) : std::max(1u, std::thread::hardware_concurrency());
-    auto work = [&](bool reporter) {
-        for (std::size_t i; !failed && (i = next++) < n;) {
-            const PointSet set = source.points(i);
-            const BlockRect& r = source.rect(i);
-            if (!buildBlock(set, r.col, r.row, blockOptions, results[i], stats[i], errors[i])) {
-                failed = true;
-            }
-            const std::size_t d = ++done;
-            if (reporter && o.progress) o.progress(d, n);
-        }
-    };
-    std::vector<std::thread> pool;
-    for (unsigned t = 1; t < threads && t < n; ++t) pool.emplace_back(work, false);
-    work(true);
-    for (auto& t : pool) t.join();
-    if (o.progress) o.progress(done.load(), n);
-    for (std::size_t i = 0; i < n; ++i) {
-        if (!errors[i].empty()) {
-            error = "block (" + std::to_string(source.rect(i).col) + "," +
-                    std::to_string(source.rect(i).row) + "): " + errors[i];
-            return false;
-        }
-    }
-
     format::Header header;
     header.crsWkt = dem.wkt;
     header.originX = dem.centreX(0);
     header.originY = dem.centreY(0);
     header.minX = header.minY = header.minZ = HUGE_VAL;
     header.maxX = header.maxY = header.maxZ = -HUGE_VAL;
-    for (std::size_t i = 0; i < n; ++i) {
-        const format::Block& b = results[i];
-        header.minX = std::min(header.minX, b.minX);
-        header.minY = std::min(header.minY, b.minY);
-        header.minZ = std::min(header.minZ, b.minZ);
-        header.maxX = std::max(header.maxX, b.maxX);
-        header.maxY = std::max(header.maxY, b.maxY);
-        header.maxZ = std::max(header.maxZ, b.maxZ);
-        const BlockBuildStats& s = stats[i];
-        summary.demPoints += s.points - s.riverPoints;
-        summary.riverPoints += s.riverPoints;
-        summary.lockedPoints += s.lockedPoints;
-        summary.steps += s.steps;
-        summary.kept += s.kept;
-        summary.deferrals += s.deferrals;
-        summary.fullTriangles += s.fullTriangles;
-        summary.coarsestTriangles += s.coarsestTriangles;
-        summary.indexTriangles += s.indexTriangles;
-    }
     header.blocksX = source.blocksX();
     header.blocksY = source.blocksY();
     header.blockWidth = o.blockSize * std::fabs(dem.cellX);
@@ -244,7 +192,106 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     };
     header.buildInfo = info.dump();
 
-    if (!format::writeUlod(o.outPath, header, results, error)) return false;
+    // Blocks in parallel, written in grid order by this thread as soon as each is next in line,
+    // so the file does not depend on timing. Workers run at most `window` blocks ahead of the
+    // writer: memory holds a few blocks' results, never the whole model.
+    const std::size_t n = source.blockCount();
+    format::Writer writer;
+    if (!writer.open(o.outPath, header, n, error)) return false;
+    const unsigned threads =
+        o.threads > 0 ? unsigned(o.threads) : std::max(1u, std::thread::hardware_concurrency());
+    const std::size_t window = 2 * std::size_t(threads);
+    std::vector<format::Block> results(n);
+    std::vector<BlockBuildStats> stats(n);
+    std::vector<std::string> errors(n);
+    std::vector<char> ready(n, 0);
+    std::mutex mutex;
+    std::condition_variable changed;
+    std::size_t next = 0, written = 0;
+    bool failed = false;
+    auto work = [&] {
+        for (;;) {
+            std::size_t i;
+            {
+                std::unique_lock lock(mutex);
+                changed.wait(lock, [&] { return failed || next >= n || next < written + window; });
+                if (failed || next >= n) return;
+                i = next++;
+            }
+            const PointSet set = source.points(i);
+            const BlockRect& r = source.rect(i);
+            const bool ok = buildBlock(set, r.col, r.row, blockOptions, results[i], stats[i], errors[i]);
+            {
+                std::lock_guard lock(mutex);
+                ready[i] = 1;
+                if (!ok) failed = true;
+            }
+            changed.notify_all();
+        }
+    };
+    std::vector<std::thread> pool;
+    for (unsigned t = 0; t < threads && t < n; ++t) pool.emplace_back(work);
+    std::string writeError;
+    for (std::size_t i = 0; i < n; ++i) {
+        {
+            std::unique_lock lock(mutex);
+            changed.wait(lock, [&] { return ready[i] || failed; });
+            if (!ready[i] || !errors[i].empty()) break;
+        }
+        const format::Block& b = results[i];
+        if (!writer.writeBlock(b, writeError)) {
+            std::lock_guard lock(mutex);
+            failed = true;
+            break;
+        }
+        header.minX = std::min(header.minX, b.minX);
+        header.minY = std::min(header.minY, b.minY);
+        header.minZ = std::min(header.minZ, b.minZ);
+        header.maxX = std::max(header.maxX, b.maxX);
+        header.maxY = std::max(header.maxY, b.maxY);
+        header.maxZ = std::max(header.maxZ, b.maxZ);
+        const BlockBuildStats& st = stats[i];
+        summary.demPoints += st.points - st.riverPoints;
+        summary.riverPoints += st.riverPoints;
+        summary.lockedPoints += st.lockedPoints;
+        summary.steps += st.steps;
+        summary.kept += st.kept;
+        summary.deferrals += st.deferrals;
+        summary.fullTriangles += st.fullTriangles;
+        summary.coarsestTriangles += st.coarsestTriangles;
+        summary.indexTriangles += st.indexTriangles;
+        results[i] = format::Block{};  // release the block's memory
+        {
+            std::lock_guard lock(mutex);
+            written = i + 1;
+        }
+        changed.notify_all();
+        if (o.progress) o.progress(i + 1, n);
+    }
+    {
+        std::lock_guard lock(mutex);
+        if (written < n) failed = true;
+    }
+    changed.notify_all();
+    for (auto& t : pool) t.join();
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!errors[i].empty()) {
+            error = "block (" + std::to_string(source.rect(i).col) + "," +
+                    std::to_string(source.rect(i).row) + "): " + errors[i];
+            return false;
+        }
+    }
+    if (!writeError.empty()) {
+        error = writeError;
+        return false;
+    }
+    writer.header().minX = header.minX;
+    writer.header().minY = header.minY;
+    writer.header().minZ = header.minZ;
+    writer.header().maxX = header.maxX;
+    writer.header().maxY = header.maxY;
+    writer.header().maxZ = header.maxZ;
+    if (!writer.finish(error)) return false;
     std::error_code ec;
     summary.outputBytes = std::filesystem::file_size(o.outPath, ec);
     summary.blocks = n;

@@ -267,9 +267,10 @@ void Cdt::traceSegment(PointId a, PointId b, Trace& trace) const {
             ++i;
         const PointId p = tv[3 * t + nextIndex(i)], q = tv[3 * t + prevIndex(i)];
         if (p != kGhost && q != kGhost) {
-            // A vertex straight ahead along an edge of a (q too: at a hull vertex the last real
-            // triangle's q is never the p of a real triangle).
             const std::int64_t o1 = orient(a, b, p), o2 = orient(a, b, q);
+            // A vertex on the ray a -> b ends the walk. Both ends of the edge are tested: next to
+            // the hull the collinear vertex may be the last real triangle's q (segment along the
+            // boundary), with a ghost triangle after it.
             for (const auto& [v, o] : {std::pair{p, o1}, std::pair{q, o2}}) {
                 if (o == 0 && (gx[v] - gx[a]) * dx + (gy[v] - gy[a]) * dy > 0) {
                     trace.end = v == b ? TraceEnd::Reached : TraceEnd::Vertex;

@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <unordered_map>
 
 namespace unilod {
 
@@ -11,19 +10,56 @@ namespace {
 
 constexpr std::uint32_t kAlive = 0xFFFFFFFFu;  // death step of an element alive at the end
 
-struct TripleHash {
-    std::size_t operator()(const TriangleTriple& t) const {
-        std::uint64_t h = t.v[0];
-        h = h * 0x9E3779B97F4A7C15ULL ^ t.v[1];
-        h = h * 0x9E3779B97F4A7C15ULL ^ t.v[2];
-        return std::size_t(h ^ (h >> 29));
+// Flat open-addressing table from an element to its index in the lifetime list. Every element
+// is inserted once and erased at most once, so erased slots simply stay as tombstones and the
+// table is sized once for every insertion: no rehashing, no per-node allocation.
+template <class T>
+class LifeTable {
+public:
+    explicit LifeTable(std::size_t insertions) {
+        std::size_t cap = 16;
+        while (cap < 2 * insertions + 16) cap *= 2;
+        keys_.resize(cap);
+        values_.assign(cap, kEmpty);
+        mask_ = cap - 1;
     }
-};
-struct EdgeHash {
-    std::size_t operator()(const RiverEdge& e) const {
+    bool insert(const T& key, std::uint32_t value) {
+        for (std::size_t i = hash(key) & mask_;; i = (i + 1) & mask_) {
+            if (values_[i] == kEmpty) {
+                keys_[i] = key;
+                values_[i] = value;
+                return true;
+            }
+            if (values_[i] != kErased && keys_[i] == key) return false;
+        }
+    }
+    // Removes the key; returns its value or kEmpty when absent.
+    std::uint32_t erase(const T& key) {
+        for (std::size_t i = hash(key) & mask_;; i = (i + 1) & mask_) {
+            if (values_[i] == kEmpty) return kEmpty;
+            if (values_[i] != kErased && keys_[i] == key) {
+                const std::uint32_t v = values_[i];
+                values_[i] = kErased;
+                return v;
+            }
+        }
+    }
+    static constexpr std::uint32_t kEmpty = 0xFFFFFFFFu, kErased = 0xFFFFFFFEu;
+
+private:
+    static std::size_t hash(const TriangleTriple& t) {
+        std::uint64_t h = t.v[0] * 0x9E3779B97F4A7C15ULL;
+        h = (h ^ t.v[1]) * 0xBF58476D1CE4E5B9ULL;
+        h = (h ^ t.v[2]) * 0x94D049BB133111EBULL;
+        return std::size_t(h ^ (h >> 32));
+    }
+    static std::size_t hash(const RiverEdge& e) {
         const std::uint64_t h = (std::uint64_t(e.a) << 32 | e.b) * 0x9E3779B97F4A7C15ULL;
-        return std::size_t(h ^ (h >> 31));
+        return std::size_t(h ^ (h >> 32));
     }
+    std::vector<T> keys_;
+    std::vector<std::uint32_t> values_;
+    std::size_t mask_ = 0;
 };
 
 bool lessIndex(const format::Triangle& l, const format::Triangle& r) {
@@ -48,31 +84,30 @@ struct Life {
 };
 
 // Lifetimes of every triangle (or edge) from the initial set and the per-step removals/additions.
-template <class T, class Hash>
+template <class T>
 bool lifetimes(const std::vector<T>& initial, const std::vector<std::uint32_t>& removedOffset,
                const std::vector<T>& removed, const std::vector<std::uint32_t>& addedOffset,
                const std::vector<T>& added, std::vector<Life<T>>& out, std::string& error) {
-    std::unordered_map<T, std::uint32_t, Hash> alive;  // item -> index in out
-    alive.reserve(initial.size() * 2);
+    LifeTable<T> alive(initial.size() + added.size());
     out.clear();
+    out.reserve(initial.size() + added.size());
     for (const T& t : initial) {
-        alive.emplace(t, static_cast<std::uint32_t>(out.size()));
+        alive.insert(t, static_cast<std::uint32_t>(out.size()));
         out.push_back({t, 0, kAlive});
     }
     const std::size_t steps = removedOffset.empty() ? 0 : removedOffset.size() - 1;
     for (std::size_t s = 0; s < steps; ++s) {
         const auto step = static_cast<std::uint32_t>(s + 1);
         for (std::uint32_t i = removedOffset[s]; i < removedOffset[s + 1]; ++i) {
-            const auto it = alive.find(removed[i]);
-            if (it == alive.end()) {
+            const std::uint32_t at = alive.erase(removed[i]);
+            if (at == LifeTable<T>::kEmpty) {
                 error = "step " + std::to_string(step) + " removes an element that is not alive";
                 return false;
             }
-            out[it->second].death = step;
-            alive.erase(it);
+            out[at].death = step;
         }
         for (std::uint32_t i = addedOffset[s]; i < addedOffset[s + 1]; ++i) {
-            if (!alive.emplace(added[i], static_cast<std::uint32_t>(out.size())).second) {
+            if (!alive.insert(added[i], static_cast<std::uint32_t>(out.size()))) {
                 error = "step " + std::to_string(step) + " adds an element that is alive";
                 return false;
             }
@@ -203,11 +238,10 @@ bool buildLodIndex(const LodIndexInput& in, format::Block& block, std::string& e
 
     std::vector<Life<TriangleTriple>> triLives;
     std::vector<Life<RiverEdge>> edgeLives;
-    if (!lifetimes<TriangleTriple, TripleHash>(in.initialTriangles, rec.removedTriangleOffset,
-                                               rec.removedTriangles, rec.addedTriangleOffset,
-                                               rec.addedTriangles, triLives, error) ||
-        !lifetimes<RiverEdge, EdgeHash>(in.initialEdges, rec.removedEdgeOffset, rec.removedEdges,
-                                         rec.addedEdgeOffset, rec.addedEdges, edgeLives, error)) {
+    if (!lifetimes(in.initialTriangles, rec.removedTriangleOffset, rec.removedTriangles,
+                   rec.addedTriangleOffset, rec.addedTriangles, triLives, error) ||
+        !lifetimes(in.initialEdges, rec.removedEdgeOffset, rec.removedEdges, rec.addedEdgeOffset,
+                   rec.addedEdges, edgeLives, error)) {
         return false;
     }
     block.terrainIndices.clear();

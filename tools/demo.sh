@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # unilod main job on the bundled demo data (README Quick start).
 # Installs missing Debian packages, builds (optimised), then runs the pipeline as far as it exists
-# today: the improved 3D_DP importance order of the Jacksboro DEM + GRASS river network, printed as
-# a summary. Later stages (build .ulod, check, capture, bench, report) join here as they land.
+# today on the Jacksboro DEM + GRASS river network: the unified LOD model (.ulod), its full check,
+# its summary, and the improved 3D_DP importance order of the whole point set as CSV. Later stages
+# (capture, bench, report) join here as they land.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
@@ -11,9 +12,19 @@ unilod_ensure_packages
 
 cmake --preset default >/dev/null
 cmake --build --preset default -j "$(nproc)"
+unilod=build/tools/unilod
+dem=assets/jacksboro_dem.tif
+rivers=assets/jacksboro_rivers_grass.geojson
 mkdir -p out
-echo "== unilod order: Jacksboro DEM + GRASS rivers (improved 3D_DP with BAI) =="
-build/tools/unilod order assets/jacksboro_dem.tif assets/jacksboro_rivers_grass.geojson \
-    --out out/jacksboro_order.csv "$@"
+
+echo "== 1. unilod build: DEM + rivers -> unified LOD model =="
+$unilod build "$dem" "$rivers" -o out/jacksboro.ulod --force "$@"
+echo "== 2. unilod check: checksums + topology invariants at every stored level =="
+$unilod check -q out/jacksboro.ulod
+echo "== 3. unilod info =="
+$unilod info out/jacksboro.ulod
+echo "== 4. unilod order: improved 3D_DP importance order of the whole point set =="
+$unilod order "$dem" "$rivers" --out out/jacksboro_order.csv -q
 echo "== outputs =="
-echo "  importance order: $root/out/jacksboro_order.csv"
+echo "  unified LOD model: $root/out/jacksboro.ulod"
+echo "  importance order:  $root/out/jacksboro_order.csv"

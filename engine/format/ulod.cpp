@@ -542,34 +542,127 @@ bool validateBlock(const Block& block, std::uint32_t metrics, std::string& error
 
 // ---- writer -----------------------------------------------------------------------------------
 
-bool writeUlod(const std::string& path, const Header& header, const std::vector<Block>& blocks,
-               std::string& error) {
+// ---- writer -----------------------------------------------------------------------------------
+
+struct Writer::Impl {
+    std::string path;
+    Header header;
+    TempFile tmp;
+    std::size_t blockCount = 0;
+    std::vector<DirEntry> dir;
+    std::set<std::pair<std::uint32_t, std::uint32_t>> seen;
+    std::uint64_t dataStart = 0, offset = 0;
+    std::vector<unsigned char> bytes;
+    bool open = false;
+};
+
+Writer::Writer() : impl_(std::make_unique<Impl>()) {}
+Writer::~Writer() = default;  // an unfinished temporary file is removed (TempFile)
+
+Header& Writer::header() { return impl_->header; }
+
+bool Writer::open(const std::string& path, const Header& header, std::size_t blockCount,
+                  std::string& error) {
+    impl_ = std::make_unique<Impl>();
+    Impl& w = *impl_;
+    w.path = path;
+    w.header = header;
+    w.blockCount = blockCount;
     auto fail = [&](const std::string& what) {
         error = path + ": " + what;
         return false;
     };
     constexpr std::uint64_t kMax32 = std::numeric_limits<std::uint32_t>::max();
-
-    // Header and directory checks that need no I/O come first.
+    // Header checks that need no I/O come first.
     std::string why;
     if (!metricsValid(header.metrics, header.defaultMetric, why)) return fail(why);
     if (header.crsWkt.size() > kMax32 || header.buildInfo.size() > kMax32) {
         return fail("CRS WKT or build info longer than 2^32 - 1 bytes");
     }
-    if (blocks.size() > kMax32) return fail("more than 2^32 - 1 blocks");
-    std::set<std::pair<std::uint32_t, std::uint32_t>> seen;
-    for (const Block& b : blocks) {
-        if (b.col >= header.blocksX || b.row >= header.blocksY) {
-            return fail(blockName(b.col, b.row) + " is outside the " +
-                        std::to_string(header.blocksX) + "x" + std::to_string(header.blocksY) +
-                        " block grid");
-        }
-        if (!seen.insert({b.col, b.row}).second) {
-            return fail(blockName(b.col, b.row) + " appears twice");
-        }
-    }
+    if (blockCount > kMax32) return fail("more than 2^32 - 1 blocks");
 
-    // Layout: fixed header, WKT, build info, directory, trailer, then the blocks in order.
+    // Layout: fixed header, WKT, build info, directory, trailer, then the blocks in order. The
+    // header part has a known size, so blocks are written first and the header last.
+    w.dataStart = sizeof(FileHeader) + alignUp(header.crsWkt.size()) +
+                  alignUp(header.buildInfo.size()) + blockCount * sizeof(DirEntry) +
+                  sizeof(HeaderTrailer);
+    w.offset = w.dataStart;
+    {
+        std::string templ = path + ".tmp-XXXXXX";
+        w.tmp.fd = ::mkstemp(templ.data());
+        if (w.tmp.fd < 0) return fail("cannot create a temporary file beside it: " + errnoText());
+        w.tmp.path = templ;
+    }
+    // mkstemp creates 0600; a model file is ordinary data.
+    if (::fchmod(w.tmp.fd, 0644) != 0) return fail("cannot set permissions: " + errnoText());
+    w.open = true;
+    return true;
+}
+
+bool Writer::writeBlock(const Block& b, std::string& error) {
+    Impl& w = *impl_;
+    assert(w.open && "Writer::open() first");
+    auto fail = [&](const std::string& what) {
+        error = w.path + ": " + what;
+        return false;
+    };
+    if (w.dir.size() >= w.blockCount) {
+        return fail("more blocks than the " + std::to_string(w.blockCount) + " announced");
+    }
+    if (b.col >= w.header.blocksX || b.row >= w.header.blocksY) {
+        return fail(blockName(b.col, b.row) + " is outside the " +
+                    std::to_string(w.header.blocksX) + "x" + std::to_string(w.header.blocksY) +
+                    " block grid");
+    }
+    if (!w.seen.insert({b.col, b.row}).second) {
+        return fail(blockName(b.col, b.row) + " appears twice");
+    }
+    std::string why;
+    if (!validateBlock(b, w.header.metrics, why)) return fail(why);
+    serializeBlock(b, w.bytes);
+    DirEntry e{};
+    e.col = b.col;
+    e.row = b.row;
+    e.minX = b.minX;
+    e.minY = b.minY;
+    e.minZ = b.minZ;
+    e.maxX = b.maxX;
+    e.maxY = b.maxY;
+    e.maxZ = b.maxZ;
+    e.offset = w.offset;
+    e.size = w.bytes.size();
+    e.checksum = crc32Of(w.bytes.data(), w.bytes.size());
+    e.vertexCount = static_cast<std::uint32_t>(b.vertices.size());
+    e.stepCount = static_cast<std::uint32_t>(b.steps.size());
+    e.levelCount = static_cast<std::uint32_t>(b.levels.size());
+    e.fullTriangles = b.levels[0].triangleCount;  // validateBlock: levels[0] is step 0
+    if (!pwriteAll(w.tmp.fd, w.bytes.data(), w.bytes.size(), w.offset)) {
+        return fail("write failed: " + errnoText());
+    }
+    w.offset += w.bytes.size();
+    w.dir.push_back(e);
+    return true;
+}
+
+bool Writer::finish(std::string& error) {
+    Impl& w = *impl_;
+    assert(w.open && "Writer::open() first");
+    auto fail = [&](const std::string& what) {
+        error = w.path + ": " + what;
+        return false;
+    };
+    if (w.dir.size() != w.blockCount) {
+        return fail(std::to_string(w.dir.size()) + " blocks written, " +
+                    std::to_string(w.blockCount) + " announced");
+    }
+    const Header& header = w.header;
+    const std::uint64_t expectedStart =
+        sizeof(FileHeader) + alignUp(header.crsWkt.size()) + alignUp(header.buildInfo.size()) +
+        w.blockCount * sizeof(DirEntry) + sizeof(HeaderTrailer);
+    if (expectedStart != w.dataStart) return fail("CRS WKT or build info changed size after open");
+    std::string why;
+    if (!metricsValid(header.metrics, header.defaultMetric, why)) return fail(why);
+
     FileHeader fh{};
     std::memcpy(fh.magic, kMagic, sizeof(kMagic));
     fh.version = kVersion;
@@ -588,86 +681,52 @@ bool writeUlod(const std::string& path, const Header& header, const std::vector<
     fh.blocksY = header.blocksY;
     fh.metrics = header.metrics;
     fh.defaultMetric = header.defaultMetric;
-    fh.blockCount = static_cast<std::uint32_t>(blocks.size());
+    fh.blockCount = static_cast<std::uint32_t>(w.blockCount);
     fh.crsWktSize = static_cast<std::uint32_t>(header.crsWkt.size());
     fh.buildInfoSize = static_cast<std::uint32_t>(header.buildInfo.size());
+    fh.fileSize = w.offset;
 
-    std::vector<DirEntry> dir(blocks.size());
-    std::uint64_t offset = sizeof(FileHeader) + alignUp(fh.crsWktSize) + alignUp(fh.buildInfoSize) +
-                           blocks.size() * sizeof(DirEntry) + sizeof(HeaderTrailer);
-    [[maybe_unused]] const std::uint64_t dataStart = offset;
-
-    TempFile tmp;
-    {
-        std::string templ = path + ".tmp-XXXXXX";
-        tmp.fd = ::mkstemp(templ.data());
-        if (tmp.fd < 0) return fail("cannot create a temporary file beside it: " + errnoText());
-        tmp.path = templ;
-    }
-    // mkstemp creates 0600; a model file is ordinary data.
-    if (::fchmod(tmp.fd, 0644) != 0) return fail("cannot set permissions: " + errnoText());
-
-    // Blocks first (validated one at a time, as they are written), then the header that records
-    // their offsets and checksums.
     std::vector<unsigned char> bytes;
-    for (std::size_t i = 0; i < blocks.size(); ++i) {
-        const Block& b = blocks[i];
-        if (!validateBlock(b, header.metrics, why)) return fail(why);
-        serializeBlock(b, bytes);
-        DirEntry& e = dir[i];
-        e = DirEntry{};
-        e.col = b.col;
-        e.row = b.row;
-        e.minX = b.minX;
-        e.minY = b.minY;
-        e.minZ = b.minZ;
-        e.maxX = b.maxX;
-        e.maxY = b.maxY;
-        e.maxZ = b.maxZ;
-        e.offset = offset;
-        e.size = bytes.size();
-        e.checksum = crc32Of(bytes.data(), bytes.size());
-        e.vertexCount = static_cast<std::uint32_t>(b.vertices.size());
-        e.stepCount = static_cast<std::uint32_t>(b.steps.size());
-        e.levelCount = static_cast<std::uint32_t>(b.levels.size());
-        e.fullTriangles = b.levels[0].triangleCount;  // validateBlock: levels[0] is step 0
-        if (!pwriteAll(tmp.fd, bytes.data(), bytes.size(), offset)) {
-            return fail("write failed: " + errnoText());
-        }
-        offset += bytes.size();
-    }
-    fh.fileSize = offset;
-
-    bytes.clear();
     appendPadded(bytes, &fh, sizeof(fh));
     appendPadded(bytes, header.crsWkt.data(), header.crsWkt.size());
     appendPadded(bytes, header.buildInfo.data(), header.buildInfo.size());
-    appendPadded(bytes, dir.data(), dir.size() * sizeof(DirEntry));
+    appendPadded(bytes, w.dir.data(), w.dir.size() * sizeof(DirEntry));
     HeaderTrailer trailer{crc32Of(bytes.data(), bytes.size()), 0};
     appendPadded(bytes, &trailer, sizeof(trailer));
-    assert(bytes.size() == dataStart);
-    if (!pwriteAll(tmp.fd, bytes.data(), bytes.size(), 0)) {
+    assert(bytes.size() == w.dataStart);
+    if (!pwriteAll(w.tmp.fd, bytes.data(), bytes.size(), 0)) {
         return fail("write failed: " + errnoText());
     }
 
     // Data on disk before the rename makes it visible; close errors can report delayed writes.
-    if (::fsync(tmp.fd) != 0) return fail("fsync failed: " + errnoText());
-    const int fd = std::exchange(tmp.fd, -1);
+    if (::fsync(w.tmp.fd) != 0) return fail("fsync failed: " + errnoText());
+    const int fd = std::exchange(w.tmp.fd, -1);
     if (::close(fd) != 0) return fail("close failed: " + errnoText());
-    if (::rename(tmp.path.c_str(), path.c_str()) != 0) {
+    if (::rename(w.tmp.path.c_str(), w.path.c_str()) != 0) {
         return fail("cannot rename the temporary file into place: " + errnoText());
     }
-    tmp.keep = true;
+    w.tmp.keep = true;
+    w.open = false;
 
     // Make the rename itself durable (best effort: some file systems refuse fsync on folders).
-    const std::size_t slash = path.find_last_of('/');
-    const std::string folder = slash == std::string::npos ? "." : path.substr(0, slash + 1);
+    const std::size_t slash = w.path.find_last_of('/');
+    const std::string folder = slash == std::string::npos ? "." : w.path.substr(0, slash + 1);
     const int dirFd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
     if (dirFd >= 0) {
         ::fsync(dirFd);
         ::close(dirFd);
     }
     return true;
+}
+
+bool writeUlod(const std::string& path, const Header& header, const std::vector<Block>& blocks,
+               std::string& error) {
+    Writer writer;
+    if (!writer.open(path, header, blocks.size(), error)) return false;
+    for (const Block& b : blocks) {
+        if (!writer.writeBlock(b, error)) return false;
+    }
+    return writer.finish(error);
 }
 
 // ---- reader -----------------------------------------------------------------------------------

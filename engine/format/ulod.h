@@ -128,6 +128,29 @@ bool validateBlock(const Block& block, std::uint32_t metrics, std::string& error
 bool writeUlod(const std::string& path, const Header& header, const std::vector<Block>& blocks,
                std::string& error);
 
+// The same, streamed: open() with the number of blocks, writeBlock() each block (any grid
+// position, each once; the directory keeps the write order), finish() to write the header and
+// move the file into place. The header's extents may be changed through header() before
+// finish(), its CRS WKT and build info may not change size. Destroying an unfinished Writer
+// removes its temporary file; nothing is ever left at `path` on failure.
+class Writer {
+public:
+    Writer();
+    ~Writer();
+    Writer(const Writer&) = delete;
+    Writer& operator=(const Writer&) = delete;
+
+    bool open(const std::string& path, const Header& header, std::size_t blockCount,
+              std::string& error);
+    bool writeBlock(const Block& block, std::string& error);
+    Header& header();
+    bool finish(std::string& error);
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
 // Reads a .ulod file block by block (pread): open() validates magic, version, sizes, the header
 // checksum and the directory; readBlock() validates the block's checksum and its structure
 // (every index and range in bounds, offsets monotone, errors non-decreasing).

@@ -10,5 +10,6 @@ void addSynthCommand(CLI::App& app, int& exitCode);
 void addOrderCommand(CLI::App& app, int& exitCode);
 void addBuildCommand(CLI::App& app, int& exitCode);
 void addInfoCommand(CLI::App& app, int& exitCode);
+void addCheckCommand(CLI::App& app, int& exitCode);
 
 }  // namespace unilod::cli

@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
     unilod::cli::addOrderCommand(app, exitCode);
     unilod::cli::addBuildCommand(app, exitCode);
     unilod::cli::addInfoCommand(app, exitCode);
+    unilod::cli::addCheckCommand(app, exitCode);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

@@ -1,0 +1,151 @@
+// .ulod file check (ulodcheck.h).
+#include "ulodcheck.h"
+
+#include <algorithm>
+#include <set>
+
+#include "checker.h"
+#include "meshimport.h"
+#include "ulod.h"
+
+namespace unilod {
+
+namespace {
+
+TriangleTriple toTriple(const format::Triangle& t) { return canonicalTriangle(t.a, t.b, t.c); }
+RiverEdge toEdge(const format::Edge& e) { return makeRiverEdge(e.a, e.b); }
+
+bool checkBlock(const format::Block& b, std::string& error) {
+    const std::size_t n = b.vertices.size();
+    if (b.grid.size() != n) {
+        error = "no exact grid coordinates stored: topology cannot be checked exactly";
+        return false;
+    }
+    std::vector<std::int32_t> gx(n), gy(n);
+    std::vector<std::uint8_t> locked(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        gx[i] = b.grid[i].x;
+        gy[i] = b.grid[i].y;
+        locked[i] = (b.vertices[i].flags & format::kVertexLocked) != 0;
+    }
+    auto levelTriangles = [&](const format::Level& l) {
+        std::vector<TriangleTriple> t;
+        for (std::uint32_t i = 0; i < l.triangleCount; ++i) {
+            t.push_back(toTriple(b.terrainIndices[l.triangleFirst + i]));
+        }
+        std::sort(t.begin(), t.end());
+        return t;
+    };
+    auto levelEdges = [&](const format::Level& l) {
+        std::vector<RiverEdge> e;
+        for (std::uint32_t i = 0; i < l.riverCount; ++i) e.push_back(toEdge(b.riverIndices[l.riverFirst + i]));
+        std::sort(e.begin(), e.end());
+        return e;
+    };
+
+    // Full resolution: a valid convex constrained Delaunay triangulation, and the reference.
+    const format::Level& l0 = b.levels.front();
+    std::vector<TriangleTriple> tris = levelTriangles(l0);
+    std::vector<RiverEdge> edges = levelEdges(l0);
+    Cdt cdt;
+    if (!cdtFromTriangles(gx, gy, locked, tris, edges, cdt, error) ||
+        !boundaryIsConvex(cdt, error)) {
+        error = "level 0: " + error;
+        return false;
+    }
+    const CheckReference ref = captureCheckReference(cdt);
+    if (!checkCdt(cdt, ref, &edges, error)) {
+        error = "level 0: " + error;
+        return false;
+    }
+
+    // Replay the records; at every stored level the replayed mesh must be the stored one and
+    // satisfy every invariant against the full-resolution reference.
+    std::set<TriangleTriple> alive(tris.begin(), tris.end());
+    std::set<RiverEdge> aliveEdges(edges.begin(), edges.end());
+    std::size_t level = 1;
+    for (std::uint32_t s = 0; s < b.steps.size() && level < b.levels.size(); ++s) {
+        const std::string stepName = "step " + std::to_string(s + 1);
+        for (std::uint32_t i = b.removedTriangleOffset[s]; i < b.removedTriangleOffset[s + 1]; ++i) {
+            if (alive.erase(toTriple(b.removedTriangles[i])) != 1) {
+                error = stepName + " removes a triangle that is not alive";
+                return false;
+            }
+        }
+        for (std::uint32_t i = b.addedTriangleOffset[s]; i < b.addedTriangleOffset[s + 1]; ++i) {
+            if (!alive.insert(toTriple(b.addedTriangles[i])).second) {
+                error = stepName + " adds a triangle that is alive";
+                return false;
+            }
+        }
+        for (std::uint32_t i = b.removedEdgeOffset[s]; i < b.removedEdgeOffset[s + 1]; ++i) {
+            if (aliveEdges.erase(toEdge(b.removedEdges[i])) != 1) {
+                error = stepName + " removes a river edge that is not alive";
+                return false;
+            }
+        }
+        for (std::uint32_t i = b.addedEdgeOffset[s]; i < b.addedEdgeOffset[s + 1]; ++i) {
+            if (!aliveEdges.insert(toEdge(b.addedEdges[i])).second) {
+                error = stepName + " adds a river edge that is alive";
+                return false;
+            }
+        }
+        if (alive.size() != b.steps[s].trianglesAlive || aliveEdges.size() != b.steps[s].riverEdgesAlive) {
+            error = stepName + ": the records leave " + std::to_string(alive.size()) +
+                    " triangles and " + std::to_string(aliveEdges.size()) +
+                    " river edges, the step says " + std::to_string(b.steps[s].trianglesAlive) +
+                    " and " + std::to_string(b.steps[s].riverEdgesAlive);
+            return false;
+        }
+        const format::Level& l = b.levels[level];
+        if (l.step != s + 1) continue;
+        const std::string name = "level " + std::to_string(level) + " (step " + std::to_string(l.step) + ")";
+        tris = levelTriangles(l);
+        edges = levelEdges(l);
+        if (!std::equal(tris.begin(), tris.end(), alive.begin(), alive.end())) {
+            error = name + ": stored triangles differ from the replayed records";
+            return false;
+        }
+        if (!std::equal(edges.begin(), edges.end(), aliveEdges.begin(), aliveEdges.end())) {
+            error = name + ": stored river edges differ from the replayed records";
+            return false;
+        }
+        if (!cdtFromTriangles(gx, gy, locked, tris, edges, cdt, error) ||
+            !checkCdt(cdt, ref, &edges, error)) {
+            error = name + ": " + error;
+            return false;
+        }
+        ++level;
+    }
+    if (level != b.levels.size()) {
+        error = "level " + std::to_string(level) + " was never reached by the records";
+        return false;
+    }
+    return true;
+}
+
+}  // namespace
+
+bool checkUlod(const std::string& path, UlodCheckSummary& summary, std::string& error,
+               const std::function<void(std::size_t, std::size_t)>& progress) {
+    summary = {};
+    format::Reader reader;
+    if (!reader.open(path, error)) return false;
+    const auto& blocks = reader.blocks();
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+        format::Block b;
+        if (!reader.readBlock(i, b, error)) return false;
+        if (!checkBlock(b, error)) {
+            error = path + ": block (" + std::to_string(b.col) + "," + std::to_string(b.row) +
+                    "): " + error;
+            return false;
+        }
+        ++summary.blocks;
+        summary.levels += b.levels.size();
+        summary.steps += b.steps.size();
+        if (progress) progress(i + 1, blocks.size());
+    }
+    return true;
+}
+
+}  // namespace unilod
