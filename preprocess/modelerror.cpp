@@ -169,20 +169,37 @@ void ModelError::updateMax(const Cdt& cdt, const std::vector<std::uint32_t>& rem
     destination_.resize(pending_.size());
     for (std::uint32_t t : addedSlots)
         rangeCount_[t] = 0;
+    // The created triangles' corners and heights, once per step; the point-in-triangle
+    // orientations are the barycentric weights of the height (same arithmetic as heightGrid).
+    addedTris_.clear();
+    for (std::uint32_t t : addedSlots) {
+        const PointId a = cdt.tv[3 * t], b = cdt.tv[3 * t + 1], c = cdt.tv[3 * t + 2];
+        addedTris_.push_back({{cdt.gx[a], cdt.gx[b], cdt.gx[c]},
+                              {cdt.gy[a], cdt.gy[b], cdt.gy[c]},
+                              {set_->points[a].z, set_->points[b].z, set_->points[c].z},
+                              double(cdt.orient(a, b, c)),
+                              t});
+    }
     double stepMax = 0;
     for (std::size_t i = 0; i < pending_.size(); ++i) {
         const PoolPoint& p = pending_[i];
         std::uint32_t found = kNil;
-        for (std::uint32_t t : addedSlots) {
-            if (containsGrid(cdt, t, p.gx, p.gy)) {
-                found = t;
-                break;
-            }
+        double height = 0;
+        for (const AddedTri& q : addedTris_) {
+            const std::int64_t wc = orient2d(q.x[0], q.y[0], q.x[1], q.y[1], p.gx, p.gy);
+            if (wc < 0) continue;
+            const std::int64_t wa = orient2d(q.x[1], q.y[1], q.x[2], q.y[2], p.gx, p.gy);
+            if (wa < 0) continue;
+            const std::int64_t wb = orient2d(q.x[2], q.y[2], q.x[0], q.y[0], p.gx, p.gy);
+            if (wb < 0) continue;
+            found = q.slot;
+            height = (double(wa) * q.z[0] + double(wb) * q.z[1] + double(wc) * q.z[2]) / q.den;
+            break;
         }
         assert(found != kNil);
         destination_[i] = found;
         ++rangeCount_[found];
-        stepMax = std::max(stepMax, std::fabs(p.z - heightGrid(*set_, cdt, found, p.gx, p.gy)));
+        stepMax = std::max(stepMax, std::fabs(p.z - height));
     }
     runningMax_ = std::max(runningMax_, stepMax);
     // Append the created triangles' ranges at the end of the pool.

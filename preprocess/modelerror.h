@@ -88,6 +88,13 @@ private:
     std::vector<PoolPoint> pool_, pending_;
     std::vector<std::uint32_t> rangeStart_, rangeCount_, destination_;
     std::size_t garbage_ = 0;
+    struct AddedTri {
+        std::int64_t x[3], y[3];
+        double z[3];
+        double den;
+        std::uint32_t slot;
+    };
+    std::vector<AddedTri> addedTris_;
     double runningMax_ = 0;
     // paper metric
     std::vector<std::uint32_t> nearHead_;  // per vertex id: first sample
