@@ -5,6 +5,8 @@
 #include <cassert>
 #include <cmath>
 
+#include "grid.h"
+
 namespace unilod {
 
 namespace {
@@ -200,6 +202,50 @@ PointSet BlockSource::points(std::size_t i) const {
         if (p.x == x0 || p.x == x1 || p.y == y0 || p.y == y1) p.locked = true;
     }
     return set;
+}
+
+std::vector<std::size_t> BlockSource::bridgedNodataCells(std::size_t i,
+                                                         const PointSet& set) const {
+    std::vector<std::size_t> cells;
+    const DemGrid& dem = *dem_;
+    const BlockRect& r = rects_[i];
+    if (set.points.size() < 3) return cells;
+    // Convex hull (monotone chain) on the exact 1 mm grid, counter-clockwise.
+    const Quantizer q = Quantizer::forPoints(set.points);
+    std::vector<GridPoint> pts;
+    pts.reserve(set.points.size());
+    for (const Point& p : set.points) pts.push_back(q(p));
+    std::sort(pts.begin(), pts.end(), [](const GridPoint& a, const GridPoint& b) {
+        return a.x < b.x || (a.x == b.x && a.y < b.y);
+    });
+    pts.erase(std::unique(pts.begin(), pts.end(),
+                          [](const GridPoint& a, const GridPoint& b) { return a.x == b.x && a.y == b.y; }),
+              pts.end());
+    if (pts.size() < 3) return cells;
+    std::vector<GridPoint> hull(2 * pts.size());
+    std::size_t k = 0;
+    for (std::size_t j = 0; j < pts.size(); ++j) {
+        while (k >= 2 && orient2d(hull[k - 2], hull[k - 1], pts[j]) <= 0) --k;
+        hull[k++] = pts[j];
+    }
+    for (std::size_t j = pts.size() - 1, lower = k + 1; j-- > 0;) {
+        while (k >= lower && orient2d(hull[k - 2], hull[k - 1], pts[j]) <= 0) --k;
+        hull[k++] = pts[j];
+    }
+    hull.resize(k - 1);
+    if (hull.size() < 3) return cells;
+    for (int row = r.cellRow0; row <= r.cellRow1; ++row) {
+        for (int col = r.cellCol0; col <= r.cellCol1; ++col) {
+            if (!std::isnan(dem.at(col, row))) continue;
+            const GridPoint c = q({dem.centreX(col), dem.centreY(row), q.oz, PointKind::Dem, false});
+            bool inside = true;
+            for (std::size_t e = 0; e < hull.size() && inside; ++e) {
+                inside = orient2d(hull[e], hull[(e + 1) % hull.size()], c) > 0;
+            }
+            if (inside) cells.push_back(std::size_t(row) * std::size_t(dem.width) + std::size_t(col));
+        }
+    }
+    return cells;
 }
 
 }  // namespace unilod

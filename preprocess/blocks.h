@@ -59,6 +59,10 @@ public:
     // what is locked.
     PointSet points(std::size_t i) const;
 
+    // nodata.h rule 2: the nodata cells (row-major indices) of block i's rectangle whose centres lie
+    // strictly inside the convex hull of `set` (the block's points).
+    std::vector<std::size_t> bridgedNodataCells(std::size_t i, const PointSet& set) const;
+
 private:
     const DemGrid* dem_ = nullptr;
     BlockOptions options_;

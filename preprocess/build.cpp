@@ -1,7 +1,6 @@
 // `unilod build` pipeline (build.h).
 #include "build.h"
 
-#include <ogr_spatialref.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -15,22 +14,13 @@
 
 #include "blockbuild.h"
 #include "dem.h"
+#include "nodata.h"
+#include "rivercleaning.h"
 #include "rivers.h"
 
 namespace unilod {
 
 namespace {
-
-std::string crsDisplayName(const std::string& wkt) {
-    if (wkt.empty()) return "none";
-    OGRSpatialReference srs;
-    if (srs.importFromWkt(wkt.c_str()) != OGRERR_NONE) return "unknown";
-    std::string name = srs.GetName() != nullptr ? srs.GetName() : "unnamed";
-    const char* auth = srs.GetAuthorityName(nullptr);
-    const char* code = srs.GetAuthorityCode(nullptr);
-    if (auth != nullptr && code != nullptr) name += std::string(" (") + auth + ":" + code + ")";
-    return name;
-}
 
 bool checkOutput(const BuildOptions& o, std::string& error) {
     namespace fs = std::filesystem;
@@ -102,11 +92,10 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     summary.demWidth = dem.width;
     summary.demHeight = dem.height;
     summary.crsName = crsDisplayName(dem.wkt);
-    std::size_t nodata = 0;
     for (std::size_t i = 0; i < dem.z.size(); ++i) {
         const float z = dem.z[i];
         if (std::isnan(z)) {
-            ++nodata;
+            continue;
         } else if (z < kMinPlausibleZ || z > kMaxPlausibleZ) {
             const std::size_t col = i % std::size_t(dem.width), row = i / std::size_t(dem.width);
             error = "DEM '" + o.demPath + "': elevation " + std::to_string(z) + " at cell (" +
@@ -116,9 +105,13 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
             return false;
         }
     }
-    if (nodata > 0) {
-        warn("DEM '" + o.demPath + "': " + std::to_string(nodata) +
-             " nodata cells (nodata value, NaN or infinite) produce no points");
+    NodataStats nodata;
+    if (!fillSmallHoles(dem, o.demPath, kDefaultMaxFillCells, nodata, error)) return false;
+    if (nodata.nodataCells > 0) {
+        warn("DEM '" + o.demPath + "': " + std::to_string(nodata.nodataCells) +
+             " nodata cells (nodata value, NaN or infinite); " + std::to_string(nodata.holes) +
+             " small interior holes (" + std::to_string(nodata.filledCells) +
+             " cells) filled from their rims, the rest produce no points");
     }
 
     RiverLines rivers;
@@ -146,6 +139,20 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
             return false;
         }
     }
+    // River cleaning (DESIGN.md "Point set"): clip to the DEM, snap, split at crossings, drop
+    // duplicates, zero-length segments and short rivers, so that the constrained triangulation
+    // gets a planar network whose rivers meet only at shared vertices.
+    RiverCleaningOptions cleaning;
+    cleaning.minRiverLength = o.minRiverLength;
+    RiverCleaningStats cleaningStats;
+    rivers = cleanRivers(rivers, dem, cleaning, cleaningStats);
+    summary.cleaning = describe(cleaningStats);
+    if (cleaningStats.crossingsSplit + cleaningStats.selfCrossings + cleaningStats.touchesSplit > 0) {
+        warn("rivers '" + o.riversPath + "': crossing or touching rivers were split at the crossing");
+    }
+    if (cleaningStats.duplicateVertices + cleaningStats.zeroLengthSegments > 0) {
+        warn("rivers '" + o.riversPath + "': duplicate vertices and zero-length segments dropped");
+    }
     summary.riverLines = rivers.size();
 
     BlockOptions blocks;
@@ -156,6 +163,34 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
         error = "DEM '" + o.demPath + "': " + error;
         return false;
     }
+    // nodata.h rule 2: fill the nodata cells a block's hull would bridge (few per block), until
+    // no hull contains a nodata centre; refuse a block with many.
+    for (int round = 0; round < 8; ++round) {
+        std::size_t filled = 0;
+        for (std::size_t i = 0; i < source.blockCount(); ++i) {
+            const std::vector<std::size_t> cells = source.bridgedNodataCells(i, source.points(i));
+            if (cells.size() > kMaxBridgedCells) {
+                const std::size_t c = cells.front();
+                error = "DEM '" + o.demPath + "': block (" + std::to_string(source.rect(i).col) +
+                        "," + std::to_string(source.rect(i).row) + ") would bridge " +
+                        std::to_string(cells.size()) + " nodata cells (e.g. cell (" +
+                        std::to_string(c % std::size_t(dem.width)) + ", " +
+                        std::to_string(c / std::size_t(dem.width)) +
+                        ")): a nodata bay reaches into the block's convex hull; at most " +
+                        std::to_string(kMaxBridgedCells) + " such cells per block are filled";
+                return false;
+            }
+            filled += fillCells(dem, cells);
+        }
+        nodata.bayCellsFilled += filled;
+        if (filled == 0) break;
+    }
+    if (nodata.bayCellsFilled > 0) {
+        warn("DEM '" + o.demPath + "': " + std::to_string(nodata.bayCellsFilled) +
+             " nodata cells inside blocks' convex hulls filled from their neighbours");
+    }
+    summary.nodataCells = nodata.nodataCells;
+    summary.filledNodataCells = nodata.filledCells + nodata.bayCellsFilled;
     summary.crossings = source.stats().crossings;
     summary.droppedDemPoints = source.stats().droppedDemPoints;
 
@@ -220,7 +255,8 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
             }
             const PointSet set = source.points(i);
             const BlockRect& r = source.rect(i);
-            const bool ok = buildBlock(set, r.col, r.row, blockOptions, results[i], stats[i], errors[i]);
+            const bool ok =
+                buildBlock(set, r.col, r.row, blockOptions, results[i], stats[i], errors[i]);
             {
                 std::lock_guard lock(mutex);
                 ready[i] = 1;

@@ -49,6 +49,7 @@ struct BuildSummary {
     std::size_t blocks = 0, steps = 0, kept = 0, deferrals = 0;
     std::size_t fullTriangles = 0, coarsestTriangles = 0, indexTriangles = 0;
     std::size_t crossings = 0, droppedDemPoints = 0;
+    std::size_t nodataCells = 0, filledNodataCells = 0;  // nodata.h: holes and bays filled
     std::uint64_t outputBytes = 0;
     double seconds = 0;
     std::string cleaning;  // what river cleaning changed

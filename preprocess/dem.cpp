@@ -255,4 +255,15 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
     return true;
 }
 
+std::string crsDisplayName(const std::string& wkt) {
+    if (wkt.empty()) return "none";
+    OGRSpatialReference srs;
+    if (srs.importFromWkt(wkt.c_str()) != OGRERR_NONE) return "unknown";
+    std::string name = srs.GetName() != nullptr ? srs.GetName() : "unnamed";
+    const char* auth = srs.GetAuthorityName(nullptr);
+    const char* code = srs.GetAuthorityCode(nullptr);
+    if (auth != nullptr && code != nullptr) name += std::string(" (") + auth + ":" + code + ")";
+    return name;
+}
+
 }  // namespace unilod

@@ -45,6 +45,9 @@ struct DemLoadOptions {
 bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& dem,
              std::string& error);
 
+// A short display name of a CRS given as WKT: "name (AUTH:CODE)", "none" for an empty WKT.
+std::string crsDisplayName(const std::string& wkt);
+
 // EPSG code of the WGS 84 UTM zone containing (lon, lat) in degrees.
 int utmEpsgFor(double lon, double lat);
 

@@ -6,7 +6,6 @@
 // use is counted by replacing global operator new/delete (malloc_usable_size per block).
 #include <malloc.h>
 #include <sys/resource.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -19,6 +18,7 @@
 #include <string>
 #include <thread>
 
+#include "benchutil.h"
 #include "importance.h"
 #include "synthetic.h"
 
@@ -127,24 +127,7 @@ int main(int argc, char** argv) {
     json runs = json::array();
     for (std::size_t size : sizes) {
         std::fprintf(stderr, "bench_importance: %zu points...\n", size);
-        int fd[2];
-        if (pipe(fd) != 0) return 1;
-        const pid_t pid = fork();
-        if (pid == 0) {
-            close(fd[0]);
-            const std::string text = runOne(size, seed, !noBai).dump();
-            if (write(fd[1], text.data(), text.size()) < 0) _exit(1);
-            _exit(0);
-        }
-        close(fd[1]);
-        std::string text;
-        char buf[4096];
-        for (ssize_t k; (k = read(fd[0], buf, sizeof buf)) > 0;) text.append(buf, std::size_t(k));
-        close(fd[0]);
-        int status = 0;
-        waitpid(pid, &status, 0);
-        if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) return 1;
-        runs.push_back(json::parse(text));
+        runs.push_back(unilod::bench::runInChild([&] { return runOne(size, seed, !noBai); }));
     }
     const json result = {
         {"benchmark", "importance"},

@@ -564,6 +564,10 @@ SyntheticData generateSyntheticData(const SyntheticOptions& options) {
         demPoints = static_cast<std::size_t>(std::max(target * 0.5, target - rivers));
     }
     gridFor(demPoints, width, height);
+    if (options.width > 0 && options.height > 0) {  // an explicit grid wins over the target
+        width = options.width;
+        height = options.height;
+    }
     generateRivers(planRivers(width, height, options.rivers), options.seed, lines, mains);
 
     SyntheticData data;

@@ -20,6 +20,8 @@ struct SyntheticOptions {
     double cellSize = 30.0;   // metres
     int rivers = 0;           // main rivers; 0 = scale with the grid size
     bool lockBorder = false;  // lock the grid border points (a block border)
+    int width = 0, height = 0;  // explicit grid size in cells (both > 0): overrides the grid
+                                // derived from targetPoints
 };
 
 // The synthetic world lies in UTM zone 16N (EPSG:32616) with its south-west grid corner here.

@@ -63,7 +63,9 @@ int run(BuildCli& c) {
     std::printf("unilod build summary\n");
     std::printf("  DEM              %s (%d x %d cells, %s)\n", c.o.demPath.c_str(), s.demWidth,
                 s.demHeight, s.crsName.c_str());
-    std::printf("  rivers           %s (%zu lines)\n", c.o.riversPath.c_str(), s.riverLines);
+    std::printf("  rivers           %s (%zu lines after cleaning)\n", c.o.riversPath.c_str(),
+                s.riverLines);
+    std::printf("  river cleaning   %s\n", s.cleaning.c_str());
     std::printf("  points           %zu DEM + %zu river (%zu locked, %zu border crossings, "
                 "%zu DEM points dropped next to rivers)\n",
                 s.demPoints, s.riverPoints, s.lockedPoints, s.crossings, s.droppedDemPoints);

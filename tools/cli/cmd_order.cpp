@@ -113,17 +113,6 @@ json quantiles(std::vector<double> v) {
                 {"max", v.back()}};
 }
 
-std::string crsName(const std::string& wkt) {
-    if (wkt.empty()) return "none (coordinates used as they are)";
-    OGRSpatialReference srs;
-    if (srs.importFromWkt(wkt.c_str()) != OGRERR_NONE) return "unknown";
-    std::string name = srs.GetName() != nullptr ? srs.GetName() : "unnamed";
-    const char* auth = srs.GetAuthorityName(nullptr);
-    const char* code = srs.GetAuthorityCode(nullptr);
-    if (auth != nullptr && code != nullptr) name += std::string(" (") + auth + ":" + code + ")";
-    return name;
-}
-
 json pointJson(const PointSet& set, PointId id) {
     if (id == kNoPoint) return nullptr;
     const Point& p = set.points[id];
@@ -221,7 +210,8 @@ int runOrder(const OrderOptions& o) {
     dlo.targetSrs = o.targetSrs;
     if (!loadDem(o.dem, dlo, dem, error)) return fail(error);
     seconds["dem"] = secondsSince(t);
-    const std::string crs = crsName(dem.wkt);
+    const std::string crs =
+        dem.wkt.empty() ? "none (coordinates used as they are)" : crsDisplayName(dem.wkt);
     char cells[160];
     std::snprintf(cells, sizeof cells, "%d x %d cells of %.2f x %.2f, ", dem.width, dem.height,
                   std::abs(dem.cellX), std::abs(dem.cellY));
