@@ -414,20 +414,25 @@ void Cdt::removeVertex(PointId v) {
     const bool interior = star(v, poly_, starTris_);
     assert(interior);
     (void)interior;
-    const std::size_t k = poly_.size();
+    removeVertex(v, poly_, starTris_);
+}
+
+void Cdt::removeVertex(PointId v, const std::vector<PointId>& link,
+                       const std::vector<std::uint32_t>& triangles) {
+    const std::size_t k = link.size();
     outer_.resize(k);
     cons_.resize(k);
     for (std::size_t i = 0; i < k; ++i) {
-        outer_[i] = tn[starTris_[i]];
-        cons_[i] = isConstrained(starTris_[i]) ? 1 : 0;
+        outer_[i] = tn[triangles[i]];
+        cons_[i] = isConstrained(triangles[i]) ? 1 : 0;
     }
-    for (std::uint32_t h : starTris_)
+    for (std::uint32_t h : triangles)
         destroyTriangle(h / 3);
     vertexTriangle[v] = kNone;
     --vertexCount;
     created_.clear();
     std::uint32_t open = kNone;
-    const bool ok = triangulatePolygon(poly_, outer_, cons_, created_, open);
+    const bool ok = triangulatePolygon(link, outer_, cons_, created_, open);
     assert(ok);
     (void)ok;
     legal_.clear();
@@ -502,28 +507,23 @@ void Cdt::insertPoint(PointId p) {
         }
     }
     // Boundary edges (u, w) with their outer half-edges, saved before the cavity dies.
-    struct Edge {
-        PointId u, w;
-        std::uint32_t outer;
-        bool cons;
-        std::uint32_t t;
-    };
-    std::vector<Edge> edges;
-    edges.reserve(boundary_.size());
+    std::vector<FanEdge>& edges = fan_;
+    edges.clear();
     for (std::uint32_t h : boundary_) {
         edges.push_back({origin(h), destination(h), tn[h], isConstrained(h), kNone});
     }
     for (std::uint32_t t : cavity_)
         destroyTriangle(t);
-    for (Edge& e : edges) {
+    for (FanEdge& e : edges) {
         e.t = createTriangle(e.u, e.w, p);
         link(3 * e.t + 2, e.outer);
         if (e.cons) tc[e.t] |= 4;
     }
-    std::sort(edges.begin(), edges.end(), [](const Edge& x, const Edge& y) { return x.u < y.u; });
-    for (const Edge& e : edges) {
+    std::sort(edges.begin(), edges.end(),
+              [](const FanEdge& x, const FanEdge& y) { return x.u < y.u; });
+    for (const FanEdge& e : edges) {
         auto it = std::lower_bound(edges.begin(), edges.end(), e.w,
-                                   [](const Edge& x, PointId key) { return x.u < key; });
+                                   [](const FanEdge& x, PointId key) { return x.u < key; });
         assert(it != edges.end() && it->u == e.w);
         link(3 * e.t, 3 * it->t + 1);
     }

@@ -151,6 +151,9 @@ public:
     // the mesh is again constrained Delaunay. Constraint edges at v disappear (the caller keeps
     // the river bookkeeping).
     void removeVertex(PointId v);
+    // The same with v's star as returned by star() (unchanged since).
+    void removeVertex(PointId v, const std::vector<PointId>& link,
+                      const std::vector<std::uint32_t>& triangles);
     // The star of v: link vertices counter-clockwise and, for each, the triangle (v, link[i],
     // link[i+1]) half-edge index of v. Returns false when v is on the hull (a ghost triangle).
     bool star(PointId v, std::vector<PointId>& link, std::vector<std::uint32_t>& triangles) const;
@@ -174,6 +177,13 @@ private:
     std::vector<std::uint32_t> earPrev_, earNext_, earEdge_;
     std::vector<std::uint8_t> earCons_;
     Trace trace_;
+    struct FanEdge {  // Bowyer-Watson cavity boundary edge (u, w)
+        PointId u, w;
+        std::uint32_t outer;
+        bool cons;
+        std::uint32_t t;
+    };
+    std::vector<FanEdge> fan_;
 };
 
 // Builds the constrained Delaunay triangulation of the block's points with every river segment

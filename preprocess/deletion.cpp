@@ -15,6 +15,13 @@ namespace {
 
 constexpr std::uint32_t kNil = 0xFFFFFFFFu;
 
+// push_back that grows the capacity by a quarter instead of doubling it.
+template <typename T>
+void pushGrow(std::vector<T>& v, const T& x) {
+    if (v.size() == v.capacity()) v.reserve(v.capacity() + v.capacity() / 4 + 16);
+    v.push_back(x);
+}
+
 enum class State : std::uint8_t { Pending = 0, Deleted = 1, Deferred = 2, Kept = 3 };
 enum class Outcome : std::uint8_t { Deleted, Deferred, Refused };
 
@@ -80,7 +87,14 @@ bool Sequence::run(const std::vector<PointId>& order, std::string& error) {
     rec_ = DeletionRecords();
     rec_.removedTriangleOffset = rec_.addedTriangleOffset = {0};
     rec_.removedEdgeOffset = rec_.addedEdgeOffset = {0};
+    // Records: about 6.1 removed and 4.1 added triangles per step (net -2); reserved up front and
+    // grown by a quarter when exceeded, so that the slack stays small at 10^6 steps.
     rec_.steps.reserve(order.size());
+    for (auto* v : {&rec_.removedTriangleOffset, &rec_.addedTriangleOffset, &rec_.removedEdgeOffset,
+                    &rec_.addedEdgeOffset})
+        v->reserve(order.size() + 1);
+    rec_.removedTriangles.reserve(order.size() * 25 / 4);
+    rec_.addedTriangles.reserve(order.size() * 17 / 4);
     if (options_.maxError || options_.paperError) {
         error_.init(set_, cdt_, options_.maxError, options_.paperError);
         rec_.initialErrorMax = error_.runningMax();
@@ -195,7 +209,7 @@ Outcome Sequence::attempt(PointId x, KeptReason& reason) {
 void Sequence::perform(PointId x, PointId a, PointId c) {
     ++step_;
     cdt_.beginJournal(step_);
-    cdt_.removeVertex(x);
+    cdt_.removeVertex(x, link_, tris_);
     if (a != kNil) {
         cdt_.constraintEdgeCount -= 2;
         std::string why;
@@ -229,9 +243,9 @@ void Sequence::perform(PointId x, PointId a, PointId c) {
         std::size_t i = 0, j = 0;
         while (i < removedT_.size() || j < addedT_.size()) {
             if (j == addedT_.size() || (i < removedT_.size() && removedT_[i] < addedT_[j])) {
-                rec_.removedTriangles.push_back(removedT_[i++]);
+                pushGrow(rec_.removedTriangles, removedT_[i++]);
             } else if (i == removedT_.size() || addedT_[j] < removedT_[i]) {
-                rec_.addedTriangles.push_back(addedT_[j++]);
+                pushGrow(rec_.addedTriangles, addedT_[j++]);
             } else {
                 ++i, ++j;
             }

@@ -7,8 +7,9 @@
 // (cdt.h). A river vertex X between A and C is deleted only when the new river edge A-C keeps
 // the network's topology, decided exactly before anything changes: A-C must not cross or touch a
 // river edge, must not pass through any vertex but X, and must not already be a river edge.
-// Then X is removed and A-C inserted as a constraint, enlarging the cavity by the triangles A-C
-// crosses when it leaves X's star.
+// Then X is removed (its star re-triangulated by ear clipping + Lawson flips) and A-C inserted as
+// a constraint: when A-C leaves X's old star, the edges it crosses are flipped away (the cavity
+// grows by the triangles A-C crosses) and the Delaunay property is restored around it (cdt.h).
 //
 // Refusals (the vertex stays for good, listed in `kept`):
 //   Locked   - a locked point (block border, river end or junction; the caller locks them);

@@ -10,10 +10,29 @@ namespace unilod {
 namespace {
 constexpr std::uint32_t kNil = 0xFFFFFFFFu;
 
-bool containsPoint(const Cdt& cdt, std::uint32_t t, PointId m) {
+bool containsGrid(const Cdt& cdt, std::uint32_t t, std::int64_t x, std::int64_t y) {
     const PointId a = cdt.tv[3 * t], b = cdt.tv[3 * t + 1], c = cdt.tv[3 * t + 2];
-    return cdt.orient(a, b, m) >= 0 && cdt.orient(b, c, m) >= 0 && cdt.orient(c, a, m) >= 0;
+    return orient2d(cdt.gx[a], cdt.gy[a], cdt.gx[b], cdt.gy[b], x, y) >= 0 &&
+           orient2d(cdt.gx[b], cdt.gy[b], cdt.gx[c], cdt.gy[c], x, y) >= 0 &&
+           orient2d(cdt.gx[c], cdt.gy[c], cdt.gx[a], cdt.gy[a], x, y) >= 0;
 }
+
+double heightGrid(const PointSet& set, const Cdt& cdt, std::uint32_t t, std::int64_t x,
+                  std::int64_t y) {
+    const PointId a = cdt.tv[3 * t], b = cdt.tv[3 * t + 1], c = cdt.tv[3 * t + 2];
+    const double den = double(cdt.orient(a, b, c));
+    const double wa = double(orient2d(cdt.gx[b], cdt.gy[b], cdt.gx[c], cdt.gy[c], x, y));
+    const double wb = double(orient2d(cdt.gx[c], cdt.gy[c], cdt.gx[a], cdt.gy[a], x, y));
+    const double wc = double(orient2d(cdt.gx[a], cdt.gy[a], cdt.gx[b], cdt.gy[b], x, y));
+    return (wa * set.points[a].z + wb * set.points[b].z + wc * set.points[c].z) / den;
+}
+
+// Squared 3D distance of Eq. 4: horizontal on the grid, vertical in metres.
+inline double distance2Of(std::int64_t dgx, std::int64_t dgy, double dz, double unit) {
+    const double dx = double(dgx) * unit, dy = double(dgy) * unit;
+    return dx * dx + dy * dy + dz * dz;
+}
+
 // A real (non-ghost) triangle at vertex v.
 std::uint32_t realTriangleAt(const Cdt& cdt, PointId v) {
     std::uint32_t t = cdt.vertexTriangle[v];
@@ -25,63 +44,108 @@ std::uint32_t realTriangleAt(const Cdt& cdt, PointId v) {
     }
     return t;
 }
+
+std::uint64_t mortonKey(std::uint32_t x, std::uint32_t y) {
+    auto spread = [](std::uint64_t v) {
+        v &= 0xFFFF;
+        v = (v | (v << 8)) & 0x00FF00FFull;
+        v = (v | (v << 4)) & 0x0F0F0F0Full;
+        v = (v | (v << 2)) & 0x33333333ull;
+        v = (v | (v << 1)) & 0x55555555ull;
+        return v;
+    };
+    return spread(x) | (spread(y) << 1);
+}
 }  // namespace
 
 double surfaceHeight(const PointSet& set, const Cdt& cdt, std::uint32_t t, PointId m) {
-    const PointId a = cdt.tv[3 * t], b = cdt.tv[3 * t + 1], c = cdt.tv[3 * t + 2];
-    const double den = double(cdt.orient(a, b, c));
-    const double wa = double(cdt.orient(b, c, m)), wb = double(cdt.orient(c, a, m));
-    const double wc = double(cdt.orient(a, b, m));
-    return (wa * set.points[a].z + wb * set.points[b].z + wc * set.points[c].z) / den;
-}
-
-double ModelError::heightAt(const Cdt& cdt, std::uint32_t t, PointId m) const {
-    return surfaceHeight(*set_, cdt, t, m);
+    return heightGrid(set, cdt, t, cdt.gx[m], cdt.gy[m]);
 }
 
 void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool paperMetric) {
     set_ = &set;
     maxMetric_ = maxMetric;
     paperMetric_ = paperMetric;
+    unit_ = cdt.gridUnit;
     const std::size_t n = set.points.size();
-    z_.resize(n);
-    for (std::size_t i = 0; i < n; ++i)
-        z_[i] = set.points[i].z;
     runningMax_ = 0;
     runningPaper_ = 0;
-    if (maxMetric_) {
-        bucketHead_.assign(cdt.triangleSlots(), kNil);
-        bucketNext_.assign(n, kNil);
+    paperSum_ = 0;
+    // Samples in Morton order of the grid position (ties by id).
+    std::vector<std::pair<std::uint64_t, PointId>> keys(n);
+    {
+        std::int64_t x0 = kMaxGridCoordinate, y0 = kMaxGridCoordinate;
+        std::int64_t x1 = -kMaxGridCoordinate, y1 = -kMaxGridCoordinate;
         for (PointId m = 0; m < n; ++m) {
-            const std::uint32_t t = realTriangleAt(cdt, cdt.representative[m]);
-            bucketNext_[m] = bucketHead_[t];
-            bucketHead_[t] = m;
+            x0 = std::min<std::int64_t>(x0, cdt.gx[m]), x1 = std::max<std::int64_t>(x1, cdt.gx[m]);
+            y0 = std::min<std::int64_t>(y0, cdt.gy[m]), y1 = std::max<std::int64_t>(y1, cdt.gy[m]);
+        }
+        gridX0_ = x0, gridY0_ = y0, gridX1_ = x1, gridY1_ = y1;
+        const double sx = 65535.0 / double(std::max<std::int64_t>(1, x1 - x0));
+        const double sy = 65535.0 / double(std::max<std::int64_t>(1, y1 - y0));
+        for (PointId m = 0; m < n; ++m) {
+            keys[m] = {mortonKey(std::uint32_t(double(cdt.gx[m] - x0) * sx),
+                                 std::uint32_t(double(cdt.gy[m] - y0) * sy)),
+                       m};
+        }
+        std::sort(keys.begin(), keys.end());
+    }
+    samples_.resize(n);
+    for (std::size_t s = 0; s < n; ++s) {
+        const PointId m = keys[s].second;
+        samples_[s] = {cdt.gx[m], cdt.gy[m], set.points[m].z, kNil, kNil};
+    }
+    if (maxMetric_) {
+        // Each original point goes to a real triangle at its vertex; the pool holds every
+        // triangle's points contiguously.
+        std::vector<std::uint32_t> tri(n);
+        rangeStart_.assign(cdt.triangleSlots(), 0);
+        rangeCount_.assign(cdt.triangleSlots(), 0);
+        for (std::uint32_t s = 0; s < n; ++s) {
+            const PointId m = keys[s].second;
+            tri[s] = realTriangleAt(cdt, cdt.representative[m]);
+            ++rangeCount_[tri[s]];
             if (cdt.representative[m] != m) {
-                runningMax_ = std::max(runningMax_, std::fabs(z_[m] - heightAt(cdt, t, m)));
+                runningMax_ =
+                    std::max(runningMax_,
+                             std::fabs(samples_[s].z - heightGrid(set, cdt, tri[s], samples_[s].gx,
+                                                                  samples_[s].gy)));
             }
         }
+        std::uint32_t offset = 0;
+        for (std::uint32_t t = 0; t < rangeCount_.size(); ++t) {
+            rangeStart_[t] = offset;
+            offset += rangeCount_[t];
+            rangeCount_[t] = 0;
+        }
+        pool_.reserve(2 * n + 64);
+        pool_.resize(n);
+        for (std::uint32_t s = 0; s < n; ++s) {
+            const std::uint32_t t = tri[s];
+            pool_[rangeStart_[t] + rangeCount_[t]++] = {samples_[s].gx, samples_[s].gy,
+                                                        samples_[s].z};
+        }
+        garbage_ = 0;
     }
     if (paperMetric_) {
-        vertexAlive_.assign(n, 0);
-        bx0_ = by0_ = INFINITY;
-        bx1_ = by1_ = -INFINITY;
-        for (PointId m = 0; m < n; ++m) {
-            vertexAlive_[m] = cdt.isVertex(m) ? 1 : 0;
-            bx0_ = std::min(bx0_, set.points[m].x), bx1_ = std::max(bx1_, set.points[m].x);
-            by0_ = std::min(by0_, set.points[m].y), by1_ = std::max(by1_, set.points[m].y);
+        entryOf_.assign(n, kNil);
+        entries_.clear();
+        for (std::uint32_t s = 0; s < n; ++s) {
+            const PointId m = keys[s].second;
+            if (!cdt.isVertex(m)) continue;
+            entryOf_[m] = std::uint32_t(entries_.size());
+            entries_.push_back({samples_[s].gx, samples_[s].gy, samples_[s].z, m, 0});
         }
-        grid_.build(*this, bx0_, by0_, bx1_, by1_);
-        nearest_.assign(n, kNil);
+        buildGrid();
         nearHead_.assign(n, kNil);
-        nearNext_.assign(n, kNil);
-        paperSum_ = 0;
-        for (PointId m = 0; m < n; ++m) {
-            const Point& p = set.points[m];
-            const PointId q = vertexAlive_[m] ? m : grid_.nearest(*this, p.x, p.y, p.z);
-            nearest_[m] = q;
-            nearNext_[m] = nearHead_[q];
-            nearHead_[q] = m;
-            paperSum_ += std::fabs(z_[m] - z_[q]);
+        for (std::uint32_t s = 0; s < n; ++s) {
+            const PointId m = keys[s].second;
+            Sample& p = samples_[s];
+            const PointId q = cdt.isVertex(m) ? m : nearest(p.gx, p.gy, p.z);
+            p.nearest = q;
+            p.nearNext = nearHead_[q];
+            nearHead_[q] = s;
+            paperSum_ += std::fabs(p.z - entries_[entryOf_[q]].z);
         }
         runningPaper_ = currentPaper();
     }
@@ -90,119 +154,244 @@ void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool 
 void ModelError::updateMax(const Cdt& cdt, const std::vector<std::uint32_t>& removedSlots,
                            const std::vector<std::uint32_t>& addedSlots) {
     if (!maxMetric_) return;
-    if (bucketHead_.size() < cdt.triangleSlots()) bucketHead_.resize(cdt.triangleSlots(), kNil);
+    if (rangeStart_.size() < cdt.triangleSlots()) {
+        rangeStart_.resize(cdt.triangleSlots(), 0);
+        rangeCount_.resize(cdt.triangleSlots(), 0);
+    }
     pending_.clear();
-    for (std::uint32_t s : removedSlots) {
-        for (std::uint32_t m = bucketHead_[s]; m != kNil; m = bucketNext_[m])
-            pending_.push_back(m);
-        bucketHead_[s] = kNil;
+    for (std::uint32_t t : removedSlots) {
+        const PoolPoint* begin = pool_.data() + rangeStart_[t];
+        pending_.insert(pending_.end(), begin, begin + rangeCount_[t]);
+        garbage_ += rangeCount_[t];
+        rangeCount_[t] = 0;
+    }
+    // Locate every pending point among the created triangles (exact, closed triangles).
+    destination_.resize(pending_.size());
+    for (std::uint32_t t : addedSlots)
+        rangeCount_[t] = 0;
+    // The created triangles' corners and heights, once per step; the point-in-triangle
+    // orientations are the barycentric weights of the height (same arithmetic as heightGrid).
+    addedTris_.clear();
+    for (std::uint32_t t : addedSlots) {
+        const PointId a = cdt.tv[3 * t], b = cdt.tv[3 * t + 1], c = cdt.tv[3 * t + 2];
+        addedTris_.push_back({{cdt.gx[a], cdt.gx[b], cdt.gx[c]},
+                              {cdt.gy[a], cdt.gy[b], cdt.gy[c]},
+                              {set_->points[a].z, set_->points[b].z, set_->points[c].z},
+                              double(cdt.orient(a, b, c)),
+                              t});
     }
     double stepMax = 0;
-    for (PointId m : pending_) {
+    for (std::size_t i = 0; i < pending_.size(); ++i) {
+        const PoolPoint& p = pending_[i];
         std::uint32_t found = kNil;
-        for (std::uint32_t t : addedSlots) {
-            if (containsPoint(cdt, t, m)) {
-                found = t;
-                break;
-            }
+        double height = 0;
+        for (const AddedTri& q : addedTris_) {
+            const std::int64_t wc = orient2d(q.x[0], q.y[0], q.x[1], q.y[1], p.gx, p.gy);
+            if (wc < 0) continue;
+            const std::int64_t wa = orient2d(q.x[1], q.y[1], q.x[2], q.y[2], p.gx, p.gy);
+            if (wa < 0) continue;
+            const std::int64_t wb = orient2d(q.x[2], q.y[2], q.x[0], q.y[0], p.gx, p.gy);
+            if (wb < 0) continue;
+            found = q.slot;
+            height = (double(wa) * q.z[0] + double(wb) * q.z[1] + double(wc) * q.z[2]) / q.den;
+            break;
         }
         assert(found != kNil);
-        bucketNext_[m] = bucketHead_[found];
-        bucketHead_[found] = m;
-        stepMax = std::max(stepMax, std::fabs(z_[m] - heightAt(cdt, found, m)));
+        destination_[i] = found;
+        ++rangeCount_[found];
+        stepMax = std::max(stepMax, std::fabs(p.z - height));
     }
     runningMax_ = std::max(runningMax_, stepMax);
+    // Append the created triangles' ranges at the end of the pool.
+    std::uint32_t offset = std::uint32_t(pool_.size());
+    for (std::uint32_t t : addedSlots) {
+        rangeStart_[t] = offset;
+        offset += rangeCount_[t];
+        rangeCount_[t] = 0;
+    }
+    pool_.resize(offset);
+    for (std::size_t i = 0; i < pending_.size(); ++i) {
+        const std::uint32_t t = destination_[i];
+        pool_[rangeStart_[t] + rangeCount_[t]++] = pending_[i];
+    }
+    // Compact in place once the garbage outweighs the live points.
+    if (garbage_ > pool_.size() / 2 && pool_.size() > 1024) {
+        std::vector<std::uint32_t>& live = destination_;
+        live.clear();
+        for (std::uint32_t t = 0; t < cdt.triangleSlots(); ++t) {
+            if (rangeCount_[t] > 0 && cdt.triangleAlive(t)) live.push_back(t);
+        }
+        std::sort(live.begin(), live.end(), [&](std::uint32_t a, std::uint32_t b) {
+            return rangeStart_[a] < rangeStart_[b];
+        });
+        std::uint32_t w = 0;
+        for (std::uint32_t t : live) {
+            std::copy(pool_.begin() + rangeStart_[t],
+                      pool_.begin() + rangeStart_[t] + rangeCount_[t], pool_.begin() + w);
+            rangeStart_[t] = w;
+            w += rangeCount_[t];
+        }
+        pool_.resize(w);
+        garbage_ = 0;
+    }
 }
 
 void ModelError::removeVertex(PointId v) {
     if (!paperMetric_) return;
-    vertexAlive_[v] = 0;
-    --grid_.alive;
-    if (grid_.alive > 0 && grid_.alive * 4 < grid_.ids.size()) {
-        grid_.build(*this, bx0_, by0_, bx1_, by1_);
-    }
-    std::uint32_t m = nearHead_[v];
+    const std::uint32_t e = entryOf_[v];
+    const double zv = entries_[e].z;
+    const std::int32_t vx = entries_[e].gx, vy = entries_[e].gy;
+    entries_[e].id = kNil;
+    entryOf_[v] = kNil;
+    --alive_;
+    if (alive_ > 0 && std::size_t(alive_) * 2 < entries_.size()) buildGrid();
+    std::uint32_t s = nearHead_[v];
     nearHead_[v] = kNil;
-    while (m != kNil) {
-        const std::uint32_t next = nearNext_[m];
-        const Point& p = set_->points[m];
-        const PointId q = grid_.nearest(*this, p.x, p.y, p.z);
-        paperSum_ += std::fabs(z_[m] - z_[q]) - std::fabs(z_[m] - z_[v]);
-        nearest_[m] = q;
-        nearNext_[m] = nearHead_[q];
-        nearHead_[q] = m;
-        m = next;
+    if (s == kNil) {
+        runningPaper_ = std::max(runningPaper_, currentPaper());
+        return;
+    }
+    // The orphans of v lie around v: gather the alive vertices of the 3x3 (then 5x5) cells around
+    // v's cell once, take each orphan's nearest among them, and accept it when it is closer than
+    // the gathered square's border (otherwise a full ring search decides). Same result as the
+    // ring search, ties included.
+    const std::int64_t cx = std::clamp<std::int64_t>((vx - gridX0_) / cell_, 0, nx_ - 1);
+    const std::int64_t cy = std::clamp<std::int64_t>((vy - gridY0_) / cell_, 0, ny_ - 1);
+    // Square of radius r cells around v's cell: its alive vertices and its border.
+    struct Square {
+        std::int64_t xlo, xhi, ylo, yhi;
+        bool gathered = false;
+    } squares[2];
+    auto gather = [&](int level) {
+        const std::int64_t r = level + 1;
+        const std::int64_t i0 = std::max<std::int64_t>(0, cx - r),
+                           i1 = std::min<std::int64_t>(nx_ - 1, cx + r);
+        const std::int64_t j0 = std::max<std::int64_t>(0, cy - r),
+                           j1 = std::min<std::int64_t>(ny_ - 1, cy + r);
+        std::vector<Entry>& out = candidates_[level];
+        out.clear();
+        for (std::int64_t j = j0; j <= j1; ++j) {
+            const std::size_t row = std::size_t(j) * nx_;
+            for (std::uint32_t k = cellStart_[row + std::size_t(i0)];
+                 k < cellStart_[row + std::size_t(i1) + 1]; ++k) {
+                if (entries_[k].id != kNil) out.push_back(entries_[k]);
+            }
+        }
+        constexpr std::int64_t kFar = std::int64_t(1) << 40;
+        Square& sq = squares[level];
+        sq.xlo = i0 > 0 ? gridX0_ + i0 * cell_ : -kFar;
+        sq.xhi = i1 < nx_ - 1 ? gridX0_ + (i1 + 1) * cell_ : kFar;
+        sq.ylo = j0 > 0 ? gridY0_ + j0 * cell_ : -kFar;
+        sq.yhi = j1 < ny_ - 1 ? gridY0_ + (j1 + 1) * cell_ : kFar;
+        sq.gathered = true;
+    };
+    while (s != kNil) {
+        Sample& p = samples_[s];
+        const std::uint32_t next = p.nearNext;
+        if (next != kNil) __builtin_prefetch(&samples_[next]);  // overlap the list walk's miss
+        PointId q = kNil;
+        double zq = 0;
+        for (int level = 0; level < 2 && q == kNil; ++level) {
+            if (!squares[level].gathered) gather(level);
+            double best = INFINITY;
+            PointId bestId = kNil;
+            for (const Entry& c : candidates_[level]) {
+                const double d2 = distance2Of(c.gx - p.gx, c.gy - p.gy, c.z - p.z, unit_);
+                if (d2 < best || (d2 == best && c.id < bestId)) best = d2, bestId = c.id, zq = c.z;
+            }
+            const Square& sq = squares[level];
+            const std::int64_t gap =
+                std::min({p.gx - sq.xlo, sq.xhi - p.gx, p.gy - sq.ylo, sq.yhi - p.gy});
+            const double bound = double(gap) * unit_;
+            if (bestId != kNil && gap > 0 && best < bound * bound) q = bestId;
+        }
+        if (q == kNil) {
+            q = nearest(p.gx, p.gy, p.z);
+            zq = entries_[entryOf_[q]].z;
+        }
+        paperSum_ += std::fabs(p.z - zq) - std::fabs(p.z - zv);
+        p.nearest = q;
+        p.nearNext = nearHead_[q];
+        nearHead_[q] = s;
+        s = next;
     }
     runningPaper_ = std::max(runningPaper_, currentPaper());
 }
 
 std::size_t ModelError::memoryBytes() const {
-    return z_.capacity() * 8 + (bucketHead_.capacity() + bucketNext_.capacity()) * 4 +
-           pending_.capacity() * 4 + vertexAlive_.capacity() +
-           (nearest_.capacity() + nearHead_.capacity() + nearNext_.capacity()) * 4 +
-           (grid_.start.capacity() + grid_.ids.capacity()) * 4;
+    return samples_.capacity() * sizeof(Sample) + pool_.capacity() * sizeof(PoolPoint) +
+           (rangeStart_.capacity() + rangeCount_.capacity() + destination_.capacity()) * 4 +
+           pending_.capacity() * sizeof(PoolPoint) +
+           (nearHead_.capacity() + entryOf_.capacity()) * 4 + entries_.capacity() * sizeof(Entry) +
+           cellStart_.capacity() * 4;
 }
 
-void ModelError::AliveGrid::build(const ModelError& me, double x0, double y0, double x1,
-                                  double y1) {
-    const std::size_t n = me.vertexAlive_.size();
-    alive = 0;
-    for (std::size_t v = 0; v < n; ++v)
-        alive += me.vertexAlive_[v];
-    const double w = std::max(x1 - x0, 1e-9), h = std::max(y1 - y0, 1e-9);
-    // About two alive vertices per cell (at most 2^14 cells a side).
-    cell = std::max(std::sqrt(w * h / std::max(1.0, alive / 2.0)), std::max(w, h) / 16384.0);
-    nx = std::uint32_t(std::floor(w / cell)) + 1;
-    ny = std::uint32_t(std::floor(h / cell)) + 1;
-    minX = x0;
-    minY = y0;
-    start.assign(std::size_t(nx) * ny + 1, 0);
-    auto cellOf = [&](PointId v) {
-        const Point& p = me.set_->points[v];
-        const auto cx = std::min(nx - 1, std::uint32_t((p.x - minX) / cell));
-        const auto cy = std::min(ny - 1, std::uint32_t((p.y - minY) / cell));
-        return std::size_t(cy) * nx + cx;
+void ModelError::buildGrid() {
+    // Keep the alive entries (in their current, spatially coherent order).
+    std::size_t k = 0;
+    for (const Entry& e : entries_) {
+        if (e.id != kNil) entries_[k++] = e;
+    }
+    entries_.resize(k);
+    alive_ = std::uint32_t(k);
+    const std::int64_t w = gridX1_ - gridX0_ + 1, h = gridY1_ - gridY0_ + 1;
+    // About two alive vertices per cell, at most 2^14 cells a side.
+    cell_ = std::int64_t(std::ceil(std::sqrt(double(w) * double(h) / std::max(1.0, k / 2.0))));
+    cell_ = std::max<std::int64_t>({cell_, 1, (std::max(w, h) + 16383) / 16384});
+    nx_ = std::uint32_t(w / cell_ + 1);
+    ny_ = std::uint32_t(h / cell_ + 1);
+    cellStart_.assign(std::size_t(nx_) * ny_ + 1, 0);
+    auto cellOf = [&](const Entry& e) {
+        return std::size_t((e.gy - gridY0_) / cell_) * nx_ + std::size_t((e.gx - gridX0_) / cell_);
     };
-    for (PointId v = 0; v < n; ++v) {
-        if (me.vertexAlive_[v]) ++start[cellOf(v) + 1];
+    for (const Entry& e : entries_)
+        ++cellStart_[cellOf(e) + 1];
+    for (std::size_t c = 0; c + 1 < cellStart_.size(); ++c)
+        cellStart_[c + 1] += cellStart_[c];
+    std::vector<Entry> sorted(k);
+    std::vector<std::uint32_t> fill(cellStart_.begin(), cellStart_.end() - 1);
+    for (const Entry& e : entries_) {
+        const std::uint32_t slot = fill[cellOf(e)]++;
+        sorted[slot] = e;
+        entryOf_[e.id] = slot;
     }
-    for (std::size_t c = 0; c + 1 < start.size(); ++c)
-        start[c + 1] += start[c];
-    ids.assign(alive, 0);
-    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
-    for (PointId v = 0; v < n; ++v) {
-        if (me.vertexAlive_[v]) ids[fill[cellOf(v)]++] = v;
-    }
+    entries_.swap(sorted);
 }
 
-PointId ModelError::AliveGrid::nearest(const ModelError& me, double x, double y, double z) const {
-    const auto cx = std::int64_t(std::min(nx - 1, std::uint32_t(std::max(0.0, (x - minX) / cell))));
-    const auto cy = std::int64_t(std::min(ny - 1, std::uint32_t(std::max(0.0, (y - minY) / cell))));
+PointId ModelError::nearest(std::int32_t gx, std::int32_t gy, double z) const {
+    const std::int64_t cx = std::clamp<std::int64_t>((gx - gridX0_) / cell_, 0, nx_ - 1);
+    const std::int64_t cy = std::clamp<std::int64_t>((gy - gridY0_) / cell_, 0, ny_ - 1);
     double best = INFINITY;
     PointId bestId = kNil;
     auto scanCell = [&](std::int64_t i, std::int64_t j) {
-        if (i < 0 || j < 0 || i >= nx || j >= ny) return;
-        const std::size_t c = std::size_t(j) * nx + std::size_t(i);
-        for (std::uint32_t k = start[c]; k < start[c + 1]; ++k) {
-            const PointId v = ids[k];
-            if (!me.vertexAlive_[v]) continue;
-            const Point& p = me.set_->points[v];
-            const double dx = p.x - x, dy = p.y - y, dz = p.z - z;
-            const double d2 = dx * dx + dy * dy + dz * dz;
-            if (d2 < best || (d2 == best && v < bestId)) best = d2, bestId = v;
+        if (i < 0 || j < 0 || i >= nx_ || j >= ny_) return;
+        const std::size_t c = std::size_t(j) * nx_ + std::size_t(i);
+        for (std::uint32_t k = cellStart_[c]; k < cellStart_[c + 1]; ++k) {
+            const Entry& e = entries_[k];
+            if (e.id == kNil) continue;
+            const double d2 = distance2Of(e.gx - gx, e.gy - gy, e.z - z, unit_);
+            if (d2 < best || (d2 == best && e.id < bestId)) best = d2, bestId = e.id;
         }
     };
-    const std::int64_t maxRing = std::max<std::int64_t>(nx, ny);
-    for (std::int64_t r = 0; r <= maxRing; ++r) {
+    for (std::int64_t r = 0;; ++r) {
         if (r == 0) {
             scanCell(cx, cy);
         } else {
             for (std::int64_t i = cx - r; i <= cx + r; ++i)
                 scanCell(i, cy - r), scanCell(i, cy + r);
-            for (std::int64_t j = cy - r + 1; j <= cy + r - 1; ++j)
+            for (std::int64_t j = cy - r + 1; j <= cy + r - 1; ++j) {
                 scanCell(cx - r, j), scanCell(cx + r, j);
+            }
         }
-        const double bound = double(r) * cell;
+        // Every unscanned cell lies outside the square of rings 0..r: at least this far away.
+        constexpr std::int64_t kFar = std::int64_t(1) << 40;
+        const std::int64_t left = cx - r > 0 ? gx - (gridX0_ + (cx - r) * cell_) : kFar;
+        const std::int64_t right = cx + r < nx_ - 1 ? gridX0_ + (cx + r + 1) * cell_ - gx : kFar;
+        const std::int64_t down = cy - r > 0 ? gy - (gridY0_ + (cy - r) * cell_) : kFar;
+        const std::int64_t up = cy + r < ny_ - 1 ? gridY0_ + (cy + r + 1) * cell_ - gy : kFar;
+        const std::int64_t gap = std::min({left, right, down, up});
+        if (gap == kFar) break;
+        const double bound = double(gap) * unit_;
         if (bestId != kNil && best < bound * bound) break;
     }
     return bestId;
@@ -213,7 +402,9 @@ double bruteForceMaxError(const PointSet& set, const Cdt& cdt) {
     for (PointId m = 0; m < set.points.size(); ++m) {
         std::uint32_t found = kNil;
         for (std::uint32_t t = 0; t < cdt.triangleSlots() && found == kNil; ++t) {
-            if (cdt.triangleAlive(t) && !cdt.isGhost(t) && containsPoint(cdt, t, m)) found = t;
+            if (cdt.triangleAlive(t) && !cdt.isGhost(t) &&
+                containsGrid(cdt, t, cdt.gx[m], cdt.gy[m]))
+                found = t;
         }
         if (found == kNil) return INFINITY;  // outside the domain: cannot happen
         worst = std::max(worst, std::fabs(set.points[m].z - surfaceHeight(set, cdt, found, m)));
@@ -223,14 +414,15 @@ double bruteForceMaxError(const PointSet& set, const Cdt& cdt) {
 
 double bruteForcePaperError(const PointSet& set, const Cdt& cdt) {
     long double sum = 0;
-    for (const Point& p : set.points) {
+    for (PointId m = 0; m < set.points.size(); ++m) {
+        const Point& p = set.points[m];
         double best = INFINITY;
         PointId bestId = kNil;
         for (PointId v = 0; v < set.points.size(); ++v) {
             if (!cdt.isVertex(v)) continue;
-            const Point& q = set.points[v];
-            const double dx = q.x - p.x, dy = q.y - p.y, dz = q.z - p.z;
-            const double d2 = dx * dx + dy * dy + dz * dz;
+            const double d2 = distance2Of(std::int64_t(cdt.gx[v]) - cdt.gx[m],
+                                          std::int64_t(cdt.gy[v]) - cdt.gy[m],
+                                          set.points[v].z - p.z, cdt.gridUnit);
             if (d2 < best) best = d2, bestId = v;
         }
         sum += std::fabs(p.z - set.points[bestId].z);

@@ -40,8 +40,8 @@ struct BlockSpec {
     bool lockBorder = true;       // lock the square's border points (hull)
 };
 
-// Points: the DEM points (border first when grid), then the river vertices. River ends and
-// junctions are locked; with lockBorder, the four corners and the border points are locked.
+// Points: the DEM points (random blocks: the four corners and the border points first), then the
+// river vertices. River ends and junctions are locked; with lockBorder, the border points too.
 inline PointSet makeBlock(const BlockSpec& spec) {
     SplitMix64 rng(spec.seed);
     PointSet set;

@@ -2,12 +2,18 @@
 // replay of the topology-change records, determinism.
 #include <gtest/gtest.h>
 
+#include <gdal_priv.h>
+#include <ogrsf_frmts.h>
+
+#include <cmath>
+#include <cstdio>
 #include <set>
 
 #include "cdt.h"
 #include "cdt_fixtures.h"
 #include "checker.h"
 #include "deletion.h"
+#include "importance.h"
 
 namespace unilod {
 namespace {
@@ -18,16 +24,23 @@ using testing::shuffledOrder;
 
 // Runs the whole sequence and checks every invariant after every step, with the river edges
 // rebuilt from the records (so the records are checked too).
-void runChecked(const PointSet& set, const std::vector<PointId>& order, DeletionRecords& rec,
-                std::uint32_t every = 1) {
+// Checks every `every`-th step and each of the last 1000 steps of `total` (0: of the order).
+// Returns the number of steps checked.
+std::uint32_t runChecked(const PointSet& set, const std::vector<PointId>& order,
+                         DeletionRecords& rec, std::uint32_t every = 1, std::uint32_t total = 0) {
+    std::uint32_t checkedSteps = 0;
+    if (total == 0) total = std::uint32_t(order.size());
     Cdt cdt;
     std::string error;
-    ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+    if (!buildCdt(set, {}, cdt, error)) {
+        ADD_FAILURE() << error;
+        return 0;
+    }
     const CheckReference ref = captureCheckReference(cdt);
     const std::vector<RiverEdge> initialEdges = collectRiverEdges(cdt);
     std::set<RiverEdge> edges(initialEdges.begin(), initialEdges.end());
     std::string message;
-    ASSERT_TRUE(checkCdt(cdt, ref, nullptr, message)) << message;
+    EXPECT_TRUE(checkCdt(cdt, ref, nullptr, message)) << message;
     std::uint32_t failures = 0;
     DeletionOptions options;
     options.afterStep = [&](std::uint32_t step) {
@@ -36,7 +49,8 @@ void runChecked(const PointSet& set, const std::vector<PointId>& order, Deletion
             edges.erase(rec.removedEdges[i]);
         for (std::uint32_t i = rec.addedEdgeOffset[s]; i < rec.addedEdgeOffset[s + 1]; ++i)
             edges.insert(rec.addedEdges[i]);
-        if (failures > 0 || (step % every != 0 && step + 1000 < order.size())) return;
+        if (failures > 0 || (step % every != 0 && step + 1000 <= total)) return;
+        ++checkedSteps;
         const std::vector<RiverEdge> list(edges.begin(), edges.end());
         std::string m;
         if (!checkCdt(cdt, ref, &list, m)) {
@@ -47,14 +61,15 @@ void runChecked(const PointSet& set, const std::vector<PointId>& order, Deletion
         EXPECT_EQ(rec.steps[s].trianglesAlive, cdt.realTriangleCount);
         EXPECT_EQ(rec.steps[s].riverEdgesAlive, list.size());
     };
-    ASSERT_TRUE(runDeletion(set, cdt, order, options, rec, error)) << error;
+    EXPECT_TRUE(runDeletion(set, cdt, order, options, rec, error)) << error;
     EXPECT_EQ(failures, 0u);
     // Everything deletable was deleted: every vertex left is locked, on the hull or kept.
     std::uint32_t kept = 0;
     for (const KeptVertex& k : rec.kept)
         kept += k.reason != KeptReason::Locked;
     EXPECT_EQ(rec.steps.size() + kept, order.size() - rec.mergedSkipped);
-    ASSERT_TRUE(checkCdt(cdt, ref, nullptr, message)) << message;
+    EXPECT_TRUE(checkCdt(cdt, ref, nullptr, message)) << message;
+    return checkedSteps;
 }
 
 TEST(Deletion, InvariantsAfterEveryStepRandomBlocks) {
@@ -164,6 +179,25 @@ TEST(Deletion, VertexOnTheNewRiverEdgeDefers) {
     EXPECT_EQ(rec.deferrals, 1u);
 }
 
+TEST(Deletion, NewRiverEdgeAlongTheHullThroughAVertexIsDeferred) {
+    // A and C on the block border with a border point W between them: A-C would run along the
+    // hull through W. Bottom and top edge (the walk meets W on either side of A's fan).
+    PointSet set = frame();
+    const PointId a = add(set, 0, -20, true), x = add(set, 5, -15, false),
+                  c = add(set, 10, -20, true);
+    set.points.push_back({5, -20, 0.0, PointKind::Dem, true});
+    const PointId a2 = add(set, 10, 20, true), x2 = add(set, 5, 15, false),
+                  c2 = add(set, 0, 20, true);
+    set.points.push_back({5, 20, 0.0, PointKind::Dem, true});
+    set.rivers = {{a, x, c}, {a2, x2, c2}};
+    DeletionRecords rec;
+    runChecked(set, {x, x2}, rec);
+    EXPECT_TRUE(rec.steps.empty());
+    ASSERT_EQ(rec.kept.size(), 2u);
+    EXPECT_EQ(rec.kept[0].reason, KeptReason::Deferred);
+    EXPECT_EQ(rec.kept[1].reason, KeptReason::Deferred);
+}
+
 TEST(Deletion, CollinearRiverVertexIsDeleted) {
     PointSet set = frame();
     const PointId a = add(set, 0, 0, true), x = add(set, 5, 0, false), c = add(set, 10, 0, true);
@@ -246,6 +280,162 @@ TEST(Deletion, InvalidOrderIsRejected) {
     EXPECT_NE(error.find("out of range"), std::string::npos);
     EXPECT_FALSE(runDeletion(set, cdt, {50, 50}, {}, rec, error));
     EXPECT_NE(error.find("repeated"), std::string::npos);
+}
+
+// --- One block of the bundled Jacksboro data (assets/): DEM cell centres + GRASS rivers ------
+
+namespace jacksboro {
+
+// Reads rows [r0, r0 + size) x columns [c0, c0 + size) of the DEM as points (cell centres) and
+// the river network inside the block. Lon/lat go to metres by a local equirectangular map
+// (enough for a test; the pipeline reprojects with GDAL). River vertices lie on cell centres
+// and become those DEM points (what river cleaning does); every river segment is kept once, as
+// a two-point polyline; of two diagonal segments crossing inside one 2x2 cell square the second
+// is dropped (the cleaning stage would split them). Border cells and river ends and junctions
+// are locked.
+bool loadBlock(int r0, int c0, int size, PointSet& set, std::string& error) {
+    GDALAllRegister();
+    GDALDatasetUniquePtr dem(
+        GDALDataset::Open(UNILOD_ASSETS_DIR "/jacksboro_dem.tif", GDAL_OF_RASTER));
+    if (!dem) {
+        error = "cannot open the Jacksboro DEM";
+        return false;
+    }
+    double gt[6];
+    dem->GetGeoTransform(gt);
+    std::vector<float> z(std::size_t(size) * size);
+    if (dem->GetRasterBand(1)->RasterIO(GF_Read, c0, r0, size, size, z.data(), size, size,
+                                        GDT_Float32, 0, 0) != CE_None) {
+        error = "cannot read the Jacksboro DEM";
+        return false;
+    }
+    const double lat0 = gt[3] + (r0 + size / 2) * gt[5], lon0 = gt[0] + (c0 + size / 2) * gt[1];
+    const double kx = 111320.0 * std::cos(lat0 * M_PI / 180.0), ky = 110540.0;
+    for (int r = 0; r < size; ++r) {
+        for (int c = 0; c < size; ++c) {
+            Point p;
+            p.x = (gt[0] + (c0 + c + 0.5) * gt[1] - lon0) * kx;
+            p.y = (gt[3] + (r0 + r + 0.5) * gt[5] - lat0) * ky;
+            p.z = z[std::size_t(r) * size + c];
+            p.locked = r == 0 || c == 0 || r + 1 == size || c + 1 == size;
+            set.points.push_back(p);
+        }
+    }
+    GDALDatasetUniquePtr rivers(
+        GDALDataset::Open(UNILOD_ASSETS_DIR "/jacksboro_rivers_grass.geojson", GDAL_OF_VECTOR));
+    if (!rivers) {
+        error = "cannot open the Jacksboro rivers";
+        return false;
+    }
+    // River vertex -> cell of the block (or -1).
+    auto cellOf = [&](double lon, double lat) {
+        const double fc = (lon - gt[0]) / gt[1] - 0.5 - c0, fr = (lat - gt[3]) / gt[5] - 0.5 - r0;
+        const long c = std::lround(fc), r = std::lround(fr);
+        if (std::fabs(fc - c) > 0.01 || std::fabs(fr - r) > 0.01) return -2L;  // not a centre
+        if (c < 0 || r < 0 || c >= size || r >= size) return -1L;
+        return r * size + c;
+    };
+    std::set<std::pair<long, long>> edges;
+    for (auto& feature : rivers->GetLayer(0)) {
+        const OGRGeometry* g = feature->GetGeometryRef();
+        if (g == nullptr || wkbFlatten(g->getGeometryType()) != wkbLineString) continue;
+        const auto* line = g->toLineString();
+        long prev = -1;
+        for (int k = 0; k < line->getNumPoints(); ++k) {
+            const long cell = cellOf(line->getX(k), line->getY(k));
+            if (cell == -2) {
+                error = "river vertex off the cell centres";
+                return false;
+            }
+            if (prev >= 0 && cell >= 0 && cell != prev) {
+                edges.insert({std::min(prev, cell), std::max(prev, cell)});
+            }
+            prev = cell;
+        }
+    }
+    std::set<std::pair<long, long>> kept;
+    for (const auto& [a, b] : edges) {
+        const long ra = a / size, ca = a % size, rb = b / size, cb = b % size;
+        if (std::labs(ra - rb) == 1 && std::labs(ca - cb) == 1) {
+            // The other diagonal of the same 2x2 square.
+            const long u = ra * size + cb, v = rb * size + ca;
+            if (kept.count({std::min(u, v), std::max(u, v)})) continue;
+        }
+        kept.insert({a, b});
+    }
+    std::vector<int> degree(set.points.size(), 0);
+    for (const auto& [a, b] : kept) {
+        set.rivers.push_back({PointId(a), PointId(b)});
+        ++degree[a], ++degree[b];
+        set.points[a].kind = set.points[b].kind = PointKind::River;
+    }
+    for (std::size_t i = 0; i < degree.size(); ++i) {
+        if (degree[i] != 0 && degree[i] != 2) set.points[i].locked = true;
+    }
+    return true;
+}
+
+}  // namespace jacksboro
+
+TEST(Deletion, JacksboroBlockSampledStepsAndLast1000) {
+    PointSet set;
+    std::string error;
+    ASSERT_TRUE(jacksboro::loadBlock(120, 150, 90, set, error)) << error;
+    ASSERT_GT(set.rivers.size(), 100u);
+    const std::vector<PointId> order = shuffledOrder(set, 2024);
+    // First pass: the number of steps, so that the checked run knows its last 1000.
+    std::uint32_t total = 0;
+    {
+        Cdt cdt;
+        ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+        DeletionRecords rec;
+        DeletionOptions options;
+        options.maxError = options.paperError = false;
+        ASSERT_TRUE(runDeletion(set, cdt, order, options, rec, error)) << error;
+        total = std::uint32_t(rec.steps.size());
+    }
+    ASSERT_GT(total, 5000u);
+    DeletionRecords rec;
+    const std::uint32_t checked = runChecked(set, order, rec, 50, total);
+    EXPECT_GE(checked, 1000u + (total - 1000) / 50);
+    EXPECT_EQ(rec.steps.size(), total);
+    EXPECT_GT(rec.removedEdges.size(), 200u);  // river vertices were deleted
+    EXPECT_GT(rec.errorMax.back(), 10.0);
+    std::printf(
+        "jacksboro block: %zu points, %zu river segments, %u steps, %u deferrals, %zu kept, "
+        "%u checked steps, final error max %.1f m paper %.1f m\n",
+        set.points.size(), set.rivers.size(), total, rec.deferrals, rec.kept.size(), checked,
+        rec.errorMax.back(), rec.errorPaper.back());
+}
+
+TEST(Deletion, JacksboroBlockInImportanceOrder) {
+    // The real deletion order (improved 3D_DP + BAI, importance.h) on the same block.
+    PointSet set;
+    std::string error;
+    ASSERT_TRUE(jacksboro::loadBlock(120, 150, 90, set, error)) << error;
+    ImportanceResult importance;
+    ASSERT_TRUE(computeImportance(set, {}, importance, error)) << error;
+    std::uint32_t total = 0;
+    {
+        Cdt cdt;
+        ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+        DeletionRecords rec;
+        DeletionOptions options;
+        options.maxError = options.paperError = false;
+        ASSERT_TRUE(runDeletion(set, cdt, importance.order, options, rec, error)) << error;
+        total = std::uint32_t(rec.steps.size());
+    }
+    ASSERT_GT(total, 5000u);
+    DeletionRecords rec;
+    runChecked(set, importance.order, rec, 50, total);
+    for (std::size_t s = 1; s < rec.errorMax.size(); ++s) {
+        ASSERT_GE(rec.errorMax[s], rec.errorMax[s - 1]);
+        ASSERT_GE(rec.errorPaper[s], rec.errorPaper[s - 1]);
+    }
+    std::printf(
+        "jacksboro block, importance order: %u steps, %u deferrals, %zu kept, error at "
+        "half the steps: max %.1f m, paper %.2f m\n",
+        total, rec.deferrals, rec.kept.size(), rec.errorMax[total / 2], rec.errorPaper[total / 2]);
 }
 
 }  // namespace
