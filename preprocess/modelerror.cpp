@@ -181,11 +181,18 @@ void ModelError::updateMax(const Cdt& cdt, const std::vector<std::uint32_t>& rem
                               t});
     }
     double stepMax = 0;
+    // Pending points arrive grouped by the removed triangle that held them, so consecutive points
+    // usually fall in the same created triangle: try the previous hit first. Points on a shared
+    // edge may be claimed by either triangle; the height there is the same (exact weights).
+    std::size_t last = 0;
+    const std::size_t count = addedTris_.size();
     for (std::size_t i = 0; i < pending_.size(); ++i) {
         const PoolPoint& p = pending_[i];
         std::uint32_t found = kNil;
         double height = 0;
-        for (const AddedTri& q : addedTris_) {
+        for (std::size_t k = 0; k < count; ++k) {
+            const std::size_t j = k == 0 ? last : (k <= last ? k - 1 : k);
+            const AddedTri& q = addedTris_[j];
             const std::int64_t wc = orient2d(q.x[0], q.y[0], q.x[1], q.y[1], p.gx, p.gy);
             if (wc < 0) continue;
             const std::int64_t wa = orient2d(q.x[1], q.y[1], q.x[2], q.y[2], p.gx, p.gy);
@@ -194,6 +201,7 @@ void ModelError::updateMax(const Cdt& cdt, const std::vector<std::uint32_t>& rem
             if (wb < 0) continue;
             found = q.slot;
             height = (double(wa) * q.z[0] + double(wb) * q.z[1] + double(wc) * q.z[2]) / q.den;
+            last = j;
             break;
         }
         assert(found != kNil);
