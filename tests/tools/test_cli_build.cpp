@@ -6,6 +6,8 @@
 // any thread count and keeps every locked river vertex at the coarsest level.
 #include <gdal_priv.h>
 #include <gtest/gtest.h>
+
+#include "tools/cliutil.h"
 #include <ogrsf_frmts.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -28,6 +30,11 @@ using namespace unilod;
 
 namespace {
 
+using unilod::test::q;
+using unilod::test::slurp;
+using Result = unilod::test::CliResult;
+Result run(const std::string& args) { return unilod::test::runCli(args); }
+
 const std::string kAssets = UNILOD_ASSETS_DIR;
 const std::string kDem = kAssets + "/jacksboro_dem.tif";
 const std::string kRivers = kAssets + "/jacksboro_rivers_grass.geojson";
@@ -36,40 +43,6 @@ const std::string kRivers = kAssets + "/jacksboro_rivers_grass.geojson";
 constexpr int kEpsg = 32616;
 constexpr double kX0 = 300000, kY0 = 3901200, kCell = 30;
 constexpr int kSize = 40;
-
-std::string slurp(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
-struct Result {
-    int code = -1;
-    std::string out, err;
-};
-
-Result run(const std::string& args) {
-    static int counter = 0;
-    const fs::path base =
-        fs::temp_directory_path() /
-        ("unilod_test_build_run_" + std::to_string(getpid()) + "_" + std::to_string(counter++));
-    const std::string out = base.string() + ".out", err = base.string() + ".err";
-    const std::string command =
-        "'" + std::string(UNILOD_CLI) + "' " + args + " >'" + out + "' 2>'" + err + "'";
-    const int status = std::system(command.c_str());
-    Result r;
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = slurp(out);
-    r.err = slurp(err);
-    fs::remove(out);
-    fs::remove(err);
-    return r;
-}
-
-std::string q(const std::string& s) {
-    return "'" + s + "'";
-}
 
 double terrain(int col, int row) {
     return 200 + 40 * std::sin(col * 0.3) * std::cos(row * 0.2) + 2.0 * col;

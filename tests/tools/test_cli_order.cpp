@@ -2,6 +2,8 @@
 // `order` on the bundled data (CSV in deletion order, JSON summary), error exits that name the file
 // and leave no output, usage errors, --help everywhere, and `synth` writing readable files.
 #include <gtest/gtest.h>
+
+#include "tools/cliutil.h"
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -24,6 +26,11 @@ namespace fs = std::filesystem;
 
 namespace {
 
+using unilod::test::q;
+using unilod::test::slurp;
+using Result = unilod::test::CliResult;
+Result run(const std::string& args) { return unilod::test::runCli(args); }
+
 const std::string kAssets = UNILOD_ASSETS_DIR;
 const std::string kDem = kAssets + "/jacksboro_dem.tif";
 const std::string kRivers = kAssets + "/jacksboro_rivers_grass.geojson";
@@ -45,41 +52,6 @@ struct TempDir {
         return static_cast<std::size_t>(std::distance(fs::directory_iterator(path), {}));
     }
 };
-
-std::string slurp(const std::string& path) {
-    std::ifstream in(path);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
-struct Result {
-    int code = -1;
-    std::string out, err;
-};
-
-// Runs `unilod ARGS` through the shell, capturing stdout and stderr.
-Result run(const std::string& args) {
-    static int counter = 0;
-    const fs::path base =
-        fs::temp_directory_path() /
-        ("unilod_test_cli_run_" + std::to_string(getpid()) + "_" + std::to_string(counter++));
-    const std::string out = base.string() + ".out", err = base.string() + ".err";
-    const std::string command =
-        "'" + std::string(UNILOD_CLI) + "' " + args + " >'" + out + "' 2>'" + err + "'";
-    const int status = std::system(command.c_str());
-    Result r;
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = slurp(out);
-    r.err = slurp(err);
-    fs::remove(out);
-    fs::remove(err);
-    return r;
-}
-
-std::string q(const std::string& s) {
-    return "'" + s + "'";
-}
 
 std::vector<std::string> split(const std::string& line) {
     std::vector<std::string> fields;

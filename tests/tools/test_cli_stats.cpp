@@ -3,6 +3,8 @@
 // (format::Reader) with the formulas written out again, and compared with the library and with
 // the CLI's CSV; plus monotonicity in distance and pixels, text output and usage errors.
 #include <gtest/gtest.h>
+
+#include "tools/cliutil.h"
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -24,35 +26,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string slurp(const std::string& path) {
-    std::ifstream in(path);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
-struct Result {
-    int code = -1;
-    std::string out, err;
-};
-
-Result run(const std::string& args) {
-    static int counter = 0;
-    const fs::path base =
-        fs::temp_directory_path() /
-        ("unilod_test_stats_run_" + std::to_string(getpid()) + "_" + std::to_string(counter++));
-    const std::string out = base.string() + ".out", err = base.string() + ".err";
-    const std::string command =
-        "'" + std::string(UNILOD_CLI) + "' " + args + " >'" + out + "' 2>'" + err + "'";
-    const int status = std::system(command.c_str());
-    Result r;
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = slurp(out);
-    r.err = slurp(err);
-    fs::remove(out);
-    fs::remove(err);
-    return r;
-}
+using unilod::test::q;
+using unilod::test::slurp;
+using Result = unilod::test::CliResult;
+Result run(const std::string& args) { return unilod::test::runCli(args); }
 
 std::vector<std::string> split(const std::string& line, char sep) {
     std::vector<std::string> fields;
