@@ -2,7 +2,7 @@
 # unilod main job on the bundled demo data (README Quick start).
 # Installs missing Debian packages, builds (optimised), then runs the pipeline as far as it exists
 # today on the Jacksboro DEM + GRASS river network: the unified LOD model (.ulod), its full check,
-# its summary, and the improved 3D_DP importance order of the whole point set as CSV. Later stages
+# its summary, the paper's Tables 2/3 for it, and the improved 3D_DP importance order of the whole point set as CSV. Later stages
 # (capture, bench, report) join here as they land.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -23,7 +23,9 @@ echo "== 2. unilod check: checksums + topology invariants at every stored level 
 $unilod check -q out/jacksboro.ulod
 echo "== 3. unilod info =="
 $unilod info out/jacksboro.ulod
-echo "== 4. unilod order: improved 3D_DP importance order of the whole point set =="
+echo "== 4. unilod stats: the paper's Table 2 / 3 for this model (1-3 pixels, 100-1500 km) =="
+$unilod stats out/jacksboro.ulod --pixels 1,2,3
+echo "== 5. unilod order: improved 3D_DP importance order of the whole point set =="
 $unilod order "$dem" "$rivers" --out out/jacksboro_order.csv -q
 echo "== outputs =="
 echo "  unified LOD model: $root/out/jacksboro.ulod"
