@@ -116,7 +116,8 @@ int BaiTable::findRow(double threshold) const {
 double BaiTable::constantFor(int row, double altitude) const {
     const auto& c = rows.at(static_cast<std::size_t>(row)).c;
     std::size_t cls = 0;
-    while (cls + 1 < classLowerBounds.size() && altitude >= classLowerBounds[cls + 1]) ++cls;
+    while (cls + 1 < classLowerBounds.size() && altitude >= classLowerBounds[cls + 1])
+        ++cls;
     return c[cls];
 }
 

@@ -50,12 +50,12 @@ inline constexpr double kDefaultBaiRow = 500.0;
 
 struct Bend {
     std::uint32_t first = 0, last = 0;  // vertex positions in the polyline, first < last
-    double width = 0;      // W: chord length |v_first v_last| (horizontal)
-    double length = 0;     // L: arc length along the polyline (horizontal)
-    double area = 0;       // S: |area| enclosed by the arc and the chord
-    double meanZ = 0;      // arithmetic mean of the bend's vertex altitudes
-    double bai = 0;        // Eq. 1
-    double c = 0;          // bending adjustment constant (Table 1)
+    double width = 0;                   // W: chord length |v_first v_last| (horizontal)
+    double length = 0;                  // L: arc length along the polyline (horizontal)
+    double area = 0;                    // S: |area| enclosed by the arc and the chord
+    double meanZ = 0;                   // arithmetic mean of the bend's vertex altitudes
+    double bai = 0;                     // Eq. 1
+    double c = 0;                       // bending adjustment constant (Table 1)
 };
 
 // The bends of one polyline, with BAI filled in (l_avg, s_avg over these bends). `table`/`row`

@@ -21,10 +21,10 @@ struct BlockBuildOptions {
 
 struct BlockBuildStats {
     std::size_t points = 0, riverPoints = 0, lockedPoints = 0;
-    std::size_t vertices = 0;        // after merging duplicates on the grid
-    std::size_t steps = 0;           // deletions done
-    std::size_t kept = 0;            // ranked vertices never deleted (hull, refused, deferred)
-    std::size_t deferrals = 0;       // deferred deletion attempts
+    std::size_t vertices = 0;   // after merging duplicates on the grid
+    std::size_t steps = 0;      // deletions done
+    std::size_t kept = 0;       // ranked vertices never deleted (hull, refused, deferred)
+    std::size_t deferrals = 0;  // deferred deletion attempts
     std::size_t fullTriangles = 0, coarsestTriangles = 0;
     std::size_t riverEdges = 0;      // at full resolution
     std::size_t indexTriangles = 0;  // triangles stored in the LOD index data

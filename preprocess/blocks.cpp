@@ -17,7 +17,8 @@ std::vector<int> borderLines(int cells, int stride, int blockSize) {
     const int last = (cells - 1) / stride * stride;
     const int step = std::max(stride, blockSize / stride * stride);
     std::vector<int> lines;
-    for (int c = 0; c < last; c += step) lines.push_back(c);
+    for (int c = 0; c < last; c += step)
+        lines.push_back(c);
     lines.push_back(last);
     return lines;
 }
@@ -27,8 +28,8 @@ std::size_t intervalOf(const std::vector<int>& lines, double v) {
     const auto it = std::upper_bound(lines.begin(), lines.end(), v,
                                      [](double x, int line) { return x < double(line); });
     const auto i = static_cast<std::ptrdiff_t>(it - lines.begin()) - 1;
-    return static_cast<std::size_t>(std::clamp<std::ptrdiff_t>(
-        i, 0, static_cast<std::ptrdiff_t>(lines.size()) - 2));
+    return static_cast<std::size_t>(
+        std::clamp<std::ptrdiff_t>(i, 0, static_cast<std::ptrdiff_t>(lines.size()) - 2));
 }
 
 }  // namespace
@@ -47,8 +48,9 @@ bool BlockSource::init(const DemGrid& dem, const RiverLines& rivers, const Block
     }
     const int largest = std::max(dem.width, dem.height) - 1;
     if (options.blockSize > largest) {
-        error = "block size " + std::to_string(options.blockSize) + " cells is larger than the DEM (" +
-                std::to_string(dem.width) + " x " + std::to_string(dem.height) + " cells)";
+        error = "block size " + std::to_string(options.blockSize) +
+                " cells is larger than the DEM (" + std::to_string(dem.width) + " x " +
+                std::to_string(dem.height) + " cells)";
         return false;
     }
     if (options.blockSize < 2 * options.stride) {
@@ -168,7 +170,8 @@ bool BlockSource::init(const DemGrid& dem, const RiverLines& rivers, const Block
             runs_[b].push_back({p, first, static_cast<std::uint32_t>(piece.size() - 1)});
         }
     }
-    for (std::size_t c = 0; c < drop_.size(); ++c) stats_.droppedDemPoints += drop_[c];
+    for (std::size_t c = 0; c < drop_.size(); ++c)
+        stats_.droppedDemPoints += drop_[c];
     return true;
 }
 
@@ -204,8 +207,7 @@ PointSet BlockSource::points(std::size_t i) const {
     return set;
 }
 
-std::vector<std::size_t> BlockSource::bridgedNodataCells(std::size_t i,
-                                                         const PointSet& set) const {
+std::vector<std::size_t> BlockSource::bridgedNodataCells(std::size_t i, const PointSet& set) const {
     std::vector<std::size_t> cells;
     const DemGrid& dem = *dem_;
     const BlockRect& r = rects_[i];
@@ -214,22 +216,26 @@ std::vector<std::size_t> BlockSource::bridgedNodataCells(std::size_t i,
     const Quantizer q = Quantizer::forPoints(set.points);
     std::vector<GridPoint> pts;
     pts.reserve(set.points.size());
-    for (const Point& p : set.points) pts.push_back(q(p));
+    for (const Point& p : set.points)
+        pts.push_back(q(p));
     std::sort(pts.begin(), pts.end(), [](const GridPoint& a, const GridPoint& b) {
         return a.x < b.x || (a.x == b.x && a.y < b.y);
     });
-    pts.erase(std::unique(pts.begin(), pts.end(),
-                          [](const GridPoint& a, const GridPoint& b) { return a.x == b.x && a.y == b.y; }),
+    pts.erase(std::unique(
+                  pts.begin(), pts.end(),
+                  [](const GridPoint& a, const GridPoint& b) { return a.x == b.x && a.y == b.y; }),
               pts.end());
     if (pts.size() < 3) return cells;
     std::vector<GridPoint> hull(2 * pts.size());
     std::size_t k = 0;
     for (std::size_t j = 0; j < pts.size(); ++j) {
-        while (k >= 2 && orient2d(hull[k - 2], hull[k - 1], pts[j]) <= 0) --k;
+        while (k >= 2 && orient2d(hull[k - 2], hull[k - 1], pts[j]) <= 0)
+            --k;
         hull[k++] = pts[j];
     }
     for (std::size_t j = pts.size() - 1, lower = k + 1; j-- > 0;) {
-        while (k >= lower && orient2d(hull[k - 2], hull[k - 1], pts[j]) <= 0) --k;
+        while (k >= lower && orient2d(hull[k - 2], hull[k - 1], pts[j]) <= 0)
+            --k;
         hull[k++] = pts[j];
     }
     hull.resize(k - 1);
@@ -237,12 +243,14 @@ std::vector<std::size_t> BlockSource::bridgedNodataCells(std::size_t i,
     for (int row = r.cellRow0; row <= r.cellRow1; ++row) {
         for (int col = r.cellCol0; col <= r.cellCol1; ++col) {
             if (!std::isnan(dem.at(col, row))) continue;
-            const GridPoint c = q({dem.centreX(col), dem.centreY(row), q.oz, PointKind::Dem, false});
+            const GridPoint c =
+                q({dem.centreX(col), dem.centreY(row), q.oz, PointKind::Dem, false});
             bool inside = true;
             for (std::size_t e = 0; e < hull.size() && inside; ++e) {
                 inside = orient2d(hull[e], hull[(e + 1) % hull.size()], c) > 0;
             }
-            if (inside) cells.push_back(std::size_t(row) * std::size_t(dem.width) + std::size_t(col));
+            if (inside)
+                cells.push_back(std::size_t(row) * std::size_t(dem.width) + std::size_t(col));
         }
     }
     return cells;

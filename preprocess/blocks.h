@@ -21,7 +21,7 @@
 
 namespace unilod {
 
-inline constexpr int kDefaultBlockSize = 256;        // DEM cells per block side
+inline constexpr int kDefaultBlockSize = 256;          // DEM cells per block side
 inline constexpr double kDefaultRiverClearance = 1.0;  // metres
 
 struct BlockOptions {
@@ -59,8 +59,8 @@ public:
     // what is locked.
     PointSet points(std::size_t i) const;
 
-    // nodata.h rule 2: the nodata cells (row-major indices) of block i's rectangle whose centres lie
-    // strictly inside the convex hull of `set` (the block's points).
+    // nodata.h rule 2: the nodata cells (row-major indices) of block i's rectangle whose centres
+    // lie strictly inside the convex hull of `set` (the block's points).
     std::vector<std::size_t> bridgedNodataCells(std::size_t i, const PointSet& set) const;
 
 private:
@@ -69,8 +69,8 @@ private:
     std::uint32_t blocksX_ = 0, blocksY_ = 0;
     std::vector<int> borderCols_, borderRows_;  // DEM cell indices of the border lines
     std::vector<BlockRect> rects_;
-    std::vector<RiverPiece> pieces_;   // with crossing vertices
-    std::vector<std::uint8_t> drop_;   // global clearance mask
+    std::vector<RiverPiece> pieces_;  // with crossing vertices
+    std::vector<std::uint8_t> drop_;  // global clearance mask
     // Per block, the pieces (index into pieces_ and vertex range) that run inside it.
     struct Run {
         std::uint32_t piece, first, last;

@@ -4,9 +4,9 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <condition_variable>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <filesystem>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -105,8 +105,9 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
         } else if (z < kMinPlausibleZ || z > kMaxPlausibleZ) {
             const std::size_t col = i % std::size_t(dem.width), row = i / std::size_t(dem.width);
             error = "DEM '" + o.demPath + "': elevation " + std::to_string(z) + " at cell (" +
-                    std::to_string(col) + ", " + std::to_string(row) + ") is outside the plausible " +
-                    "range [" + std::to_string(int(kMinPlausibleZ)) + ", " +
+                    std::to_string(col) + ", " + std::to_string(row) +
+                    ") is outside the plausible " + "range [" +
+                    std::to_string(int(kMinPlausibleZ)) + ", " +
                     std::to_string(int(kMaxPlausibleZ)) + "] m (a wrong nodata value or units?)";
             return false;
         }
@@ -171,8 +172,10 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     RiverCleaningStats cleaningStats;
     rivers = cleanRivers(rivers, dem, cleaning, cleaningStats);
     summary.cleaning = describe(cleaningStats);
-    if (cleaningStats.crossingsSplit + cleaningStats.selfCrossings + cleaningStats.touchesSplit > 0) {
-        warn("rivers '" + o.riversPath + "': crossing or touching rivers were split at the crossing");
+    if (cleaningStats.crossingsSplit + cleaningStats.selfCrossings + cleaningStats.touchesSplit >
+        0) {
+        warn("rivers '" + o.riversPath +
+             "': crossing or touching rivers were split at the crossing");
     }
     if (cleaningStats.duplicateVertices + cleaningStats.zeroLengthSegments > 0) {
         warn("rivers '" + o.riversPath + "': duplicate vertices and zero-length segments dropped");
@@ -290,7 +293,8 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
         }
     };
     std::vector<std::thread> pool;
-    for (unsigned t = 0; t < threads && t < n; ++t) pool.emplace_back(work);
+    for (unsigned t = 0; t < threads && t < n; ++t)
+        pool.emplace_back(work);
     std::string writeError;
     for (std::size_t i = 0; i < n; ++i) {
         {
@@ -333,7 +337,8 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
         if (written < n) failed = true;
     }
     changed.notify_all();
-    for (auto& t : pool) t.join();
+    for (auto& t : pool)
+        t.join();
     for (std::size_t i = 0; i < n; ++i) {
         if (!errors[i].empty()) {
             error = "DEM '" + o.demPath + "' + rivers '" + o.riversPath + "': block (" +

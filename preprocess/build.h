@@ -24,18 +24,18 @@ inline constexpr double kMinPlausibleZ = -12000.0, kMaxPlausibleZ = 10000.0;
 
 struct BuildOptions {
     std::string demPath, riversPath, outPath;
-    int band = 0;             // 0: the only band
-    std::string targetSrs;    // --t-srs; empty: automatic
+    int band = 0;           // 0: the only band
+    std::string targetSrs;  // --t-srs; empty: automatic
     std::string layer, where, assumeSrs;
     int stride = 1;
     int blockSize = kDefaultBlockSize;
-    int threads = 0;          // 0: all cores
+    int threads = 0;  // 0: all cores
     bool useBai = true;
     std::string baiTablePath;  // empty: the paper's Table 1
     double baiRow = kDefaultBaiRow;
     std::uint32_t defaultMetric = format::kMetricMax;
     double minRiverLength = 0;
-    bool force = false;       // overwrite an existing output
+    bool force = false;  // overwrite an existing output
     // Progress: blocks done of total (called from the calling thread).
     std::function<void(std::size_t, std::size_t)> progress;
     // Warnings for accepted-but-odd input (empty river layer, NaN cells...).

@@ -38,7 +38,8 @@ struct Quantizer {
 // Sign of the 2D orientation of (a, b, c) in the xy plane: +1 counter-clockwise (left turn),
 // -1 clockwise, 0 collinear. Exact.
 inline int orient2d(const GridPoint& a, const GridPoint& b, const GridPoint& c) {
-    const Int128 det = Int128(b.x - a.x) * Int128(c.y - a.y) - Int128(b.y - a.y) * Int128(c.x - a.x);
+    const Int128 det =
+        Int128(b.x - a.x) * Int128(c.y - a.y) - Int128(b.y - a.y) * Int128(c.x - a.x);
     return det > 0 ? 1 : (det < 0 ? -1 : 0);
 }
 

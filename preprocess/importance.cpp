@@ -124,7 +124,8 @@ std::array<std::uint32_t, 2> chooseBasePair(const std::vector<GridPoint>& g, std
                                             std::size_t& candidates) {
     const auto n = static_cast<std::uint32_t>(g.size());
     std::vector<double> r2(n);
-    for (std::uint32_t i = 0; i < n; ++i) r2[i] = dist2(g[i], g[o]);
+    for (std::uint32_t i = 0; i < n; ++i)
+        r2[i] = dist2(g[i], g[o]);
 
     double best = 0;  // best |cross|^2
     std::uint32_t ba = 0, bb = 0;
@@ -144,9 +145,9 @@ std::array<std::uint32_t, 2> chooseBasePair(const std::vector<GridPoint>& g, std
 
     // First guess from extreme points.
     constexpr int kDirs = 11;
-    const double dir[kDirs][3] = {{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},  {0, -1, 0},
-                                  {1, 1, 0},  {-1, -1, 0}, {1, -1, 0}, {-1, 1, 0},
-                                  {0, 0, 1},  {0, 0, -1}, {0, 0, 0}};
+    const double dir[kDirs][3] = {{1, 0, 0}, {-1, 0, 0},  {0, 1, 0},  {0, -1, 0},
+                                  {1, 1, 0}, {-1, -1, 0}, {1, -1, 0}, {-1, 1, 0},
+                                  {0, 0, 1}, {0, 0, -1},  {0, 0, 0}};
     std::array<std::uint32_t, kDirs> ext{};
     std::array<double, kDirs> extV{};
     extV.fill(-HUGE_VAL);
@@ -155,7 +156,8 @@ std::array<std::uint32_t, 2> chooseBasePair(const std::vector<GridPoint>& g, std
         const double ux = double(g[i].x - g[o].x), uy = double(g[i].y - g[o].y),
                      uz = double(g[i].z - g[o].z);
         for (int d = 0; d < kDirs; ++d) {
-            const double v = d == kDirs - 1 ? r2[i] : dir[d][0] * ux + dir[d][1] * uy + dir[d][2] * uz;
+            const double v =
+                d == kDirs - 1 ? r2[i] : dir[d][0] * ux + dir[d][1] * uy + dir[d][2] * uz;
             if (v > extV[d]) {
                 extV[d] = v;
                 ext[d] = i;
@@ -163,7 +165,8 @@ std::array<std::uint32_t, 2> chooseBasePair(const std::vector<GridPoint>& g, std
         }
     }
     for (int a = 0; a < kDirs; ++a) {
-        for (int b = a + 1; b < kDirs; ++b) consider(ext[a], ext[b]);
+        for (int b = a + 1; b < kDirs; ++b)
+            consider(ext[a], ext[b]);
     }
 
     // Branch and bound over the points that can still beat the guess. The bound is relaxed by
@@ -213,7 +216,7 @@ PlaneDistance::PlaneDistance(const GridPoint& o, const GridPoint& p, const GridP
     base_ = o;
     if (n.zero()) {
         GridPoint from = p, to = q;
-        if (p == q) from = o;  // the "plane" through O and P: the line OP
+        if (p == q) from = o;    // the "plane" through O and P: the line OP
         if (from == to) return;  // Kind::Point at O
         kind_ = Kind::Line;
         base_ = from;
@@ -277,7 +280,8 @@ bool computeImportance(const PointSet& set, const ImportanceOptions& options,
     if (options.useBai) {
         const int row = options.baiTable.findRow(options.baiRow);
         if (row < 0) {
-            error = "the BAI table has no row for threshold " + std::to_string(options.baiRow) + " m";
+            error =
+                "the BAI table has no row for threshold " + std::to_string(options.baiRow) + " m";
             return false;
         }
         result.baiFactor = baiFactors(set, options.baiTable, row);
@@ -313,7 +317,8 @@ bool computeImportance(const PointSet& set, const ImportanceOptions& options,
     }
 
     std::vector<GridPoint> g(m);
-    for (std::uint32_t i = 0; i < m; ++i) g[i] = quantizer(pts[ids[i]]);
+    for (std::uint32_t i = 0; i < m; ++i)
+        g[i] = quantizer(pts[ids[i]]);
     const std::uint32_t o = chooseOrigin(g);
     const auto [a, b] = chooseBasePair(g, o, stats.basePairCandidates);
     result.origin = ids[o];
@@ -415,7 +420,8 @@ bool computeImportance(const PointSet& set, const ImportanceOptions& options,
         return l.id < r.id;
     });
     result.order.resize(m);
-    for (std::uint32_t i = 0; i < m; ++i) result.order[i] = keys[i].id;
+    for (std::uint32_t i = 0; i < m; ++i)
+        result.order[i] = keys[i].id;
     stats.orderSeconds = watch.lap();
     return true;
 }

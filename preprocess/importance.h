@@ -23,9 +23,9 @@
 namespace unilod {
 
 struct ImportanceOptions {
-    bool useBai = true;                    // false: plain 3D_DP (--no-bai)
+    bool useBai = true;  // false: plain 3D_DP (--no-bai)
     BaiTable baiTable = BaiTable::paperDefault();
-    double baiRow = kDefaultBaiRow;        // simplification-threshold row of Table 1
+    double baiRow = kDefaultBaiRow;  // simplification-threshold row of Table 1
 };
 
 // Where the time went and how the search behaved (for benchmarks and summaries).
@@ -43,7 +43,7 @@ struct ImportanceResult {
     std::vector<PointId> chain;
     // Per point id. Locked points: NaN. O, A, B: +infinity (always kept).
     std::vector<double> ownImportance;
-    std::vector<double> importance;  // effective importance
+    std::vector<double> importance;    // effective importance
     std::vector<std::uint32_t> depth;  // depth in the split tree (O, A, B, locked: 0)
     std::vector<float> baiFactor;      // C * BAI + 1 per point (1 with BAI off, and DEM points)
     // Deletion order: every unlocked point once, ascending effective importance; ties: deeper
@@ -91,9 +91,9 @@ private:
     double lineDistance(std::int64_t ix, std::int64_t iy, std::int64_t iz) const;
 
     Kind kind_ = Kind::Point;
-    GridPoint base_;                    // O for a plane or a point; the line's first point
-    double nx_ = 0, ny_ = 0, nz_ = 0;   // plane normal (OP x OQ) or line direction, unnormalised
-    double invLen_ = 0;                 // 1 / |(nx, ny, nz)|
+    GridPoint base_;                   // O for a plane or a point; the line's first point
+    double nx_ = 0, ny_ = 0, nz_ = 0;  // plane normal (OP x OQ) or line direction, unnormalised
+    double invLen_ = 0;                // 1 / |(nx, ny, nz)|
     Int128 exactNx_ = 0, exactNy_ = 0, exactNz_ = 0;
 };
 

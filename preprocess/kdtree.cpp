@@ -44,7 +44,8 @@ KdTree::KdTree(std::span<const GridPoint> points) {
 void KdTree::build() {
     const auto n = static_cast<std::uint32_t>(x_.size());
     id_.resize(n);
-    for (std::uint32_t i = 0; i < n; ++i) id_[i] = i;
+    for (std::uint32_t i = 0; i < n; ++i)
+        id_[i] = i;
     if (n == 0) return;
     nodes_.reserve(2 * (n / kLeafSize + 1));
     const double* coord[3] = {x_.data(), y_.data(), z_.data()};
@@ -86,7 +87,8 @@ void KdTree::build() {
         const std::uint32_t parent = w.node;
         nodes_[parent].left = left;
         nodes_[parent].right = left + 1;
-        nodes_.push_back(Node{{0, 0, 0}, {0, 0, 0}, w.begin, mid, mid - w.begin, parent, kNone, kNone});
+        nodes_.push_back(
+            Node{{0, 0, 0}, {0, 0, 0}, w.begin, mid, mid - w.begin, parent, kNone, kNone});
         nodes_.push_back(Node{{0, 0, 0}, {0, 0, 0}, mid, w.end, w.end - mid, parent, kNone, kNone});
         work.push_back({left + 1, mid, w.end});
         work.push_back({left, w.begin, mid});
@@ -95,16 +97,19 @@ void KdTree::build() {
     // Coordinates into leaf order, one axis at a time (one temporary array).
     std::vector<double> tmp(n);
     for (std::vector<double>* axis : {&x_, &y_, &z_}) {
-        for (std::uint32_t k = 0; k < n; ++k) tmp[k] = (*axis)[id_[k]];
+        for (std::uint32_t k = 0; k < n; ++k)
+            tmp[k] = (*axis)[id_[k]];
         axis->swap(tmp);
     }
     pos_.resize(n);
     leafOf_.resize(n);
     alive_.assign(n, 1);
-    for (std::uint32_t k = 0; k < n; ++k) pos_[id_[k]] = k;
+    for (std::uint32_t k = 0; k < n; ++k)
+        pos_[id_[k]] = k;
     for (std::uint32_t v = 0; v < nodes_.size(); ++v) {
         if (nodes_[v].left != kNone) continue;
-        for (std::uint32_t k = nodes_[v].begin; k < nodes_[v].end; ++k) leafOf_[k] = v;
+        for (std::uint32_t k = nodes_[v].begin; k < nodes_[v].end; ++k)
+            leafOf_[k] = v;
     }
 }
 
@@ -112,7 +117,8 @@ void KdTree::remove(std::uint32_t i) {
     const std::uint32_t k = pos_[i];
     assert(alive_[k]);
     alive_[k] = 0;
-    for (std::uint32_t v = leafOf_[k]; v != kNone; v = nodes_[v].parent) --nodes_[v].alive;
+    for (std::uint32_t v = leafOf_[k]; v != kNone; v = nodes_[v].parent)
+        --nodes_[v].alive;
 }
 
 void KdTree::scanLeaf(const Node& leaf, double qx, double qy, double qz, std::uint32_t& best,
@@ -195,8 +201,8 @@ std::uint32_t KdTree::nearestTo(std::uint32_t i) const {
             if (inside) return best;
         }
         const std::uint32_t parent = cur.parent;
-        const std::uint32_t sibling = nodes_[parent].left == node ? nodes_[parent].right
-                                                                  : nodes_[parent].left;
+        const std::uint32_t sibling =
+            nodes_[parent].left == node ? nodes_[parent].right : nodes_[parent].left;
         const Node& sib = nodes_[sibling];
         if (sib.alive && boxDistance2(sib.lo, sib.hi, qx, qy, qz) <= bestD2) {
             search(sibling, qx, qy, qz, best, bestD2);

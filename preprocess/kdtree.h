@@ -44,7 +44,7 @@ private:
     void build();  // x_, y_, z_ hold the coordinates by point index on entry, leaf order after
 
     struct Node {
-        double lo[3], hi[3];     // bounding box of the node's points
+        double lo[3], hi[3];       // bounding box of the node's points
         std::uint32_t begin, end;  // range in the leaf order
         std::uint32_t alive;       // alive points below
         std::uint32_t parent;

@@ -18,7 +18,8 @@ class LifeTable {
 public:
     explicit LifeTable(std::size_t insertions) {
         std::size_t cap = 16;
-        while (cap < 2 * insertions + 16) cap *= 2;
+        while (cap < 2 * insertions + 16)
+            cap *= 2;
         keys_.resize(cap);
         values_.assign(cap, kEmpty);
         mask_ = cap - 1;
@@ -130,16 +131,19 @@ void layOut(const std::vector<Life<T>>& lives, const std::vector<std::uint32_t>&
         const std::uint32_t f = levelSteps[j];
         const bool paired = j + 1 < n;
         const std::uint32_t c = paired ? levelSteps[j + 1] : f;
-        for (auto& p : parts) p.clear();
+        for (auto& p : parts)
+            p.clear();
         for (const Life<T>& life : lives) {
             const bool inF = life.aliveAt(f), inC = paired && life.aliveAt(c);
             if (inF || inC) parts[inF && inC ? 1 : (inF ? 0 : 2)].push_back(map(life.item));
         }
         for (auto& p : parts) {
-            std::sort(p.begin(), p.end(), [](const Out& l, const Out& r) { return lessIndex(l, r); });
+            std::sort(p.begin(), p.end(),
+                      [](const Out& l, const Out& r) { return lessIndex(l, r); });
         }
         const auto start = static_cast<std::uint32_t>(indices.size());
-        for (auto& p : parts) indices.insert(indices.end(), p.begin(), p.end());
+        for (auto& p : parts)
+            indices.insert(indices.end(), p.begin(), p.end());
         first[j] = start;
         count[j] = static_cast<std::uint32_t>(parts[0].size() + parts[1].size());
         if (paired) {
@@ -161,12 +165,14 @@ bool buildLodIndex(const LodIndexInput& in, format::Block& block, std::string& e
     // last deleted to the first.
     std::vector<std::uint32_t> index(pts.size(), kAlive);  // point id -> vertex index
     std::vector<PointId> deleted(pts.size(), 0);
-    for (const DeletionStep& s : rec.steps) deleted[s.vertex] = 1;
+    for (const DeletionStep& s : rec.steps)
+        deleted[s.vertex] = 1;
     std::vector<PointId> order;
     for (PointId id = 0; id < pts.size(); ++id) {
         if (cdt.representative[id] == id && !deleted[id]) order.push_back(id);
     }
-    for (std::uint32_t s = steps; s-- > 0;) order.push_back(rec.steps[s].vertex);
+    for (std::uint32_t s = steps; s-- > 0;)
+        order.push_back(rec.steps[s].vertex);
     const auto vertexCount = static_cast<std::uint32_t>(order.size());
     block.vertices.resize(vertexCount);
     block.grid.resize(vertexCount);
@@ -205,23 +211,30 @@ bool buildLodIndex(const LodIndexInput& in, format::Block& block, std::string& e
     block.addedTriangles.clear();
     block.removedEdges.clear();
     block.addedEdges.clear();
-    for (const auto& t : rec.removedTriangles) block.removedTriangles.push_back(tri(t));
-    for (const auto& t : rec.addedTriangles) block.addedTriangles.push_back(tri(t));
-    for (const auto& e : rec.removedEdges) block.removedEdges.push_back(edge(e));
-    for (const auto& e : rec.addedEdges) block.addedEdges.push_back(edge(e));
+    for (const auto& t : rec.removedTriangles)
+        block.removedTriangles.push_back(tri(t));
+    for (const auto& t : rec.addedTriangles)
+        block.addedTriangles.push_back(tri(t));
+    for (const auto& e : rec.removedEdges)
+        block.removedEdges.push_back(edge(e));
+    for (const auto& e : rec.addedEdges)
+        block.addedEdges.push_back(edge(e));
     block.errorMax.clear();
     block.errorPaper.clear();
     if (!rec.errorMax.empty()) {
         block.errorMax.push_back(roundUp(rec.initialErrorMax));
-        for (double e : rec.errorMax) block.errorMax.push_back(roundUp(e));
+        for (double e : rec.errorMax)
+            block.errorMax.push_back(roundUp(e));
     }
     if (!rec.errorPaper.empty()) {
         block.errorPaper.push_back(roundUp(rec.initialErrorPaper));
-        for (double e : rec.errorPaper) block.errorPaper.push_back(roundUp(e));
+        for (double e : rec.errorPaper)
+            block.errorPaper.push_back(roundUp(e));
     }
     // Rounding must not break monotonicity.
     for (auto* e : {&block.errorMax, &block.errorPaper}) {
-        for (std::size_t i = 1; i < e->size(); ++i) (*e)[i] = std::max((*e)[i], (*e)[i - 1]);
+        for (std::size_t i = 1; i < e->size(); ++i)
+            (*e)[i] = std::max((*e)[i], (*e)[i - 1]);
     }
 
     // Level steps (see lodindex.h).

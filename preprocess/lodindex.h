@@ -29,8 +29,8 @@ namespace unilod {
 inline constexpr double kLodTriangleRatio = 1.3;
 
 struct LodIndexInput {
-    const Cdt* cdt = nullptr;                  // after the deletion (vertex ids, locked flags)
-    const PointSet* points = nullptr;          // the block's points (coordinates, kinds)
+    const Cdt* cdt = nullptr;                      // after the deletion (vertex ids, locked flags)
+    const PointSet* points = nullptr;              // the block's points (coordinates, kinds)
     std::vector<TriangleTriple> initialTriangles;  // collectTriangles before the deletion
     std::vector<RiverEdge> initialEdges;           // collectRiverEdges before the deletion
     const DeletionRecords* records = nullptr;

@@ -8,7 +8,9 @@
 namespace unilod {
 
 namespace {
-std::uint64_t key(PointId a, PointId b) { return std::uint64_t(a) << 32 | b; }
+std::uint64_t key(PointId a, PointId b) {
+    return std::uint64_t(a) << 32 | b;
+}
 }  // namespace
 
 bool cdtFromTriangles(const std::vector<std::int32_t>& gx, const std::vector<std::int32_t>& gy,
@@ -21,7 +23,8 @@ bool cdtFromTriangles(const std::vector<std::int32_t>& gx, const std::vector<std
     cdt.gy = gy;
     cdt.locked = locked;
     cdt.representative.resize(n);
-    for (PointId v = 0; v < n; ++v) cdt.representative[v] = v;
+    for (PointId v = 0; v < n; ++v)
+        cdt.representative[v] = v;
     cdt.vertexTriangle.assign(n, Cdt::kNone);
 
     const auto real = static_cast<std::uint32_t>(triangles.size());
@@ -38,7 +41,8 @@ bool cdtFromTriangles(const std::vector<std::int32_t>& gx, const std::vector<std
     std::unordered_map<std::uint64_t, std::uint32_t> half;  // directed edge -> half-edge
     half.reserve(3 * std::size_t(real) * 2);
     for (std::uint32_t h = 0; h < 3 * real; ++h) {
-        const PointId a = cdt.tv[h - h % 3 + (h % 3 + 1) % 3], b = cdt.tv[h - h % 3 + (h % 3 + 2) % 3];
+        const PointId a = cdt.tv[h - h % 3 + (h % 3 + 1) % 3],
+                      b = cdt.tv[h - h % 3 + (h % 3 + 2) % 3];
         if (!half.emplace(key(a, b), h).second) {
             error = "edge " + std::to_string(a) + " -> " + std::to_string(b) +
                     " is used twice in the same direction (overlapping triangles)";
@@ -48,7 +52,8 @@ bool cdtFromTriangles(const std::vector<std::int32_t>& gx, const std::vector<std
     cdt.tn.assign(3 * std::size_t(real), Cdt::kNone);
     std::unordered_map<PointId, std::uint32_t> ghostFrom;  // boundary vertex -> its ghost
     for (std::uint32_t h = 0; h < 3 * real; ++h) {
-        const PointId a = cdt.tv[h - h % 3 + (h % 3 + 1) % 3], b = cdt.tv[h - h % 3 + (h % 3 + 2) % 3];
+        const PointId a = cdt.tv[h - h % 3 + (h % 3 + 1) % 3],
+                      b = cdt.tv[h - h % 3 + (h % 3 + 2) % 3];
         const auto twin = half.find(key(b, a));
         if (twin != half.end()) {
             cdt.tn[h] = twin->second;

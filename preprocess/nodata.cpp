@@ -34,7 +34,8 @@ std::size_t fillCells(DemGrid& dem, std::vector<std::size_t> left) {
             }
         }
         if (fills.empty()) break;  // nothing valid reachable
-        for (const auto& [i, z] : fills) dem.z[i] = z;
+        for (const auto& [i, z] : fills)
+            dem.z[i] = z;
         filled += fills.size();
         left.swap(still);
     }
@@ -49,7 +50,8 @@ bool fillSmallHoles(DemGrid& dem, const std::string& path, std::size_t maxFillCe
     std::vector<std::uint8_t> seen(dem.z.size(), 0);
     std::vector<std::size_t> region, stack;
     const int dc[4] = {1, -1, 0, 0}, dr[4] = {0, 0, 1, -1};
-    for (const float z : dem.z) stats.nodataCells += std::isnan(z);
+    for (const float z : dem.z)
+        stats.nodataCells += std::isnan(z);
     for (std::size_t start = 0; start < dem.z.size(); ++start) {
         if (!std::isnan(dem.z[start]) || seen[start]) continue;
         // Flood the 4-connected nodata region.

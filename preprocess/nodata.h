@@ -24,9 +24,9 @@ inline constexpr std::size_t kDefaultMaxFillCells = 16;
 inline constexpr std::size_t kMaxBridgedCells = 64;
 
 struct NodataStats {
-    std::size_t nodataCells = 0;   // before filling
-    std::size_t holes = 0;         // interior holes found
-    std::size_t filledCells = 0;   // hole cells filled
+    std::size_t nodataCells = 0;     // before filling
+    std::size_t holes = 0;           // interior holes found
+    std::size_t filledCells = 0;     // hole cells filled
     std::size_t bayCellsFilled = 0;  // rule 2 cells filled
 };
 

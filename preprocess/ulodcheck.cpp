@@ -12,8 +12,12 @@ namespace unilod {
 
 namespace {
 
-TriangleTriple toTriple(const format::Triangle& t) { return canonicalTriangle(t.a, t.b, t.c); }
-RiverEdge toEdge(const format::Edge& e) { return makeRiverEdge(e.a, e.b); }
+TriangleTriple toTriple(const format::Triangle& t) {
+    return canonicalTriangle(t.a, t.b, t.c);
+}
+RiverEdge toEdge(const format::Edge& e) {
+    return makeRiverEdge(e.a, e.b);
+}
 
 bool checkBlock(const format::Block& b, std::string& error) {
     const std::size_t n = b.vertices.size();
@@ -38,7 +42,8 @@ bool checkBlock(const format::Block& b, std::string& error) {
     };
     auto levelEdges = [&](const format::Level& l) {
         std::vector<RiverEdge> e;
-        for (std::uint32_t i = 0; i < l.riverCount; ++i) e.push_back(toEdge(b.riverIndices[l.riverFirst + i]));
+        for (std::uint32_t i = 0; i < l.riverCount; ++i)
+            e.push_back(toEdge(b.riverIndices[l.riverFirst + i]));
         std::sort(e.begin(), e.end());
         return e;
     };
@@ -66,7 +71,8 @@ bool checkBlock(const format::Block& b, std::string& error) {
     std::size_t level = 1;
     for (std::uint32_t s = 0; s < b.steps.size() && level < b.levels.size(); ++s) {
         const std::string stepName = "step " + std::to_string(s + 1);
-        for (std::uint32_t i = b.removedTriangleOffset[s]; i < b.removedTriangleOffset[s + 1]; ++i) {
+        for (std::uint32_t i = b.removedTriangleOffset[s]; i < b.removedTriangleOffset[s + 1];
+             ++i) {
             if (alive.erase(toTriple(b.removedTriangles[i])) != 1) {
                 error = stepName + " removes a triangle that is not alive";
                 return false;
@@ -90,7 +96,8 @@ bool checkBlock(const format::Block& b, std::string& error) {
                 return false;
             }
         }
-        if (alive.size() != b.steps[s].trianglesAlive || aliveEdges.size() != b.steps[s].riverEdgesAlive) {
+        if (alive.size() != b.steps[s].trianglesAlive ||
+            aliveEdges.size() != b.steps[s].riverEdgesAlive) {
             error = stepName + ": the records leave " + std::to_string(alive.size()) +
                     " triangles and " + std::to_string(aliveEdges.size()) +
                     " river edges, the step says " + std::to_string(b.steps[s].trianglesAlive) +
@@ -99,7 +106,8 @@ bool checkBlock(const format::Block& b, std::string& error) {
         }
         const format::Level& l = b.levels[level];
         if (l.step != s + 1) continue;
-        const std::string name = "level " + std::to_string(level) + " (step " + std::to_string(l.step) + ")";
+        const std::string name =
+            "level " + std::to_string(level) + " (step " + std::to_string(l.step) + ")";
         tris = levelTriangles(l);
         edges = levelEdges(l);
         if (!std::equal(tris.begin(), tris.end(), alive.begin(), alive.end())) {

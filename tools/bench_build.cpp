@@ -42,7 +42,8 @@ json runCase(const std::string& name, const unilod::BuildOptions& options) {
             {"max_rss_bytes", std::size_t(ru.ru_maxrss) * 1024},
             {"output_bytes", s.outputBytes},
             {"output_bytes_per_point", double(s.outputBytes) / points},
-            {"index_data_vs_full", s.fullTriangles ? double(s.indexTriangles) / double(s.fullTriangles) : 0.0}};
+            {"index_data_vs_full",
+             s.fullTriangles ? double(s.indexTriangles) / double(s.fullTriangles) : 0.0}};
 }
 
 }  // namespace
@@ -76,7 +77,8 @@ int main(int argc, char** argv) {
     if (!skipSynthetic) {
         const std::string dir = work + "/synthetic" + std::to_string(side);
         if (!std::filesystem::exists(dir + "/dem.tif")) {
-            std::fprintf(stderr, "bench_build: generating a %d x %d synthetic DEM...\n", side, side);
+            std::fprintf(stderr, "bench_build: generating a %d x %d synthetic DEM...\n", side,
+                         side);
             unilod::SyntheticOptions so;
             so.width = so.height = side;
             so.targetPoints = std::size_t(side) * std::size_t(side);
@@ -92,14 +94,16 @@ int main(int argc, char** argv) {
         o.riversPath = dir + "/rivers.geojson";
         o.outPath = work + "/synthetic" + std::to_string(side) + ".ulod";
         std::fprintf(stderr, "bench_build: synthetic %d x %d...\n", side, side);
-        cases.push_back(unilod::bench::runInChild([&] { return runCase("synthetic_" + std::to_string(side), o); }));
+        cases.push_back(unilod::bench::runInChild(
+            [&] { return runCase("synthetic_" + std::to_string(side), o); }));
         std::filesystem::remove(o.outPath);
     }
     const json result = {{"benchmark", "build"},
                          {"hardware_threads", std::thread::hardware_concurrency()},
-                         {"goals", {{"bundled_seconds_max", 1.0},
-                                    {"synthetic_4097_seconds_max", 90.0},
-                                    {"synthetic_4097_rss_bytes_max", 1000000000}}},
+                         {"goals",
+                          {{"bundled_seconds_max", 1.0},
+                           {"synthetic_4097_seconds_max", 90.0},
+                           {"synthetic_4097_rss_bytes_max", 1000000000}}},
                          {"cases", cases}};
     std::printf("%s\n", result.dump(2).c_str());
     return 0;

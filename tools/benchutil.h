@@ -27,7 +27,8 @@ nlohmann::json runInChild(F f) {
     close(fd[1]);
     std::string text;
     char buf[4096];
-    for (ssize_t k; (k = read(fd[0], buf, sizeof buf)) > 0;) text.append(buf, std::size_t(k));
+    for (ssize_t k; (k = read(fd[0], buf, sizeof buf)) > 0;)
+        text.append(buf, std::size_t(k));
     close(fd[0]);
     int status = 0;
     waitpid(pid, &status, 0);

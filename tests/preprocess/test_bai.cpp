@@ -38,8 +38,12 @@ void addArc(Line& l, double cx, double cy, double r, double a0, double a1, int n
 
 // Closed forms for an arc of pi radians sampled in n chords: chord-polygon length and the area
 // between the polyline and the diameter (a fan of n isosceles triangles).
-double arcLength(double r, int n) { return n * 2 * r * std::sin(kPi / (2 * n)); }
-double arcArea(double r, int n) { return n * 0.5 * r * r * std::sin(kPi / n); }
+double arcLength(double r, int n) {
+    return n * 2 * r * std::sin(kPi / (2 * n));
+}
+double arcArea(double r, int n) {
+    return n * 0.5 * r * r * std::sin(kPi / n);
+}
 
 double bai(double w, double l, double s, double lAvg, double sAvg) {
     const double s0 = kPi * w * w / 4;
@@ -61,10 +65,12 @@ void expectBend(const Bend& b, std::uint32_t first, std::uint32_t last, double w
 
 TEST(Bai, StraightLineHasNoBends) {
     Line l;
-    for (int i = 0; i < 10; ++i) l.add(100.0 * i, 50.0 * i);  // exactly collinear on the grid
+    for (int i = 0; i < 10; ++i)
+        l.add(100.0 * i, 50.0 * i);  // exactly collinear on the grid
     EXPECT_TRUE(l.bends().empty());
     const auto f = baiFactors(l.set, BaiTable::paperDefault(), 2);
-    for (float v : f) EXPECT_EQ(v, 1.0f);
+    for (float v : f)
+        EXPECT_EQ(v, 1.0f);
 }
 
 TEST(Bai, TwoPointLineHasNoBends) {
@@ -88,8 +94,10 @@ TEST(Bai, Semicircle) {
     // z = 700 m: low mountainous class, row 500 m -> C2 = 0.5.
     EXPECT_DOUBLE_EQ(bends[0].c, 0.5);
     EXPECT_DOUBLE_EQ(bends[0].meanZ, 700.0);
-    const auto f = baiFactors(l.set, BaiTable::paperDefault(), BaiTable::paperDefault().findRow(500));
-    for (float v : f) EXPECT_FLOAT_EQ(v, static_cast<float>(0.5 * bends[0].bai + 1));
+    const auto f =
+        baiFactors(l.set, BaiTable::paperDefault(), BaiTable::paperDefault().findRow(500));
+    for (float v : f)
+        EXPECT_FLOAT_EQ(v, static_cast<float>(0.5 * bends[0].bai + 1));
 }
 
 TEST(Bai, SCurveOfTwoArcs) {
@@ -131,7 +139,8 @@ TEST(Bai, CollinearRunsStayInsideBends) {
     l.add(0, -200);
     l.add(0, -100);
     addArc(l, r1, 0, r1, kPi, 0, n1, false);
-    for (int k = 1; k <= 3; ++k) l.add(2000, -100.0 * k);
+    for (int k = 1; k <= 3; ++k)
+        l.add(2000, -100.0 * k);
     addArc(l, 2 * r1 + r2, -400, r2, kPi, 2 * kPi, n2, false);
     const auto bends = l.bends();
     ASSERT_EQ(bends.size(), 2u);
@@ -147,7 +156,8 @@ TEST(Bai, CollinearRunsStayInsideBends) {
 TEST(Bai, ZigZagMakesOneTurningPointPerSignChange) {
     Line l;
     const double ys[] = {0, 10, 0, 10, 0, 10};
-    for (int i = 0; i < 6; ++i) l.add(10.0 * i, ys[i]);
+    for (int i = 0; i < 6; ++i)
+        l.add(10.0 * i, ys[i]);
     // Signs at positions 1..4: -, +, -, +  -> turning points 1, 2, 3 -> 4 bends.
     const auto bends = l.bends();
     ASSERT_EQ(bends.size(), 4u);

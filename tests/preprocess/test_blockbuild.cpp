@@ -54,7 +54,8 @@ TEST(Blocks, SharedBordersAndCrossings) {
     ASSERT_GE(f.source.blockCount(), 4u);
     EXPECT_GT(f.source.stats().crossings, 0u);
     std::vector<PointSet> sets;
-    for (std::size_t i = 0; i < f.source.blockCount(); ++i) sets.push_back(f.source.points(i));
+    for (std::size_t i = 0; i < f.source.blockCount(); ++i)
+        sets.push_back(f.source.points(i));
     const DemGrid& dem = f.data.dem;
     int sharedChecked = 0;
     for (std::size_t i = 0; i < sets.size(); ++i) {
@@ -112,7 +113,8 @@ TEST(LodIndex, LevelsMatchRecordsAndBounds) {
         // 1.3x the triangles alive after k deletions.
         std::size_t j = 0;
         for (std::uint32_t k = 0; k <= steps; ++k) {
-            while (j + 1 < b.levels.size() && b.levels[j + 1].step <= k) ++j;
+            while (j + 1 < b.levels.size() && b.levels[j + 1].step <= k)
+                ++j;
             const std::uint32_t tk = k == 0 ? t0 : b.steps[k - 1].trianglesAlive;
             ASSERT_LE(double(b.levels[j].triangleCount), 1.3 * tk) << "step " << k;
             if (k > 0) {
@@ -124,10 +126,12 @@ TEST(LodIndex, LevelsMatchRecordsAndBounds) {
         std::set<Tri> alive = levelSet(b, b.levels[0]);
         std::size_t level = 1;
         for (std::uint32_t s = 0; s < steps; ++s) {
-            for (std::uint32_t r = b.removedTriangleOffset[s]; r < b.removedTriangleOffset[s + 1]; ++r) {
+            for (std::uint32_t r = b.removedTriangleOffset[s]; r < b.removedTriangleOffset[s + 1];
+                 ++r) {
                 ASSERT_EQ(alive.erase(canonical(b.removedTriangles[r])), 1u);
             }
-            for (std::uint32_t a = b.addedTriangleOffset[s]; a < b.addedTriangleOffset[s + 1]; ++a) {
+            for (std::uint32_t a = b.addedTriangleOffset[s]; a < b.addedTriangleOffset[s + 1];
+                 ++a) {
                 ASSERT_TRUE(alive.insert(canonical(b.addedTriangles[a])).second);
             }
             if (level < b.levels.size() && b.levels[level].step == s + 1) {

@@ -71,7 +71,8 @@ void expectThresholdConsistent(const PointSet& set, const ImportanceResult& r) {
     std::sort(eff.begin(), eff.end());
     ASSERT_FALSE(eff.empty());
     std::vector<double> thresholds{0.0, eff.back() * 2 + 1};
-    for (int i = 0; i < 12; ++i) thresholds.push_back(eff[eff.size() * i / 12]);
+    for (int i = 0; i < 12; ++i)
+        thresholds.push_back(eff[eff.size() * i / 12]);
     for (int i = 0; i < 12; ++i) {
         const std::size_t k = eff.size() * (2 * i + 1) / 24;
         thresholds.push_back(k + 1 < eff.size() ? (eff[k] + eff[k + 1]) / 2 : eff[k]);
@@ -81,7 +82,8 @@ void expectThresholdConsistent(const PointSet& set, const ImportanceResult& r) {
         std::vector<std::uint32_t> keptPos;
         plainDp(g, f, o, 0, static_cast<std::uint32_t>(g.size() - 1), t, keptPos);
         std::set<PointId> kept{r.origin, r.anchor, r.floating};
-        for (std::uint32_t k : keptPos) kept.insert(r.chain[k]);
+        for (std::uint32_t k : keptPos)
+            kept.insert(r.chain[k]);
         std::set<PointId> byImportance;
         for (PointId id : r.order) {
             if (r.importance[id] > t) byImportance.insert(id);
@@ -134,7 +136,8 @@ TEST(Importance, OriginAndBasePairAreTheExactMaximum) {
         double bestD = 1e300;
         for (PointId id : ids) {
             const GridPoint g = q(set.points[id]);
-            const double dx = 2 * double(g.x) - (lo[0] + hi[0]), dy = 2 * double(g.y) - (lo[1] + hi[1]);
+            const double dx = 2 * double(g.x) - (lo[0] + hi[0]),
+                         dy = 2 * double(g.y) - (lo[1] + hi[1]);
             if (dx * dx + dy * dy < bestD) {
                 bestD = dx * dx + dy * dy;
                 o = id;
@@ -179,7 +182,8 @@ TEST(Importance, ChainIsTheNearestNeighbourChainFromAToB) {
     std::set<PointId> seen(r.chain.begin(), r.chain.end());
     EXPECT_EQ(seen.size(), r.chain.size());
     EXPECT_EQ(seen.count(r.origin), 0u);
-    for (PointId id : r.chain) EXPECT_FALSE(set.points[id].locked);
+    for (PointId id : r.chain)
+        EXPECT_FALSE(set.points[id].locked);
 
     // Every step goes to the nearest point not yet visited (B excluded until the end).
     const Quantizer q = Quantizer::forPoints(set.points);
@@ -192,7 +196,8 @@ TEST(Importance, ChainIsTheNearestNeighbourChainFromAToB) {
         for (PointId id : ids) {
             if (used[id]) continue;
             const GridPoint g = q(set.points[id]);
-            const double dx = double(g.x - cur.x), dy = double(g.y - cur.y), dz = double(g.z - cur.z);
+            const double dx = double(g.x - cur.x), dy = double(g.y - cur.y),
+                         dz = double(g.z - cur.z);
             const double d = dx * dx + dy * dy + dz * dz;
             if (d < bestD) {
                 bestD = d;
@@ -233,16 +238,19 @@ TEST(Importance, EffectiveImportanceIsMinOfOwnAndAncestors) {
     const std::set<PointId> base{r.origin, r.anchor, r.floating};
     const std::set<PointId> tail(r.order.end() - 3, r.order.end());
     EXPECT_EQ(base, tail);
-    for (PointId id : base) EXPECT_TRUE(std::isinf(r.importance[id]));
+    for (PointId id : base)
+        EXPECT_TRUE(std::isinf(r.importance[id]));
 }
 
 TEST(Importance, LockedPointsAreNeverRanked) {
     PointSet set = randomPointSet(9, 1000, 2, 40);
-    for (PointId i = 0; i < set.points.size(); i += 7) set.points[i].locked = true;
+    for (PointId i = 0; i < set.points.size(); i += 7)
+        set.points[i].locked = true;
     const ImportanceResult r = run(set);
     const auto ids = unlocked(set);
     EXPECT_EQ(r.order.size(), ids.size());
-    for (PointId id : r.order) EXPECT_FALSE(set.points[id].locked);
+    for (PointId id : r.order)
+        EXPECT_FALSE(set.points[id].locked);
     for (PointId i = 0; i < set.points.size(); ++i) {
         if (set.points[i].locked) {
             EXPECT_TRUE(std::isnan(r.importance[i]));
@@ -286,7 +294,8 @@ TEST(Importance, FlatTerrainSplitsInHalves) {
     // each sub-chain, so the split tree is balanced and deletion goes deepest level first.
     PointSet set;
     for (int i = 0; i < 64; ++i) {
-        for (int j = 0; j < 64; ++j) set.points.push_back({i * 30.0, j * 30.0, 250.0, PointKind::Dem, false});
+        for (int j = 0; j < 64; ++j)
+            set.points.push_back({i * 30.0, j * 30.0, 250.0, PointKind::Dem, false});
     }
     const ImportanceResult r = run(set);
     ASSERT_EQ(r.order.size(), set.points.size());
@@ -308,7 +317,8 @@ TEST(Importance, DuplicatesAndCollinearSets) {
     // Many exact duplicates.
     PointSet dup = randomPointSet(41, 300);
     const std::size_t n = dup.points.size();
-    for (std::size_t i = 0; i < n; ++i) dup.points.push_back(dup.points[i]);
+    for (std::size_t i = 0; i < n; ++i)
+        dup.points.push_back(dup.points[i]);
     dup.points.push_back(dup.points[0]);
     ImportanceResult r = run(dup);
     EXPECT_EQ(r.order.size(), dup.points.size());
@@ -317,7 +327,8 @@ TEST(Importance, DuplicatesAndCollinearSets) {
 
     // A 3D line: O is collinear with every pair, all distances are 0.
     PointSet line;
-    for (int i = 0; i < 500; ++i) line.points.push_back({i * 10.0, i * 5.0, 100 + i * 1.0, PointKind::Dem, false});
+    for (int i = 0; i < 500; ++i)
+        line.points.push_back({i * 10.0, i * 5.0, 100 + i * 1.0, PointKind::Dem, false});
     r = run(line);
     EXPECT_EQ(r.order.size(), line.points.size());
     EXPECT_EQ(r.chain.front(), r.anchor);
@@ -332,7 +343,8 @@ TEST(Importance, DuplicatesAndCollinearSets) {
 
     // Every point identical.
     PointSet same;
-    for (int i = 0; i < 100; ++i) same.points.push_back({5, 5, 5, PointKind::Dem, false});
+    for (int i = 0; i < 100; ++i)
+        same.points.push_back({5, 5, 5, PointKind::Dem, false});
     r = run(same);
     EXPECT_EQ(r.order.size(), 100u);
     EXPECT_EQ(r.chain.size(), 99u);
@@ -341,7 +353,8 @@ TEST(Importance, DuplicatesAndCollinearSets) {
 TEST(Importance, TinyInputs) {
     for (int n = 0; n <= 3; ++n) {
         PointSet set;
-        for (int i = 0; i < n; ++i) set.points.push_back({i * 1.0, i * 2.0, 0.0, PointKind::Dem, false});
+        for (int i = 0; i < n; ++i)
+            set.points.push_back({i * 1.0, i * 2.0, 0.0, PointKind::Dem, false});
         const ImportanceResult r = run(set);
         EXPECT_EQ(r.order.size(), static_cast<std::size_t>(n));
     }

@@ -73,10 +73,12 @@ TEST(ImportanceJacksboro, BaiRaisesTightLowlandMeanders) {
         for (const Bend& b : computeBends(set.points, line, q, table, row)) {
             if (b.meanZ >= 500 || b.bai <= 0.785) continue;
             ++bends;
-            for (std::uint32_t k = b.first + 1; k < b.last; ++k) meander[line[k]] = 1;
+            for (std::uint32_t k = b.first + 1; k < b.last; ++k)
+                meander[line[k]] = 1;
         }
     }
-    const auto rankOn = ranks(withBai, set.points.size()), rankOff = ranks(plain, set.points.size());
+    const auto rankOn = ranks(withBai, set.points.size()),
+               rankOff = ranks(plain, set.points.size());
     std::vector<double> on_, off_;
     int higher = 0;
     for (PointId i = 0; i < set.points.size(); ++i) {
@@ -90,8 +92,10 @@ TEST(ImportanceJacksboro, BaiRaisesTightLowlandMeanders) {
     const double meanOn = std::accumulate(on_.begin(), on_.end(), 0.0) / double(on_.size());
     const double meanOff = std::accumulate(off_.begin(), off_.end(), 0.0) / double(off_.size());
     const double fraction = double(higher) / double(on_.size());
-    std::printf("tight lowland meanders: %d bends, %zu points; mean rank %.3f -> %.3f, median %.3f -> %.3f; %.1f%% rank higher\n",
-                bends, on_.size(), meanOff, meanOn, median(off_), median(on_), 100 * fraction);
+    std::printf(
+        "tight lowland meanders: %d bends, %zu points; mean rank %.3f -> %.3f, median %.3f -> "
+        "%.3f; %.1f%% rank higher\n",
+        bends, on_.size(), meanOff, meanOn, median(off_), median(on_), 100 * fraction);
     EXPECT_GT(meanOn, meanOff + 0.1);
     EXPECT_GT(median(on_), median(off_));
     EXPECT_GT(fraction, 0.75);

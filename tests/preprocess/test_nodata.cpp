@@ -25,14 +25,16 @@ DemGrid plane(int w, int h) {
     d.cellX = 30;
     d.cellY = -30;
     for (int r = 0; r < h; ++r) {
-        for (int c = 0; c < w; ++c) d.z.push_back(float(100 + 2 * c + 3 * r));
+        for (int c = 0; c < w; ++c)
+            d.z.push_back(float(100 + 2 * c + 3 * r));
     }
     return d;
 }
 
 void punch(DemGrid& d, int c0, int r0, int c1, int r1) {
     for (int r = r0; r <= r1; ++r) {
-        for (int c = c0; c <= c1; ++c) d.z[std::size_t(r) * d.width + c] = NAN;
+        for (int c = c0; c <= c1; ++c)
+            d.z[std::size_t(r) * d.width + c] = NAN;
     }
 }
 
@@ -57,10 +59,11 @@ std::string writeTiff(const DemGrid& d, const std::string& name) {
 // One short river away from the nodata.
 std::string riverFile(const std::string& name) {
     const std::string path = testing::TempDir() + name;
-    std::ofstream(path) << R"({"type":"FeatureCollection","crs":{"type":"name","properties":)"
-                        << R"({"name":"urn:ogc:def:crs:EPSG::32616"}},"features":[{"type":)"
-                        << R"("Feature","properties":{},"geometry":{"type":"LineString",)"
-                        << R"("coordinates":[[500301,3999499],[500452,3999402],[500607,3999301]]}}]})";
+    std::ofstream(path)
+        << R"({"type":"FeatureCollection","crs":{"type":"name","properties":)"
+        << R"({"name":"urn:ogc:def:crs:EPSG::32616"}},"features":[{"type":)"
+        << R"("Feature","properties":{},"geometry":{"type":"LineString",)"
+        << R"("coordinates":[[500301,3999499],[500452,3999402],[500607,3999301]]}}]})";
     return path;
 }
 

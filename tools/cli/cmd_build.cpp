@@ -53,7 +53,9 @@ int run(BuildCli& c) {
             }
         };
     }
-    c.o.warn = [](const std::string& w) { std::fprintf(stderr, "unilod build: warning: %s\n", w.c_str()); };
+    c.o.warn = [](const std::string& w) {
+        std::fprintf(stderr, "unilod build: warning: %s\n", w.c_str());
+    };
     BuildSummary s;
     std::string error;
     if (!runBuild(c.o, s, error)) {
@@ -66,9 +68,10 @@ int run(BuildCli& c) {
     std::printf("  rivers           %s (%zu lines after cleaning)\n", c.o.riversPath.c_str(),
                 s.riverLines);
     std::printf("  river cleaning   %s\n", s.cleaning.c_str());
-    std::printf("  points           %zu DEM + %zu river (%zu locked, %zu border crossings, "
-                "%zu DEM points dropped next to rivers)\n",
-                s.demPoints, s.riverPoints, s.lockedPoints, s.crossings, s.droppedDemPoints);
+    std::printf(
+        "  points           %zu DEM + %zu river (%zu locked, %zu border crossings, "
+        "%zu DEM points dropped next to rivers)\n",
+        s.demPoints, s.riverPoints, s.lockedPoints, s.crossings, s.droppedDemPoints);
     std::printf("  blocks           %zu (block size %d cells, stride %d)\n", s.blocks,
                 c.o.blockSize, c.o.stride);
     std::printf("  deletion steps   %zu (%zu ranked points kept, %zu deferred deletions)\n",
@@ -78,7 +81,8 @@ int run(BuildCli& c) {
                 s.fullTriangles ? double(s.indexTriangles) / double(s.fullTriangles) : 0.0);
     std::printf("  BAI              %s\n", c.o.useBai ? "on" : "off (plain 3D_DP)");
     std::printf("  default metric   %s\n", c.metric.c_str());
-    std::printf("  output           %s (%s)\n", c.o.outPath.c_str(), megabytes(s.outputBytes).c_str());
+    std::printf("  output           %s (%s)\n", c.o.outPath.c_str(),
+                megabytes(s.outputBytes).c_str());
     std::printf("  seconds          %.2f\n", s.seconds);
     return 0;
 }

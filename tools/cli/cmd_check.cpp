@@ -13,7 +13,8 @@ void addCheckCommand(CLI::App& app, int& exitCode) {
     auto path = std::make_shared<std::string>();
     auto quiet = std::make_shared<bool>(false);
     CLI::App* sub = app.add_subcommand(
-        "check", "Verify checksums and the topology invariants at every stored level of a .ulod file");
+        "check",
+        "Verify checksums and the topology invariants at every stored level of a .ulod file");
     sub->add_option("FILE", *path, ".ulod file")->required();
     sub->add_flag("-q,--quiet", *quiet, "no progress output");
     sub->callback([path, quiet, &exitCode] {
@@ -27,9 +28,10 @@ void addCheckCommand(CLI::App& app, int& exitCode) {
             exitCode = 1;
             return;
         }
-        std::printf("unilod check: OK: %s: %zu blocks, %zu stored levels, %zu deletion steps; "
-                    "checksums, records and topology invariants hold at every level\n",
-                    path->c_str(), s.blocks, s.levels, s.steps);
+        std::printf(
+            "unilod check: OK: %s: %zu blocks, %zu stored levels, %zu deletion steps; "
+            "checksums, records and topology invariants hold at every level\n",
+            path->c_str(), s.blocks, s.levels, s.steps);
         exitCode = 0;
     });
 }

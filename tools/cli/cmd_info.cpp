@@ -66,7 +66,8 @@ int run(const std::string& path, bool asJson) {
                 h.blockWidth, h.blockHeight);
     std::printf("  metrics       %s (default %s)\n", metrics.c_str(), def);
     std::printf("  totals        %llu vertices, %llu triangles at full resolution\n",
-                static_cast<unsigned long long>(vertices), static_cast<unsigned long long>(triangles));
+                static_cast<unsigned long long>(vertices),
+                static_cast<unsigned long long>(triangles));
     std::printf("  crs           %.70s%s\n", h.crsWkt.empty() ? "none" : h.crsWkt.c_str(),
                 h.crsWkt.size() > 70 ? "..." : "");
     std::printf("  %-9s %9s %9s %7s %10s %12s\n", "block", "vertices", "steps", "levels",
@@ -84,7 +85,8 @@ int run(const std::string& path, bool asJson) {
 void addInfoCommand(CLI::App& app, int& exitCode) {
     auto path = std::make_shared<std::string>();
     auto asJson = std::make_shared<bool>(false);
-    CLI::App* sub = app.add_subcommand("info", "Print the header and a per-block summary of a .ulod file");
+    CLI::App* sub =
+        app.add_subcommand("info", "Print the header and a per-block summary of a .ulod file");
     sub->add_option("FILE", *path, ".ulod file")->required();
     sub->add_flag("--json", *asJson, "print JSON");
     sub->callback([path, asJson, &exitCode] { exitCode = run(*path, *asJson); });
