@@ -6,6 +6,7 @@ UNILOD_DEBIAN_PACKAGES=(
     libgdal-dev gdal-bin zlib1g-dev
     nlohmann-json3-dev libcli11-dev
     libgtest-dev
+    libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers glslang-tools libglm-dev libpng-dev
 )
 
 unilod_ensure_packages() {

@@ -12,5 +12,6 @@ void addBuildCommand(CLI::App& app, int& exitCode);
 void addInfoCommand(CLI::App& app, int& exitCode);
 void addCheckCommand(CLI::App& app, int& exitCode);
 void addStatsCommand(CLI::App& app, int& exitCode);
+void addCaptureCommand(CLI::App& app, int& exitCode);
 
 }  // namespace unilod::cli

@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
     unilod::cli::addInfoCommand(app, exitCode);
     unilod::cli::addCheckCommand(app, exitCode);
     unilod::cli::addStatsCommand(app, exitCode);
+    unilod::cli::addCaptureCommand(app, exitCode);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

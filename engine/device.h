@@ -1,0 +1,51 @@
+// The Vulkan instance, optional validation with a message log, and the device (Vulkan 1.2+).
+// Device selection accepts CPU devices (Mesa lavapipe in tests and CI) as well as GPUs.
+#pragma once
+
+#include <vulkan/vulkan.h>
+
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace unilod::engine {
+
+struct DeviceOptions {
+    bool validation = false;  // VK_LAYER_KHRONOS_validation + debug messenger
+    int deviceIndex = -1;     // physical device index; -1: $UNILOD_DEVICE, else automatic
+};
+
+// WARNING and ERROR messages of the validation layer, in arrival order (the callback may run
+// on driver threads, hence the mutex).
+struct ValidationLog {
+    std::mutex mutex;
+    std::vector<std::string> messages;
+};
+
+struct Device {
+    VkInstance instance = VK_NULL_HANDLE;
+    VkDebugUtilsMessengerEXT messenger = VK_NULL_HANDLE;
+    VkPhysicalDevice physical = VK_NULL_HANDLE;
+    VkPhysicalDeviceProperties properties{};
+    VkPhysicalDeviceMemoryProperties memory{};
+    VkDevice device = VK_NULL_HANDLE;
+    std::uint32_t queueFamily = 0;
+    VkQueue queue = VK_NULL_HANDLE;
+    std::unique_ptr<ValidationLog> log;  // non-null when validation is on
+};
+
+// Returns false with a message when no usable Vulkan instance or device exists (an environment
+// error, not a programmer error: the caller reports it and exits 1).
+bool createDevice(const DeviceOptions& options, Device& device, std::string& error);
+void destroyDevice(Device& device);
+
+// Copies of the recorded validation messages.
+std::vector<std::string> validationMessages(const Device& device);
+
+// A memory type index with `properties` among `typeBits`; aborts if none (every conformant
+// implementation has host-visible and device-local types for buffers and images).
+std::uint32_t findMemoryType(const Device& device, std::uint32_t typeBits,
+                             VkMemoryPropertyFlags properties);
+
+}  // namespace unilod::engine

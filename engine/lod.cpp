@@ -1,0 +1,41 @@
+// Paper §3.4 Eq. 11 and the level choice of DESIGN.md "Screen-space error".
+#include "lod.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+
+namespace unilod::engine {
+
+double nearestBoxDistance(const double eye[3], const double boxMin[3], const double boxMax[3]) {
+    double sum = 0;
+    for (int i = 0; i < 3; ++i) {
+        const double d = std::max({boxMin[i] - eye[i], 0.0, eye[i] - boxMax[i]});
+        sum += d * d;
+    }
+    return std::sqrt(sum);
+}
+
+double toleranceFor(double pixels, double distance, double fovRadians, double viewportHeight) {
+    assert(viewportHeight > 0);
+    return 2.0 * pixels * distance * std::tan(fovRadians / 2.0) / viewportHeight;
+}
+
+LevelChoice chooseLevel(const std::vector<format::Level>& levels, const std::vector<float>& errors,
+                        double hLim) {
+    assert(!levels.empty() && !errors.empty());
+    // Number of steps k with errors[k] <= hLim; k* is one less (or none: full resolution).
+    const auto qualifying = std::upper_bound(errors.begin(), errors.end(), hLim,
+                                             [](double h, float e) { return h < double(e); });
+    const std::size_t kStar =
+        qualifying == errors.begin() ? 0 : std::size_t(qualifying - errors.begin()) - 1;
+    LevelChoice c;
+    for (std::size_t i = 0; i < levels.size(); ++i)
+        if (levels[i].step <= kStar) c.level = i;
+    c.step = levels[c.level].step;
+    c.error = errors[c.step];
+    if (c.level + 1 < levels.size()) c.nextError = errors[levels[c.level + 1].step];
+    return c;
+}
+
+}  // namespace unilod::engine

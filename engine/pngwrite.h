@@ -1,0 +1,15 @@
+// PNG output for captures (libpng, fast zlib level: captures are written per frame).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace unilod::engine {
+
+// Writes RGBA8 rows (top to bottom) as an RGBA PNG, atomically: a temporary file beside `path`,
+// then rename. Returns false with a message naming the file; nothing is left behind on failure.
+bool writePng(const std::string& path, std::uint32_t width, std::uint32_t height,
+              const std::vector<std::uint8_t>& rgba, std::string& error);
+
+}  // namespace unilod::engine
