@@ -1,12 +1,49 @@
 // Small helpers shared by the tests: a portable fixed-seed PRNG and random point sets.
 #pragma once
 
+#include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
 
 #include "points.h"
 
 namespace unilod::test {
+
+// A fresh folder under the system temp folder, removed with everything in it at scope exit. The
+// test program's name and the process id keep parallel test programs apart.
+struct TempDir {
+    std::filesystem::path path;
+    explicit TempDir(const std::string& name)
+        : path(std::filesystem::temp_directory_path() /
+               ("unilod_" + std::string(program_invocation_short_name) + "_" + name + "_" +
+                std::to_string(getpid()))) {
+        std::filesystem::remove_all(path);
+        std::filesystem::create_directories(path);
+    }
+    ~TempDir() {
+        std::error_code ec;
+        std::filesystem::remove_all(path, ec);
+    }
+    TempDir(const TempDir&) = delete;
+    TempDir& operator=(const TempDir&) = delete;
+    std::string file(const std::string& name) const { return (path / name).string(); }
+    // Writes `text` to a file in the folder and returns its path.
+    std::string write(const std::string& name, const std::string& text) const {
+        const std::string p = file(name);
+        std::ofstream(p) << text;
+        return p;
+    }
+    std::size_t entries() const {
+        return static_cast<std::size_t>(
+            std::distance(std::filesystem::directory_iterator(path), {}));
+    }
+};
 
 // splitmix64: identical sequences on every platform (std distributions are not).
 struct Rng {

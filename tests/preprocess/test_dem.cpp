@@ -1,6 +1,8 @@
 // DEM ingestion (preprocess/dem.h): the bundled geographic DEM warped to UTM, exact bilinear
 // sampling on small hand-made GeoTIFFs, nodata -> NaN, and every error case naming the file.
 #include <gtest/gtest.h>
+
+#include "testutil.h"
 #include <unistd.h>
 
 #include <cmath>
@@ -20,20 +22,7 @@ namespace {
 
 const std::string kAssets = UNILOD_ASSETS_DIR;
 
-struct TempDir {
-    fs::path path;
-    explicit TempDir(const std::string& name)
-        : path(fs::temp_directory_path() /
-               ("unilod_test_dem_" + name + "_" + std::to_string(getpid()))) {
-        fs::remove_all(path);
-        fs::create_directories(path);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(path, ec);
-    }
-    std::string file(const std::string& name) const { return (path / name).string(); }
-};
+using unilod::test::TempDir;
 
 // Writes a north-up GeoTIFF whose cell (c, r) of band b holds values[b][r * w + c].
 void writeTiff(const std::string& path, int w, int h,

@@ -1,6 +1,8 @@
 // River ingestion (preprocess/rivers.h): the bundled GRASS network reprojected onto the bundled
 // DEM's working CRS, layer choice, where clauses, multi-part and 3D lines, CRS errors.
 #include <gtest/gtest.h>
+
+#include "testutil.h"
 #include <unistd.h>
 
 #include <filesystem>
@@ -19,24 +21,7 @@ namespace {
 
 const std::string kAssets = UNILOD_ASSETS_DIR;
 
-struct TempDir {
-    fs::path path;
-    explicit TempDir(const std::string& name)
-        : path(fs::temp_directory_path() /
-               ("unilod_test_rivers_" + name + "_" + std::to_string(getpid()))) {
-        fs::remove_all(path);
-        fs::create_directories(path);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(path, ec);
-    }
-    std::string write(const std::string& name, const std::string& text) const {
-        const std::string p = (path / name).string();
-        std::ofstream(p) << text;
-        return p;
-    }
-};
+using unilod::test::TempDir;
 
 const DemGrid& bundledDem() {
     static const DemGrid dem = [] {

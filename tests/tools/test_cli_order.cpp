@@ -3,6 +3,8 @@
 // and leave no output, usage errors, --help everywhere, and `synth` writing readable files.
 #include <gtest/gtest.h>
 
+#include "testutil.h"
+
 #include "tools/cliutil.h"
 #include <sys/wait.h>
 #include <unistd.h>
@@ -35,23 +37,7 @@ const std::string kAssets = UNILOD_ASSETS_DIR;
 const std::string kDem = kAssets + "/jacksboro_dem.tif";
 const std::string kRivers = kAssets + "/jacksboro_rivers_grass.geojson";
 
-struct TempDir {
-    fs::path path;
-    explicit TempDir(const std::string& name)
-        : path(fs::temp_directory_path() /
-               ("unilod_test_cli_" + name + "_" + std::to_string(getpid()))) {
-        fs::remove_all(path);
-        fs::create_directories(path);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(path, ec);
-    }
-    std::string file(const std::string& name) const { return (path / name).string(); }
-    std::size_t entries() const {
-        return static_cast<std::size_t>(std::distance(fs::directory_iterator(path), {}));
-    }
-};
+using unilod::test::TempDir;
 
 std::vector<std::string> split(const std::string& line) {
     std::vector<std::string> fields;
