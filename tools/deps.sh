@@ -7,6 +7,7 @@ UNILOD_DEBIAN_PACKAGES=(
     nlohmann-json3-dev libcli11-dev
     libgtest-dev
     libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers glslang-tools libglm-dev libpng-dev
+    libglfw3-dev libtinygltf-dev xvfb xauth
 )
 
 unilod_ensure_packages() {
