@@ -59,9 +59,10 @@ std::vector<CaptureBlock> chooseLevels(const Scene& scene, const CaptureOptions&
         CaptureBlock c;
         c.col = b.col;
         c.row = b.row;
-        c.distance = nearestBoxDistance(options.camera.eye, b.boxMin, b.boxMax);
-        c.hLim = toleranceFor(options.pixels, c.distance, options.camera.fovDegrees * kDegree,
-                              double(options.height));
+        c.distance = blockDistance(options.distance, options.camera.eye, b.boxMin, b.boxMax);
+        c.hLim = blockTolerance({options.pixels, options.camera.fovDegrees * kDegree,
+                                 double(options.width), double(options.height), options.distance},
+                                c.distance);
         const std::vector<float>& errors =
             metric == format::kMetricPaper ? b.errorPaper : b.errorMax;
         c.choice = chooseLevel(b.levels, errors, c.hLim);
@@ -173,7 +174,11 @@ bool runCapture(const CaptureOptions& options, CaptureResult& result, std::strin
           {"fov", c.fovDegrees}}},
         {"pixels", options.pixels},
         {"metric", metric == format::kMetricPaper ? "paper" : "max"},
-        {"distance", "nearest point of the block bounding box"},
+        {"distance", options.distance == DistanceMode::Nearest ? "nearest" : "centre"},
+        {"edge_factor", options.distance == DistanceMode::Nearest
+                            ? frustumEdgeFactor(c.fovDegrees * kDegree,
+                                                double(options.width) / options.height)
+                            : 1.0},
         {"blocks", blocks},
         {"totals",
          {{"blocks_drawn", result.blocks.size()},

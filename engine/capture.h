@@ -18,6 +18,7 @@ struct CaptureOptions {
     std::uint32_t width = 1024, height = 768;
     double pixels = 1.0;  // P: the screen-space error tolerance in pixels
     std::string metric;   // "max", "paper"; empty: the file's default
+    DistanceMode distance = DistanceMode::Nearest;  // how S is measured (lod.h)
     DeviceOptions device;
     std::string spirvDir;  // empty: $UNILOD_SPIRV_DIR, else the build's spirv folder
 };

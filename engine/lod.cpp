@@ -21,6 +21,30 @@ double toleranceFor(double pixels, double distance, double fovRadians, double vi
     return 2.0 * pixels * distance * std::tan(fovRadians / 2.0) / viewportHeight;
 }
 
+double blockDistance(DistanceMode mode, const double eye[3], const double boxMin[3],
+                     const double boxMax[3]) {
+    if (mode == DistanceMode::Nearest) return nearestBoxDistance(eye, boxMin, boxMax);
+    double sum = 0;
+    for (int i = 0; i < 3; ++i) {
+        const double d = (boxMin[i] + boxMax[i]) / 2.0 - eye[i];
+        sum += d * d;
+    }
+    return std::sqrt(sum);
+}
+
+double frustumEdgeFactor(double fovRadians, double aspect) {
+    const double t = std::tan(fovRadians / 2.0);
+    const double tan2 = t * t * (1.0 + aspect * aspect);  // tan^2 of the corner ray's angle
+    return 1.0 / (1.0 + tan2);                              // cos^2 = 1 / (1 + tan^2)
+}
+
+double blockTolerance(const ViewTolerance& view, double distance) {
+    double s = distance;
+    if (view.mode == DistanceMode::Nearest)
+        s *= frustumEdgeFactor(view.fovRadians, view.width / view.height);
+    return toleranceFor(view.pixels, s, view.fovRadians, view.height);
+}
+
 LevelChoice chooseLevel(const std::vector<format::Level>& levels, const std::vector<float>& errors,
                         double hLim) {
     assert(!levels.empty() && !errors.empty());

@@ -17,6 +17,32 @@ double nearestBoxDistance(const double eye[3], const double boxMin[3], const dou
 // for a vertical field of view `fovRadians` over H pixels.
 double toleranceFor(double pixels, double distance, double fovRadians, double viewportHeight);
 
+// How S is measured (DESIGN.md "Screen-space error"): `Nearest` = distance to the nearest point
+// of the block's bounding box (the safe default), `Centre` = distance to the box centre (the
+// paper's choice; no guarantee for points nearer than the centre).
+enum class DistanceMode { Nearest, Centre };
+double blockDistance(DistanceMode mode, const double eye[3], const double boxMin[3],
+                     const double boxMax[3]);
+
+// cos^2 of the angle between the view axis and a corner ray of the frustum, for a vertical
+// field of view `fovRadians` and width / height `aspect`. A world segment of length h whose end
+// points are inside the frustum at Euclidean distances >= S projects to at most
+// f * h / (S * cos^2(theta_c)) pixels (f = H / (2 tan(fov / 2))): the depth of a point is at
+// least its distance times cos(theta_c), and the projection's magnification is d / (z1 * z2)
+// (Cauchy-Schwarz on the perspective division). So in `Nearest` mode the level is chosen with
+// S * frustumEdgeFactor: the P-pixel bound then holds anywhere on screen, not only at the centre.
+double frustumEdgeFactor(double fovRadians, double aspect);
+
+// The tolerance a block's level is chosen with: Eq. 11 with S in `Centre` mode (the paper),
+// with S * frustumEdgeFactor in `Nearest` mode (a guarantee: see above).
+struct ViewTolerance {
+    double pixels = 1;        // P
+    double fovRadians = 0;    // vertical field of view
+    double width = 0, height = 0;  // viewport in pixels
+    DistanceMode mode = DistanceMode::Nearest;
+};
+double blockTolerance(const ViewTolerance& view, double distance);
+
 struct LevelChoice {
     std::size_t level = 0;  // index into Block::levels
     std::uint32_t step = 0;

@@ -103,6 +103,10 @@ TEST(Lod, ChoosesCoarsestLevelWithinTolerance) {
     EXPECT_NEAR(engine::toleranceFor(1, 1000, 3.14159265358979 / 3, 1000), 1.1547005, 1e-6);
     const double eye[3] = {5, 5, 5}, lo[3] = {0, 0, 0}, hi[3] = {1, 2, 9};
     EXPECT_DOUBLE_EQ(engine::nearestBoxDistance(eye, lo, hi), 5.0);
+    EXPECT_DOUBLE_EQ(engine::blockDistance(engine::DistanceMode::Centre, eye, lo, hi),
+                     std::sqrt(4.5 * 4.5 + 4 * 4 + 0.5 * 0.5));
+    // 90 degree field of view, square viewport: the corner ray is at tan^2 = 2, cos^2 = 1/3.
+    EXPECT_NEAR(engine::frustumEdgeFactor(3.14159265358979 / 2, 1.0), 1.0 / 3.0, 1e-12);
 }
 
 TEST_F(Capture, NearAndFarViews) {
@@ -141,9 +145,12 @@ TEST_F(Capture, NearAndFarViews) {
                 EXPECT_GT(block.errorMax[block.levels[level + 1].step], hLim) << b.dump();
             }
             EXPECT_EQ(b["triangles"].get<std::uint32_t>(), block.levels[level].triangleCount);
-            // h_lim from S by Eq. 11 with P = 1, 60 degrees, 480 px.
-            EXPECT_NEAR(hLim, 2.0 * b["S"].get<double>() * std::tan(3.14159265358979 / 6) / 480,
-                        1e-6 * (1 + hLim));
+            // h_lim from S by Eq. 11 with P = 1, 60 degrees, 480 px, S scaled by cos^2 of the
+            // frustum's corner angle (tan^2 = tan^2(30 deg) * (1 + (4/3)^2)).
+            const double t = std::tan(3.14159265358979 / 6);
+            const double edge = 1.0 / (1.0 + t * t * (1.0 + 16.0 / 9.0));
+            EXPECT_NEAR((*view)["edge_factor"].get<double>(), edge, 1e-12);
+            EXPECT_NEAR(hLim, 2.0 * b["S"].get<double>() * edge * t / 480, 1e-6 * (1 + hLim));
         }
     }
 

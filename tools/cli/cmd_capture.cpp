@@ -18,6 +18,7 @@ struct CaptureCli {
     engine::CaptureOptions o;
     std::vector<double> camera;
     std::string size = "1024x768";
+    std::string distance = "nearest";
 };
 
 bool parseSize(const std::string& s, std::uint32_t& w, std::uint32_t& h) {
@@ -36,6 +37,8 @@ int run(CaptureCli& c) {
                      c.size.c_str());
         return 2;
     }
+    c.o.distance =
+        c.distance == "centre" ? engine::DistanceMode::Centre : engine::DistanceMode::Nearest;
     for (int i = 0; i < 3; ++i)
         c.o.camera.eye[i] = c.camera[std::size_t(i)];
     c.o.camera.yawDegrees = c.camera[3];
@@ -74,6 +77,10 @@ void addCaptureCommand(CLI::App& app, int& exitCode) {
         ->check(CLI::Range(1.0, 179.0));
     sub->add_option("--metric", c->o.metric, "error metric (default: the file's)")
         ->check(CLI::IsMember({"max", "paper"}));
+    sub->add_option("--distance", c->distance,
+                    "S for h_lim: nearest (nearest point of the block's box, scaled so the P-pixel "
+                    "bound holds over the whole view; default) or centre (the paper's block centre)")
+        ->check(CLI::IsMember({"nearest", "centre"}));
     sub->add_option("--out", c->o.outDir, "output folder (frame_0000.png, frame_0000.json)")
         ->required();
     sub->add_flag("--validation", c->o.device.validation,
