@@ -210,10 +210,24 @@ bool createDevice(const DeviceOptions& options, Device& device, std::string& err
     queueInfo.queueFamilyIndex = device.queueFamily;
     queueInfo.queueCount = 1;
     queueInfo.pQueuePriorities = &priority;
+    VkPhysicalDeviceFeatures supported{}, enabled{};
+    vkGetPhysicalDeviceFeatures(device.physical, &supported);
+    enabled.fillModeNonSolid = supported.fillModeNonSolid;
+    device.fillModeNonSolid = supported.fillModeNonSolid == VK_TRUE;
+    {
+        std::uint32_t familyCount = 0;
+        vkGetPhysicalDeviceQueueFamilyProperties(device.physical, &familyCount, nullptr);
+        std::vector<VkQueueFamilyProperties> families(familyCount);
+        vkGetPhysicalDeviceQueueFamilyProperties(device.physical, &familyCount, families.data());
+        device.timestamps = families[device.queueFamily].timestampValidBits > 0 &&
+                            device.properties.limits.timestampPeriod > 0;
+        device.timestampPeriodNs = device.properties.limits.timestampPeriod;
+    }
     VkDeviceCreateInfo deviceInfo{};
     deviceInfo.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
     deviceInfo.queueCreateInfoCount = 1;
     deviceInfo.pQueueCreateInfos = &queueInfo;
+    deviceInfo.pEnabledFeatures = &enabled;
     VK_CHECK(vkCreateDevice(device.physical, &deviceInfo, nullptr, &device.device));
     vkGetDeviceQueue(device.device, device.queueFamily, 0, &device.queue);
     return true;

@@ -33,6 +33,9 @@ struct Device {
     std::uint32_t queueFamily = 0;
     VkQueue queue = VK_NULL_HANDLE;
     std::unique_ptr<ValidationLog> log;  // non-null when validation is on
+    bool fillModeNonSolid = false;       // wireframe (grid mode) available and enabled
+    bool timestamps = false;             // the queue writes timestamps (GPU frame time)
+    double timestampPeriodNs = 0;        // nanoseconds per timestamp tick
 };
 
 // Returns false with a message when no usable Vulkan instance or device exists (an environment

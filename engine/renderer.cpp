@@ -4,12 +4,17 @@
 
 #include <cassert>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <iterator>
 
 #include "../shaders/shared.h"
 #include "vkcheck.h"
+
+#ifndef UNILOD_SPIRV_DIR
+#define UNILOD_SPIRV_DIR "spirv"
+#endif
 
 namespace unilod::engine {
 
@@ -41,8 +46,6 @@ void destroyBuffer(const Device& device, Buffer& buffer) {
     if (buffer.memory) vkFreeMemory(device.device, buffer.memory, nullptr);
     buffer = Buffer{};
 }
-
-namespace {
 
 void createImage(const Device& device, std::uint32_t width, std::uint32_t height, VkFormat format,
                  VkImageUsageFlags usage, VkImageAspectFlags aspect, Image& image) {
@@ -84,9 +87,7 @@ void destroyImage(const Device& device, Image& image) {
     image = Image{};
 }
 
-// One-shot command buffer: begin, record via `record`, submit, wait. Captures need no overlap.
-template <typename Record>
-void submitAndWait(const Device& device, Record record) {
+void submitAndWait(const Device& device, const std::function<void(VkCommandBuffer)>& record) {
     VkCommandPoolCreateInfo poolInfo{};
     poolInfo.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
     poolInfo.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
@@ -120,6 +121,8 @@ void submitAndWait(const Device& device, Record record) {
     vkDestroyCommandPool(device.device, pool, nullptr);
 }
 
+namespace {
+
 bool readFile(const std::string& path, std::vector<char>& bytes) {
     std::ifstream in(path, std::ios::binary);
     if (!in) return false;
@@ -143,8 +146,11 @@ bool createShader(const Device& device, const std::string& path, VkShaderModule&
     return true;
 }
 
-VkPipeline createPipeline(const Device& device, const Offscreen& offscreen, VkPipelineLayout layout,
-                          VkShaderModule vert, VkShaderModule frag, bool river) {
+enum class PipelineKind { Terrain, River, Wire };
+
+VkPipeline createPipeline(const Device& device, VkRenderPass renderPass, VkPipelineLayout layout,
+                          VkShaderModule vert, VkShaderModule frag, PipelineKind kind) {
+    const bool river = kind == PipelineKind::River;
     VkPipelineShaderStageCreateInfo stages[2]{};
     stages[0].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
     stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
@@ -171,19 +177,20 @@ VkPipeline createPipeline(const Device& device, const Offscreen& offscreen, VkPi
     assembly.topology =
         river ? VK_PRIMITIVE_TOPOLOGY_LINE_LIST : VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
 
-    const VkViewport viewport{0, 0, float(offscreen.width), float(offscreen.height), 0, 1};
-    const VkRect2D scissor{{0, 0}, {offscreen.width, offscreen.height}};
     VkPipelineViewportStateCreateInfo viewportState{};
     viewportState.sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO;
     viewportState.viewportCount = 1;
-    viewportState.pViewports = &viewport;
     viewportState.scissorCount = 1;
-    viewportState.pScissors = &scissor;
+    const VkDynamicState dynamicStates[2] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+    VkPipelineDynamicStateCreateInfo dynamic{};
+    dynamic.sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO;
+    dynamic.dynamicStateCount = 2;
+    dynamic.pDynamicStates = dynamicStates;
 
     VkPipelineRasterizationStateCreateInfo raster{};
 
     raster.sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO;
-    raster.polygonMode = VK_POLYGON_MODE_FILL;
+    raster.polygonMode = kind == PipelineKind::Wire ? VK_POLYGON_MODE_LINE : VK_POLYGON_MODE_FILL;
     raster.cullMode = VK_CULL_MODE_NONE;  // a terrain seen from below is still a terrain
     raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
     raster.lineWidth = 1.0f;
@@ -220,8 +227,9 @@ VkPipeline createPipeline(const Device& device, const Offscreen& offscreen, VkPi
     info.pMultisampleState = &multisample;
     info.pDepthStencilState = &depth;
     info.pColorBlendState = &blend;
+    info.pDynamicState = &dynamic;
     info.layout = layout;
-    info.renderPass = offscreen.renderPass;
+    info.renderPass = renderPass;
     info.subpass = 0;
     VkPipeline pipeline;
     VK_CHECK(
@@ -229,50 +237,19 @@ VkPipeline createPipeline(const Device& device, const Offscreen& offscreen, VkPi
     return pipeline;
 }
 
-// Eye-relative world -> clip: view rows right / up / -forward (z up, yaw clockwise from
-// north), then a reversed-Z infinite perspective with Vulkan's downward y.
-shader::mat4 viewProjection(const Camera& camera, double aspect) {
-    constexpr double kDegree = 3.14159265358979323846 / 180.0;
-    constexpr double kNear = 1.0;  // metres
-    const double yaw = camera.yawDegrees * kDegree, pitch = camera.pitchDegrees * kDegree;
-    const double f[3] = {std::sin(yaw) * std::cos(pitch), std::cos(yaw) * std::cos(pitch),
-                         std::sin(pitch)};
-    const double r[3] = {std::cos(yaw), -std::sin(yaw), 0.0};
-    const double u[3] = {r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2],
-                         r[0] * f[1] - r[1] * f[0]};
-    const double focal = 1.0 / std::tan(camera.fovDegrees * kDegree / 2.0);
-    shader::mat4 m(0.0f);
-    for (int j = 0; j < 3; ++j) {
-        m[j][0] = float(focal / aspect * r[j]);
-        m[j][1] = float(-focal * u[j]);
-        m[j][3] = float(f[j]);
-    }
-    m[3][2] = float(kNear);
-    return m;
-}
-
 }  // namespace
 
-void createOffscreen(const Device& device, std::uint32_t width, std::uint32_t height,
-                     Offscreen& offscreen) {
-    assert(width > 0 && height > 0);
-    offscreen.width = width;
-    offscreen.height = height;
-    createImage(device, width, height, kColourFormat,
-                VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
-                VK_IMAGE_ASPECT_COLOR_BIT, offscreen.colour);
-    createImage(device, width, height, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
-                VK_IMAGE_ASPECT_DEPTH_BIT, offscreen.depth);
-
+VkRenderPass createRenderPass(const Device& device, VkFormat colourFormat,
+                              VkImageLayout colourFinalLayout) {
     VkAttachmentDescription attachments[2]{};
-    attachments[0].format = kColourFormat;
+    attachments[0].format = colourFormat;
     attachments[0].samples = VK_SAMPLE_COUNT_1_BIT;
     attachments[0].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
     attachments[0].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
     attachments[0].stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
     attachments[0].stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
     attachments[0].initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    attachments[0].finalLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    attachments[0].finalLayout = colourFinalLayout;
     attachments[1].format = kDepthFormat;
     attachments[1].samples = VK_SAMPLE_COUNT_1_BIT;
     attachments[1].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
@@ -288,20 +265,28 @@ void createOffscreen(const Device& device, std::uint32_t width, std::uint32_t he
     subpass.colorAttachmentCount = 1;
     subpass.pColorAttachments = &colourRef;
     subpass.pDepthStencilAttachment = &depthRef;
-    // The colour image is copied to the readback buffer after the pass.
+    // In: the previous frame's readback copy (offscreen) or the swapchain acquire, and the
+    // previous frame's depth writes, finish before this pass writes. Out: the colour is copied
+    // to the readback buffer (offscreen) or presented.
     VkSubpassDependency dependencies[2]{};
     dependencies[0].srcSubpass = VK_SUBPASS_EXTERNAL;
     dependencies[0].dstSubpass = 0;
-    dependencies[0].srcStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT;
-    dependencies[0].dstStageMask =
-        VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT;
-    dependencies[0].srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
-    dependencies[0].dstAccessMask =
-        VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+    dependencies[0].srcStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT |
+                                   VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT |
+                                   VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT;
+    dependencies[0].dstStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT |
+                                   VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT |
+                                   VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT;
+    dependencies[0].srcAccessMask =
+        VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+    dependencies[0].dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT |
+                                    VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
+                                    VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
     dependencies[1].srcSubpass = 0;
     dependencies[1].dstSubpass = VK_SUBPASS_EXTERNAL;
     dependencies[1].srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
-    dependencies[1].dstStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT;
+    dependencies[1].dstStageMask =
+        VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT;
     dependencies[1].srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
     dependencies[1].dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
     VkRenderPassCreateInfo passInfo{};
@@ -312,7 +297,25 @@ void createOffscreen(const Device& device, std::uint32_t width, std::uint32_t he
     passInfo.pSubpasses = &subpass;
     passInfo.dependencyCount = 2;
     passInfo.pDependencies = dependencies;
-    VK_CHECK(vkCreateRenderPass(device.device, &passInfo, nullptr, &offscreen.renderPass));
+    VkRenderPass renderPass;
+    VK_CHECK(vkCreateRenderPass(device.device, &passInfo, nullptr, &renderPass));
+    return renderPass;
+
+}
+
+void createOffscreen(const Device& device, std::uint32_t width, std::uint32_t height,
+                     Offscreen& offscreen) {
+    assert(width > 0 && height > 0);
+    offscreen.width = width;
+    offscreen.height = height;
+    createImage(device, width, height, kColourFormat,
+                VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                VK_IMAGE_ASPECT_COLOR_BIT, offscreen.colour);
+    createImage(device, width, height, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                VK_IMAGE_ASPECT_DEPTH_BIT, offscreen.depth);
+
+    offscreen.renderPass =
+        createRenderPass(device, kColourFormat, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
 
     const VkImageView views[2] = {offscreen.colour.view, offscreen.depth.view};
     VkFramebufferCreateInfo fbInfo{};
@@ -339,79 +342,13 @@ void destroyOffscreen(const Device& device, Offscreen& offscreen) {
     offscreen = Offscreen{};
 }
 
-bool createScene(const Device& device, const format::Reader& reader, Scene& scene,
-                 std::string& error) {
-    const format::Header& header = reader.header();
-    scene.minZ = header.minZ;
-    scene.maxZ = header.maxZ;
-    std::vector<format::Vertex> vertices;
-    std::vector<std::uint32_t> indices;
-    format::Block block;
-    for (std::size_t i = 0; i < reader.blocks().size(); ++i) {
-        if (!reader.readBlock(i, block, error)) return false;
-        if (block.levels.empty()) continue;  // nothing to draw
-        SceneBlock sb;
-        sb.col = block.col;
-        sb.row = block.row;
-        sb.originX = block.originX;
-        sb.originY = block.originY;
-        sb.boxMin[0] = block.minX, sb.boxMin[1] = block.minY, sb.boxMin[2] = block.minZ;
-        sb.boxMax[0] = block.maxX, sb.boxMax[1] = block.maxY, sb.boxMax[2] = block.maxZ;
-        sb.vertexBase = std::int32_t(vertices.size());
-        sb.terrainBase = std::uint32_t(indices.size());
-        for (const format::Triangle& t : block.terrainIndices)
-            indices.insert(indices.end(), {t.a, t.b, t.c});
-        sb.riverBase = std::uint32_t(indices.size());
-        for (const format::Edge& e : block.riverIndices)
-            indices.insert(indices.end(), {e.a, e.b});
-        vertices.insert(vertices.end(), block.vertices.begin(), block.vertices.end());
-        sb.levels = std::move(block.levels);
-        sb.errorMax = std::move(block.errorMax);
-        sb.errorPaper = std::move(block.errorPaper);
-        scene.blocks.push_back(std::move(sb));
-    }
-    if (vertices.empty() || indices.empty()) {
-        error = reader.path() + ": no geometry to draw";
-        return false;
-    }
-    const VkDeviceSize vertexBytes = vertices.size() * sizeof(format::Vertex);
-    const VkDeviceSize indexBytes = indices.size() * sizeof(std::uint32_t);
-    createBuffer(device, vertexBytes,
-                 VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                 VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, scene.vertices);
-    createBuffer(device, indexBytes,
-                 VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                 VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, scene.indices);
-    Buffer staging;
-    createBuffer(device, vertexBytes + indexBytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                 VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
-                 staging);
-    std::memcpy(staging.mapped, vertices.data(), vertexBytes);
-    std::memcpy(static_cast<char*>(staging.mapped) + vertexBytes, indices.data(), indexBytes);
-    submitAndWait(device, [&](VkCommandBuffer cmd) {
-        const VkBufferCopy vertexCopy{0, 0, vertexBytes};
-        vkCmdCopyBuffer(cmd, staging.buffer, scene.vertices.buffer, 1, &vertexCopy);
-        const VkBufferCopy indexCopy{vertexBytes, 0, indexBytes};
-        vkCmdCopyBuffer(cmd, staging.buffer, scene.indices.buffer, 1, &indexCopy);
-        VkMemoryBarrier barrier{};
-        barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-        barrier.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-        barrier.dstAccessMask = VK_ACCESS_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_INDEX_READ_BIT;
-        vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                             VK_PIPELINE_STAGE_VERTEX_INPUT_BIT, 0, 1, &barrier, 0, nullptr, 0,
-                             nullptr);
-    });
-    destroyBuffer(device, staging);
-    return true;
+std::string spirvDirectory(const std::string& configured) {
+    if (!configured.empty()) return configured;
+    const char* env = std::getenv("UNILOD_SPIRV_DIR");
+    return env && *env ? env : UNILOD_SPIRV_DIR;
 }
 
-void destroyScene(const Device& device, Scene& scene) {
-    destroyBuffer(device, scene.indices);
-    destroyBuffer(device, scene.vertices);
-    scene.blocks.clear();
-}
-
-bool createPipelines(const Device& device, const Offscreen& offscreen, const std::string& spirvDir,
+bool createPipelines(const Device& device, VkRenderPass renderPass, const std::string& spirvDir,
                      Pipelines& pipelines, std::string& error) {
     const char* names[4] = {"terrain.vert.spv", "terrain.frag.spv", "river.vert.spv",
                             "river.frag.spv"};
@@ -427,10 +364,13 @@ bool createPipelines(const Device& device, const Offscreen& offscreen, const std
         layoutInfo.pushConstantRangeCount = 1;
         layoutInfo.pPushConstantRanges = &range;
         VK_CHECK(vkCreatePipelineLayout(device.device, &layoutInfo, nullptr, &pipelines.layout));
-        pipelines.terrain =
-            createPipeline(device, offscreen, pipelines.layout, modules[0], modules[1], false);
-        pipelines.river =
-            createPipeline(device, offscreen, pipelines.layout, modules[2], modules[3], true);
+        pipelines.terrain = createPipeline(device, renderPass, pipelines.layout, modules[0],
+                                           modules[1], PipelineKind::Terrain);
+        pipelines.river = createPipeline(device, renderPass, pipelines.layout, modules[2],
+                                         modules[3], PipelineKind::River);
+        if (device.fillModeNonSolid)
+            pipelines.wire = createPipeline(device, renderPass, pipelines.layout, modules[0],
+                                            modules[1], PipelineKind::Wire);
     }
     for (VkShaderModule m : modules)
         if (m) vkDestroyShaderModule(device.device, m, nullptr);
@@ -438,70 +378,60 @@ bool createPipelines(const Device& device, const Offscreen& offscreen, const std
 }
 
 void destroyPipelines(const Device& device, Pipelines& pipelines) {
+    if (pipelines.wire) vkDestroyPipeline(device.device, pipelines.wire, nullptr);
     if (pipelines.river) vkDestroyPipeline(device.device, pipelines.river, nullptr);
     if (pipelines.terrain) vkDestroyPipeline(device.device, pipelines.terrain, nullptr);
     if (pipelines.layout) vkDestroyPipelineLayout(device.device, pipelines.layout, nullptr);
     pipelines = Pipelines{};
 }
 
-void renderFrame(const Device& device, const Offscreen& offscreen, const Pipelines& pipelines,
-                 const Scene& scene, const Camera& camera, const std::vector<DrawItem>& items,
-                 std::vector<std::uint8_t>& rgba) {
+void recordDraws(VkCommandBuffer cmd, const Pipelines& pipelines, VkBuffer geometry,
+                 const FrameView& view, const std::vector<DrawBlock>& blocks) {
+    const VkViewport viewport{0, 0, float(view.width), float(view.height), 0, 1};
+    const VkRect2D scissor{{0, 0}, {view.width, view.height}};
+    vkCmdSetViewport(cmd, 0, 1, &viewport);
+    vkCmdSetScissor(cmd, 0, 1, &scissor);
+    if (blocks.empty()) return;
+    const Camera& camera = view.camera;
+    const double aspect = double(view.width) / view.height;
+    const bool grid = view.grid && pipelines.wire;
     shader::DrawConstants constants{};
-    constants.viewProj = viewProjection(camera, double(offscreen.width) / offscreen.height);
-    constants.zRange = shader::vec4(float(scene.minZ), float(scene.maxZ), 0.0f, 0.0f);
-    submitAndWait(device, [&](VkCommandBuffer cmd) {
-        VkClearValue clears[2]{};
-        clears[0].color = {{0.0f, 0.0f, 0.0f, 1.0f}};
-        clears[1].depthStencil = {0.0f, 0};  // reversed Z: far is 0
-        VkRenderPassBeginInfo begin{};
-        begin.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
-        begin.renderPass = offscreen.renderPass;
-        begin.framebuffer = offscreen.framebuffer;
-        begin.renderArea = {{0, 0}, {offscreen.width, offscreen.height}};
-        begin.clearValueCount = 2;
-        begin.pClearValues = clears;
-        vkCmdBeginRenderPass(cmd, &begin, VK_SUBPASS_CONTENTS_INLINE);
-        const VkDeviceSize zero = 0;
-        vkCmdBindVertexBuffers(cmd, 0, 1, &scene.vertices.buffer, &zero);
-        vkCmdBindIndexBuffer(cmd, scene.indices.buffer, 0, VK_INDEX_TYPE_UINT32);
-        // Terrain first, then rivers over it: the river depth test needs the terrain's depth.
-        for (int pass = 0; pass < 2; ++pass) {
-            vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
-                              pass == 0 ? pipelines.terrain : pipelines.river);
-            for (const DrawItem& item : items) {
-                const SceneBlock& b = scene.blocks[item.block];
-                const format::Level& level = *item.level;
-                const std::uint32_t count =
-                    pass == 0 ? level.triangleCount * 3 : level.riverCount * 2;
-                if (count == 0) continue;
-                // Offsets in double, then float: block-relative floats stay precise.
-                constants.blockOffset =
-                    shader::vec4(float(b.originX - camera.eye[0]), float(b.originY - camera.eye[1]),
-                                 float(-camera.eye[2]), 0.0f);
-                vkCmdPushConstants(cmd, pipelines.layout,
-                                   VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
-                                   sizeof constants, &constants);
-                const std::uint32_t first = pass == 0 ? b.terrainBase + level.triangleFirst * 3
-                                                      : b.riverBase + level.riverFirst * 2;
-                vkCmdDrawIndexed(cmd, count, 1, first, b.vertexBase, 0);
-            }
+    constants.viewProj = grid ? gridViewProjection(view.gridHalfHeight, aspect)
+                              : perspectiveViewProjection(camera, aspect);
+    constants.zRange = shader::vec4(float(view.minZ), float(view.maxZ), grid ? 1.0f : 0.0f,
+                                    grid ? 0.0f : shader::kRiverDepthBias);
+    vkCmdBindIndexBuffer(cmd, geometry, 0, VK_INDEX_TYPE_UINT32);
+    for (int pass = 0; pass < (view.rivers ? 2 : 1); ++pass) {
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
+                          pass == 1 ? pipelines.river : grid ? pipelines.wire : pipelines.terrain);
+        for (const DrawBlock& b : blocks) {
+            const std::uint32_t count = pass == 0 ? b.terrainCount : b.riverCount;
+            if (count == 0) continue;
+            vkCmdBindVertexBuffers(cmd, 0, 1, &geometry, &b.vertexOffset);
+            // Offsets in double, then float: block-relative floats stay precise.
+            constants.blockOffset =
+                shader::vec4(float(b.originX - camera.eye[0]), float(b.originY - camera.eye[1]),
+                             float(-camera.eye[2]), 0.0f);
+            vkCmdPushConstants(cmd, pipelines.layout,
+                               VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
+                               sizeof constants, &constants);
+            vkCmdDrawIndexed(cmd, count, 1, pass == 0 ? b.terrainFirst : b.riverFirst, 0, 0);
         }
-        vkCmdEndRenderPass(cmd);
-        VkBufferImageCopy copy{};
-        copy.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-        copy.imageExtent = {offscreen.width, offscreen.height, 1};
-        vkCmdCopyImageToBuffer(cmd, offscreen.colour.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                               offscreen.readback.buffer, 1, &copy);
-        VkMemoryBarrier barrier{};
-        barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-        barrier.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-        barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-        vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
-                             &barrier, 0, nullptr, 0, nullptr);
-    });
-    const auto* bytes = static_cast<const std::uint8_t*>(offscreen.readback.mapped);
-    rgba.assign(bytes, bytes + offscreen.readback.size);
+    }
+}
+
+void recordReadback(VkCommandBuffer cmd, const Offscreen& offscreen) {
+    VkBufferImageCopy copy{};
+    copy.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    copy.imageExtent = {offscreen.width, offscreen.height, 1};
+    vkCmdCopyImageToBuffer(cmd, offscreen.colour.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                           offscreen.readback.buffer, 1, &copy);
+    VkMemoryBarrier barrier{};
+    barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+    barrier.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
+                         &barrier, 0, nullptr, 0, nullptr);
 }
 
 }  // namespace unilod::engine

@@ -6,12 +6,12 @@
 #include <vulkan/vulkan.h>
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
+#include "camera.h"
 #include "device.h"
-#include "lod.h"
-#include "ulod.h"
 
 namespace unilod::engine {
 
@@ -34,6 +34,15 @@ struct Image {
 inline constexpr VkFormat kColourFormat = VK_FORMAT_R8G8B8A8_UNORM;
 inline constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 
+void createImage(const Device& device, std::uint32_t width, std::uint32_t height, VkFormat format,
+                 VkImageUsageFlags usage, VkImageAspectFlags aspect, Image& image);
+void destroyImage(const Device& device, Image& image);
+
+// A render pass with one colour attachment (cleared, stored, left in `colourFinalLayout`) and a
+// D32 depth attachment (cleared to 0: reversed Z). Offscreen and swapchain targets both use it.
+VkRenderPass createRenderPass(const Device& device, VkFormat colourFormat,
+                              VkImageLayout colourFinalLayout);
+
 // Colour + depth of a fixed size, the render pass and framebuffer drawing into them, and a
 // host-visible buffer the colour image is copied into after the frame.
 struct Offscreen {
@@ -46,57 +55,52 @@ struct Offscreen {
 void createOffscreen(const Device& device, std::uint32_t width, std::uint32_t height,
                      Offscreen& offscreen);
 void destroyOffscreen(const Device& device, Offscreen& offscreen);
-
-// A block's share of the scene buffers (niagara-style sub-allocation by offset/count).
-struct SceneBlock {
-    std::uint32_t col = 0, row = 0;
-    double originX = 0, originY = 0;
-    double boxMin[3] = {}, boxMax[3] = {};
-    std::int32_t vertexBase = 0;    // first vertex in the vertex buffer
-    std::uint32_t terrainBase = 0;  // first terrain index in the index buffer
-    std::uint32_t riverBase = 0;    // first river index in the index buffer
-    std::vector<format::Level> levels;
-    std::vector<float> errorMax, errorPaper;
-};
-
-// Every block of a file, resident (this slice has no streaming yet).
-struct Scene {
-    Buffer vertices, indices;  // device-local; format::Vertex and uint32 indices
-    std::vector<SceneBlock> blocks;
-    double minZ = 0, maxZ = 0;
-};
-// Reads and uploads every block (staging buffer + one transfer). Returns false with a message
-// naming the file when a block cannot be read.
-bool createScene(const Device& device, const format::Reader& reader, Scene& scene,
-                 std::string& error);
-void destroyScene(const Device& device, Scene& scene);
+// Records the copy of the colour image (left in TRANSFER_SRC by the pass) into the readback
+// buffer, with the barrier that makes it visible to the host after the fence.
+void recordReadback(VkCommandBuffer cmd, const Offscreen& offscreen);
 
 struct Pipelines {
     VkPipelineLayout layout = VK_NULL_HANDLE;
     VkPipeline terrain = VK_NULL_HANDLE;
     VkPipeline river = VK_NULL_HANDLE;
+    VkPipeline wire = VK_NULL_HANDLE;  // grid mode: triangle edges (null without fillModeNonSolid)
 };
-// Loads <spirvDir>/{terrain,river}.{vert,frag}.spv. False with a message if one is missing.
-bool createPipelines(const Device& device, const Offscreen& offscreen, const std::string& spirvDir,
+// Loads <spirvDir>/{terrain,river}.{vert,frag}.spv and builds the pipelines for `renderPass`
+// (viewport and scissor are dynamic: one set of pipelines serves any size). False with a message
+// if a shader is missing.
+bool createPipelines(const Device& device, VkRenderPass renderPass, const std::string& spirvDir,
                      Pipelines& pipelines, std::string& error);
 void destroyPipelines(const Device& device, Pipelines& pipelines);
 
-// World coordinates of the file's CRS; yaw 0 looks north (+y), 90 east; pitch < 0 looks down.
-struct Camera {
-    double eye[3] = {};
-    double yawDegrees = 0, pitchDegrees = 0;
-    double fovDegrees = 60;  // vertical
+// The folder of the compiled shaders: `configured` if not empty, else $UNILOD_SPIRV_DIR, else
+// the build's spirv folder.
+std::string spirvDirectory(const std::string& configured);
+
+// What a frame looks at and how.
+struct FrameView {
+    Camera camera;
+    std::uint32_t width = 0, height = 0;  // viewport in pixels
+    bool grid = false;          // 2D grid mode: top-down orthographic wireframe (Figures 7-12)
+    double gridHalfHeight = 0;  // grid mode: metres from the view centre to the top edge
+    bool rivers = true;         // draw the river lines
+    double minZ = 0, maxZ = 0;  // hypsometric tint range
 };
 
-struct DrawItem {
-    std::size_t block = 0;
-    const format::Level* level = nullptr;
+// One block's draw: vertices at byte `vertexOffset` of the geometry buffer, index ranges in
+// units of uint32 from the start of the same buffer (terrain: triangle lists, rivers: lines).
+struct DrawBlock {
+    VkDeviceSize vertexOffset = 0;
+    std::uint32_t terrainFirst = 0, terrainCount = 0;  // indices
+    std::uint32_t riverFirst = 0, riverCount = 0;      // indices
+    double originX = 0, originY = 0;                   // block origin (world)
 };
 
-// Records, submits and waits for one frame: clear, terrain then rivers of every item, copy of
-// the colour image to `rgba` (width * height * 4 bytes, rows top to bottom).
-void renderFrame(const Device& device, const Offscreen& offscreen, const Pipelines& pipelines,
-                 const Scene& scene, const Camera& camera, const std::vector<DrawItem>& items,
-                 std::vector<std::uint8_t>& rgba);
+// Records, inside a render pass of the pipelines' kind, the terrain of every block, then the
+// rivers (their depth test needs the terrain's depth). Sets viewport and scissor to the view.
+void recordDraws(VkCommandBuffer cmd, const Pipelines& pipelines, VkBuffer geometry,
+                 const FrameView& view, const std::vector<DrawBlock>& blocks);
+
+// Records into a one-shot command buffer, submits it and waits (startup uploads).
+void submitAndWait(const Device& device, const std::function<void(VkCommandBuffer)>& record);
 
 }  // namespace unilod::engine

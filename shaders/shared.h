@@ -18,7 +18,8 @@ using vec3 = glm::vec3;
 struct DrawConstants {
     mat4 viewProj;     // eye-relative world -> clip (reversed Z, infinite far plane)
     vec4 blockOffset;  // xyz: (originX - eyeX, originY - eyeY, -eyeZ); w unused
-    vec4 zRange;       // x: file min z, y: file max z (hypsometric tint); zw unused
+    vec4 zRange;       // x: file min z, y: file max z (hypsometric tint); z: 1 in grid mode
+                       // (flat line colour); w: river pull towards the eye (kRiverDepthBias)
 };
 
 // Rivers are pulled towards the eye by this fraction of their distance so that a river lying on
@@ -26,6 +27,7 @@ struct DrawConstants {
 // works for lines, which the pipeline's polygon depth bias does not offset).
 const float kRiverDepthBias = 0.002;
 const vec3 kRiverColour = vec3(0.0, 0.2, 1.0);
+const vec3 kGridColour = vec3(0.35, 0.35, 0.35);  // grid mode: triangle edges
 
 #ifdef __cplusplus
 static_assert(sizeof(DrawConstants) == 96);

@@ -8,6 +8,10 @@ layout(location = 1) in float inZ;
 layout(location = 0) out vec4 outColour;
 
 void main() {
+    if (pc.zRange.z > 0.5) {  // grid mode: wireframe lines in one colour
+        outColour = vec4(kGridColour, 1.0);
+        return;
+    }
     // Flat normal from screen-space derivatives: no normals stored, exact per face.
     vec3 n = normalize(cross(dFdx(inRelative), dFdy(inRelative)));
     if (n.z < 0.0) n = -n;  // terrain faces up whatever the screen orientation

@@ -969,4 +969,84 @@ bool Reader::readBlock(std::size_t index, Block& block, std::string& error) cons
     return true;
 }
 
+bool Reader::readGeometry(std::size_t index, int level, BlockGeometry& geometry,
+                          std::string& error) const {
+    assert(impl_->fd >= 0 && "Reader::open() first");
+    assert(index < impl_->blocks.size());
+    const Impl& r = *impl_;
+    const BlockInfo& info = r.blocks[index];
+    auto fail = [&](const std::string& what) {
+        error = r.path + ": " + blockName(info.col, info.row) + ": " + what;
+        return false;
+    };
+    BlockHeader h;
+    if (info.size < sizeof(h) || !preadAll(r.fd, &h, sizeof(h), info.offset)) {
+        return fail("read failed: " + errnoText());
+    }
+    if (h.col != info.col || h.row != info.row) {
+        return fail("block header says " + blockName(h.col, h.row));
+    }
+    if (blockByteSize(h) != info.size || h.vertexCount != info.vertexCount ||
+        h.levelCount != info.levelCount || h.levelCount == 0) {
+        return fail("block header counts differ from the directory");
+    }
+    // Byte offsets of the arrays (the order of the Block struct, each padded to 8).
+    constexpr std::uint64_t kElementSize[16] = {16, 12, 4, 4, 4, 4, 12, 12, 8, 8, 4, 4, 32, 12, 8, 8};
+    std::uint64_t offsets[16];
+    {
+        const std::uint32_t* counts = &h.vertexCount;
+        std::uint64_t at = sizeof(BlockHeader);
+        for (int i = 0; i < 16; ++i) {
+            offsets[i] = info.offset + at;
+            at += alignUp(std::uint64_t(counts[i]) * kElementSize[i]);
+        }
+    }
+    enum { kVertices = 0, kLevels = 12, kTerrain = 13, kRivers = 14 };
+    BlockGeometry g;
+    g.col = h.col;
+    g.row = h.row;
+    g.originX = h.originX;
+    g.originY = h.originY;
+    g.minX = h.minX, g.minY = h.minY, g.minZ = h.minZ;
+    g.maxX = h.maxX, g.maxY = h.maxY, g.maxZ = h.maxZ;
+    g.levels.resize(h.levelCount);
+    if (!preadAll(r.fd, g.levels.data(), g.levels.size() * sizeof(Level), offsets[kLevels])) {
+        return fail("read failed: " + errnoText());
+    }
+    for (const Level& l : g.levels) {
+        if (l.vertexCount > h.vertexCount ||
+            std::uint64_t(l.triangleFirst) + l.triangleCount > h.terrainTriangleCount ||
+            std::uint64_t(l.riverFirst) + l.riverCount > h.riverEdgeCount) {
+            return fail("a level's range lies outside the block's arrays");
+        }
+    }
+    if (level == kLevelsOnly) {
+        geometry = std::move(g);
+        return true;
+    }
+    if (level != kAllLevels && (level < 0 || std::size_t(level) >= g.levels.size())) {
+        return fail("no level " + std::to_string(level));
+    }
+    const bool all = level == kAllLevels;
+    const Level whole{0, h.vertexCount, 0, h.terrainTriangleCount, 0, h.riverEdgeCount, 0, 0};
+    const Level& l = all ? whole : g.levels[std::size_t(level)];
+    g.vertices.resize(l.vertexCount);
+    g.terrainIndices.resize(l.triangleCount);
+    g.riverIndices.resize(l.riverCount);
+    const bool read =
+        preadAll(r.fd, g.vertices.data(), g.vertices.size() * sizeof(Vertex), offsets[kVertices]) &&
+        preadAll(r.fd, g.terrainIndices.data(), g.terrainIndices.size() * sizeof(Triangle),
+                 offsets[kTerrain] + std::uint64_t(l.triangleFirst) * sizeof(Triangle)) &&
+        preadAll(r.fd, g.riverIndices.data(), g.riverIndices.size() * sizeof(Edge),
+                 offsets[kRivers] + std::uint64_t(l.riverFirst) * sizeof(Edge));
+    if (!read) return fail("read failed: " + errnoText());
+    const std::uint32_t n = l.vertexCount;
+    for (const Triangle& t : g.terrainIndices)
+        if (t.a >= n || t.b >= n || t.c >= n) return fail("a triangle index is out of range");
+    for (const Edge& e : g.riverIndices)
+        if (e.a >= n || e.b >= n) return fail("a river edge index is out of range");
+    geometry = std::move(g);
+    return true;
+}
+
 }  // namespace unilod::format

@@ -154,6 +154,22 @@ private:
 // Reads a .ulod file block by block (pread): open() validates magic, version, sizes, the header
 // checksum and the directory; readBlock() validates the block's checksum and its structure
 // (every index and range in bounds, offsets monotone, errors non-decreasing).
+// What the engine streams of a block: its levels and LOD index data, without the topology
+// records (a fraction of the block's bytes).
+struct BlockGeometry {
+    std::uint32_t col = 0, row = 0;
+    double originX = 0, originY = 0;
+    double minX = 0, minY = 0, minZ = 0, maxX = 0, maxY = 0, maxZ = 0;
+    std::vector<Level> levels;  // every stored level, as in the file
+    // Read by readGeometry: all vertices and index data (level = kAllLevels), or only what one
+    // level draws: the vertex prefix [0, vertexCount) and that level's index ranges, which then
+    // start at 0 here.
+    std::vector<Vertex> vertices;
+    std::vector<Triangle> terrainIndices;
+    std::vector<Edge> riverIndices;
+};
+inline constexpr int kLevelsOnly = -2, kAllLevels = -1;
+
 class Reader {
 public:
     Reader();
@@ -165,6 +181,13 @@ public:
     const Header& header() const;
     const std::vector<BlockInfo>& blocks() const;
     bool readBlock(std::size_t index, Block& block, std::string& error) const;
+    // Reads a block's levels (kLevelsOnly), its whole LOD geometry (kAllLevels) or one level's
+    // geometry (level index). Checks the block header against the directory, the level ranges
+    // against the arrays and every index read against the vertices read, so a damaged file can
+    // never make the renderer read out of bounds; the checksum needs the whole block and is
+    // `unilod check`'s job. Thread-safe (pread), like readBlock.
+    bool readGeometry(std::size_t index, int level, BlockGeometry& geometry,
+                      std::string& error) const;
     const std::string& path() const;
 
 private:

@@ -1,0 +1,86 @@
+#include "camera.h"
+
+#include <cmath>
+
+namespace unilod::engine {
+
+namespace {
+constexpr double kDegree = 3.14159265358979323846 / 180.0;
+
+double dot(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+}  // namespace
+
+CameraBasis cameraBasis(const Camera& camera) {
+    const double yaw = camera.yawDegrees * kDegree, pitch = camera.pitchDegrees * kDegree;
+    CameraBasis b{};
+    b.forward[0] = std::sin(yaw) * std::cos(pitch);
+    b.forward[1] = std::cos(yaw) * std::cos(pitch);
+    b.forward[2] = std::sin(pitch);
+    b.right[0] = std::cos(yaw);
+    b.right[1] = -std::sin(yaw);
+    b.right[2] = 0.0;
+    const double* r = b.right;
+    const double* f = b.forward;
+    b.up[0] = r[1] * f[2] - r[2] * f[1];
+    b.up[1] = r[2] * f[0] - r[0] * f[2];
+    b.up[2] = r[0] * f[1] - r[1] * f[0];
+    return b;
+}
+
+shader::mat4 perspectiveViewProjection(const Camera& camera, double aspect) {
+    const CameraBasis b = cameraBasis(camera);
+    const double focal = 1.0 / std::tan(camera.fovDegrees * kDegree / 2.0);
+    shader::mat4 m(0.0f);
+    for (int j = 0; j < 3; ++j) {
+        m[j][0] = float(focal / aspect * b.right[j]);
+        m[j][1] = float(-focal * b.up[j]);
+        m[j][3] = float(b.forward[j]);
+    }
+    m[3][2] = float(kNearPlane);
+    return m;
+}
+
+shader::mat4 gridViewProjection(double halfHeight, double aspect) {
+    shader::mat4 m(0.0f);
+    m[0][0] = float(1.0 / (halfHeight * aspect));
+    m[1][1] = float(-1.0 / halfHeight);  // north up on screen (Vulkan y points down)
+    m[3][2] = 0.5f;                      // constant depth
+    m[3][3] = 1.0f;
+    return m;
+}
+
+bool boxInFrustum(const Camera& camera, double aspect, const double boxMin[3],
+                  const double boxMax[3]) {
+    const CameraBasis b = cameraBasis(camera);
+    const double ty = std::tan(camera.fovDegrees * kDegree / 2.0), tx = ty * aspect;
+    // Inward plane normals through the eye (side planes) and the near plane.
+    double planes[4][3];
+    for (int j = 0; j < 3; ++j) {
+        planes[0][j] = b.forward[j] * tx + b.right[j];  // left: x / z >= -tx
+        planes[1][j] = b.forward[j] * tx - b.right[j];  // right
+        planes[2][j] = b.forward[j] * ty + b.up[j];     // bottom
+        planes[3][j] = b.forward[j] * ty - b.up[j];     // top
+    }
+    double corners[8][3];
+    for (int c = 0; c < 8; ++c)
+        for (int j = 0; j < 3; ++j)
+            corners[c][j] = ((c >> j) & 1 ? boxMax[j] : boxMin[j]) - camera.eye[j];
+    for (const auto& plane : planes) {
+        bool allOutside = true;
+        for (const auto& corner : corners)
+            if (dot(plane, corner) >= 0) allOutside = false;
+        if (allOutside) return false;
+    }
+    for (const auto& corner : corners)
+        if (dot(b.forward, corner) >= kNearPlane) return true;
+    return false;  // entirely behind the near plane
+}
+
+bool boxInGridView(const Camera& camera, double halfHeight, double aspect, const double boxMin[3],
+                   const double boxMax[3]) {
+    const double hx = halfHeight * aspect;
+    return boxMax[0] >= camera.eye[0] - hx && boxMin[0] <= camera.eye[0] + hx &&
+           boxMax[1] >= camera.eye[1] - halfHeight && boxMin[1] <= camera.eye[1] + halfHeight;
+}
+
+}  // namespace unilod::engine

@@ -1,0 +1,121 @@
+// The streamed scene (DESIGN.md "Engine", issue 5): the blocks of a .ulod file in one device
+// buffer under a memory budget, and the per-frame choice of what to draw.
+//
+// - At open, every block's levels are read and its coarsest level is uploaded and stays
+//   resident, so no block ever disappears; the budget must hold this coarse set.
+// - Every frame, prepare() culls the blocks against the view, computes S and h_lim per visible
+//   block and picks the coarsest level with h_s <= h_lim (lod.h). A block whose chosen level is
+//   finer than its resident coarse level needs its full LOD geometry (all levels' index data):
+//   it is requested from a loader thread, nearest first. Loaded blocks are uploaded by the
+//   frame's command buffer through a staging buffer (at most `uploadBytesPerFrame` per frame).
+//   Until a block is resident it is drawn at its coarse level ("fallback"): a frame never waits
+//   on disk.
+// - Memory: one device-local buffer of `gpuBudget` bytes, sub-allocated by offset (first fit).
+//   When an upload does not fit, the least recently used full blocks not drawn in this frame
+//   are evicted; their memory returns to the allocator only once the frames that drew them have
+//   completed (per-frame destroy lists).
+//
+// Frame numbers are the caller's: frame f uses staging slot f % kFramesInFlight, so the caller
+// must have waited for frame f - kFramesInFlight to complete before prepare(f).
+#pragma once
+
+#include <vulkan/vulkan.h>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "device.h"
+#include "lod.h"
+#include "renderer.h"
+#include "ulod.h"
+
+namespace unilod::engine {
+
+inline constexpr std::uint32_t kFramesInFlight = 2;
+inline constexpr std::uint64_t kDefaultGpuBudget = 512ull << 20;  // 512 MiB
+
+enum class LodPolicy {
+    Adaptive,  // the coarsest level with h_s <= h_lim (the product)
+    Finest,    // every visible block at full resolution (the benchmark's baseline)
+};
+
+struct SceneOptions {
+    std::uint64_t gpuBudget = kDefaultGpuBudget;  // bytes of device memory for geometry
+    std::uint64_t uploadBytesPerFrame = 32ull << 20;  // staging size per frame in flight
+    double pixels = 1.0;                              // P
+    std::string metric;                               // "max", "paper"; empty: the file's
+    DistanceMode distance = DistanceMode::Nearest;
+    LodPolicy policy = LodPolicy::Adaptive;
+    bool cull = true;  // frustum culling (off: every block is drawn)
+};
+
+// One visible block's choice in the last prepared frame.
+struct BlockSelection {
+    std::uint32_t block = 0;  // index in the file's directory
+    std::uint32_t col = 0, row = 0;
+    double distance = 0, hLim = 0;  // S, h_lim
+    LevelChoice wanted;             // the level h_lim asks for
+    std::size_t drawnLevel = 0;     // the level drawn (the coarse one while not resident)
+    bool fallback = false;          // drawn coarser than wanted: not resident yet
+    std::uint32_t triangles = 0, riverEdges = 0;
+};
+
+struct FrameStats {
+    std::uint64_t frame = 0;
+    std::uint32_t blocks = 0;          // in the file
+    std::uint32_t visibleBlocks = 0;   // after culling
+    std::uint32_t residentBlocks = 0;  // full LOD geometry on the GPU
+    std::uint32_t fallbackBlocks = 0;  // visible, drawn coarser than wanted
+    std::uint64_t triangles = 0, riverEdges = 0;
+    std::uint64_t bytesUploaded = 0;   // this frame
+    std::uint64_t gpuBytesUsed = 0;    // allocated in the budget (incl. memory awaiting release)
+    std::uint64_t gpuBudget = 0;
+    std::uint64_t coarseBytes = 0;     // the always-resident coarse levels
+    std::uint32_t loadsPending = 0;    // requested or loaded, not yet uploaded
+    std::uint32_t evictions = 0;       // this frame
+};
+
+class StreamingScene {
+public:
+    StreamingScene();
+    ~StreamingScene();  // close() must have been called (needs the device)
+    StreamingScene(const StreamingScene&) = delete;
+    StreamingScene& operator=(const StreamingScene&) = delete;
+
+    // Opens the file, reads every block's levels, uploads the coarse set (blocking: startup).
+    // False with a message naming the file (unreadable, no geometry, budget below the coarse
+    // set, unknown metric).
+    bool open(const Device& device, const std::string& path, const SceneOptions& options,
+              std::string& error);
+    // Stops the loader and frees the GPU memory. The device must be idle.
+    void close();
+
+    // Outside a render pass, once per frame: releases the memory of frames <= completedFrame
+    // (-1: none yet), chooses the levels for `view`, queues loads, and records into `cmd` the
+    // uploads of blocks the loader has finished. A data error on the loader thread (damaged
+    // block) is reported here: false with a message; the block then stays coarse.
+    bool prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int64_t completedFrame,
+                 const FrameView& view, std::string& error);
+    // Inside the render pass: draws the selection of the last prepare().
+    void draw(VkCommandBuffer cmd, const Pipelines& pipelines, const FrameView& view) const;
+
+    // True when no load is queued, in flight or waiting for upload: the selection of the last
+    // prepare() is then final for its view (captures wait for this, frames do not).
+    bool settled() const;
+
+    const FrameStats& stats() const;
+    const std::vector<BlockSelection>& selection() const;
+    const format::Header& header() const;
+    std::uint32_t metric() const;  // format::kMetricMax or kMetricPaper
+    // Level table of block `index` (as in the file).
+    const std::vector<format::Level>& levels(std::size_t index) const;
+    const format::BlockInfo& blockInfo(std::size_t index) const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace unilod::engine
