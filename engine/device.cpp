@@ -89,16 +89,33 @@ int rank(VkPhysicalDeviceType type) {
     }
 }
 
-bool graphicsFamily(VkPhysicalDevice physical, std::uint32_t& family) {
+bool hasDeviceExtension(VkPhysicalDevice physical, const char* name) {
+    std::uint32_t count = 0;
+    VK_CHECK(vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, nullptr));
+    std::vector<VkExtensionProperties> extensions(count);
+    VK_CHECK(vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, extensions.data()));
+    for (const VkExtensionProperties& e : extensions)
+        if (std::strcmp(e.extensionName, name) == 0) return true;
+    return false;
+}
+
+// A graphics queue family; with a surface, one that also presents to it (one queue does both:
+// no ownership transfers) on a device with VK_KHR_swapchain.
+bool graphicsFamily(VkPhysicalDevice physical, VkSurfaceKHR surface, std::uint32_t& family) {
+    if (surface && !hasDeviceExtension(physical, VK_KHR_SWAPCHAIN_EXTENSION_NAME)) return false;
     std::uint32_t count = 0;
     vkGetPhysicalDeviceQueueFamilyProperties(physical, &count, nullptr);
     std::vector<VkQueueFamilyProperties> families(count);
     vkGetPhysicalDeviceQueueFamilyProperties(physical, &count, families.data());
     for (std::uint32_t i = 0; i < count; ++i) {
-        if (families[i].queueFlags & VK_QUEUE_GRAPHICS_BIT) {
-            family = i;
-            return true;
+        if (!(families[i].queueFlags & VK_QUEUE_GRAPHICS_BIT)) continue;
+        if (surface) {
+            VkBool32 present = VK_FALSE;
+            VK_CHECK(vkGetPhysicalDeviceSurfaceSupportKHR(physical, i, surface, &present));
+            if (!present) continue;
         }
+        family = i;
+        return true;
     }
     return false;
 }
@@ -118,15 +135,14 @@ bool createDevice(const DeviceOptions& options, Device& device, std::string& err
     VkInstanceCreateInfo instanceInfo{};
     instanceInfo.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
     instanceInfo.pApplicationInfo = &app;
-    const char* debugExtension = VK_EXT_DEBUG_UTILS_EXTENSION_NAME;
+    std::vector<const char*> extensions = options.instanceExtensions;
     VkDebugUtilsMessengerCreateInfoEXT messengerInfo{};
     messengerInfo.sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT;
     if (options.validation) {
         device.log = std::make_unique<ValidationLog>();
         instanceInfo.enabledLayerCount = 1;
         instanceInfo.ppEnabledLayerNames = &kValidationLayer;
-        instanceInfo.enabledExtensionCount = 1;
-        instanceInfo.ppEnabledExtensionNames = &debugExtension;
+        extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
         messengerInfo.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT |
                                         VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
         messengerInfo.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
@@ -137,6 +153,8 @@ bool createDevice(const DeviceOptions& options, Device& device, std::string& err
         // Chained so that instance creation and destruction are validated too.
         instanceInfo.pNext = &messengerInfo;
     }
+    instanceInfo.enabledExtensionCount = std::uint32_t(extensions.size());
+    instanceInfo.ppEnabledExtensionNames = extensions.empty() ? nullptr : extensions.data();
     const VkResult created = vkCreateInstance(&instanceInfo, nullptr, &device.instance);
     if (created != VK_SUCCESS) {
         error = std::string("cannot create a Vulkan 1.2 instance: ") + resultName(created) +
@@ -149,6 +167,11 @@ bool createDevice(const DeviceOptions& options, Device& device, std::string& err
             vkGetInstanceProcAddr(device.instance, "vkCreateDebugUtilsMessengerEXT"));
         assert(create);
         VK_CHECK(create(device.instance, &messengerInfo, nullptr, &device.messenger));
+    }
+    if (options.createSurface && !options.createSurface(device.instance, device.surface, error)) {
+        device.surface = VK_NULL_HANDLE;
+        destroyDevice(device);
+        return false;
     }
 
     std::uint32_t count = 0;
@@ -175,11 +198,12 @@ bool createDevice(const DeviceOptions& options, Device& device, std::string& err
         vkGetPhysicalDeviceProperties(physicals[i], &p);
         std::uint32_t family;
         const bool usable =
-            p.apiVersion >= VK_API_VERSION_1_2 && graphicsFamily(physicals[i], family);
+            p.apiVersion >= VK_API_VERSION_1_2 && graphicsFamily(physicals[i], device.surface, family);
         if (index >= 0) {
             if (std::uint32_t(index) == i && !usable) {
                 error = "Vulkan device " + std::to_string(i) + " (" + p.deviceName +
-                        ") has no Vulkan 1.2 graphics queue";
+                        ") has no Vulkan 1.2 graphics queue" +
+                        (device.surface ? " that presents to the window" : "");
                 destroyDevice(device);
                 return false;
             }
@@ -194,7 +218,8 @@ bool createDevice(const DeviceOptions& options, Device& device, std::string& err
     if (best < 0) {
         error = index >= 0 ? "Vulkan device index " + std::to_string(index) + " out of range (" +
                                  std::to_string(count) + " devices)"
-                           : std::string("no Vulkan 1.2 device with a graphics queue (") +
+                           : std::string("no Vulkan 1.2 device with a graphics queue") +
+                                 (device.surface ? " that presents to the window" : "") + " (" +
                                  std::to_string(count) + " devices found)";
         destroyDevice(device);
         return false;
@@ -202,7 +227,7 @@ bool createDevice(const DeviceOptions& options, Device& device, std::string& err
     device.physical = physicals[std::size_t(best)];
     vkGetPhysicalDeviceProperties(device.physical, &device.properties);
     vkGetPhysicalDeviceMemoryProperties(device.physical, &device.memory);
-    graphicsFamily(device.physical, device.queueFamily);
+    graphicsFamily(device.physical, device.surface, device.queueFamily);
 
     const float priority = 1.0f;
     VkDeviceQueueCreateInfo queueInfo{};
@@ -228,6 +253,11 @@ bool createDevice(const DeviceOptions& options, Device& device, std::string& err
     deviceInfo.queueCreateInfoCount = 1;
     deviceInfo.pQueueCreateInfos = &queueInfo;
     deviceInfo.pEnabledFeatures = &enabled;
+    const char* swapchainExtension = VK_KHR_SWAPCHAIN_EXTENSION_NAME;
+    if (device.surface) {
+        deviceInfo.enabledExtensionCount = 1;
+        deviceInfo.ppEnabledExtensionNames = &swapchainExtension;
+    }
     VK_CHECK(vkCreateDevice(device.physical, &deviceInfo, nullptr, &device.device));
     vkGetDeviceQueue(device.device, device.queueFamily, 0, &device.queue);
     return true;
@@ -235,6 +265,7 @@ bool createDevice(const DeviceOptions& options, Device& device, std::string& err
 
 void destroyDevice(Device& device) {
     if (device.device) vkDestroyDevice(device.device, nullptr);
+    if (device.surface) vkDestroySurfaceKHR(device.instance, device.surface, nullptr);
     if (device.messenger) {
         auto destroy = reinterpret_cast<PFN_vkDestroyDebugUtilsMessengerEXT>(
             vkGetInstanceProcAddr(device.instance, "vkDestroyDebugUtilsMessengerEXT"));
@@ -243,6 +274,7 @@ void destroyDevice(Device& device) {
     if (device.instance) vkDestroyInstance(device.instance, nullptr);
     device.device = VK_NULL_HANDLE;
     device.messenger = VK_NULL_HANDLE;
+    device.surface = VK_NULL_HANDLE;
     device.instance = VK_NULL_HANDLE;
 }
 

@@ -4,6 +4,7 @@
 
 #include <vulkan/vulkan.h>
 
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -14,6 +15,12 @@ namespace unilod::engine {
 struct DeviceOptions {
     bool validation = false;  // VK_LAYER_KHRONOS_validation + debug messenger
     int deviceIndex = -1;     // physical device index; -1: $UNILOD_DEVICE, else automatic
+    // Presentation (engine/window.h); empty for the headless target. The instance gets these
+    // extensions; `createSurface` runs right after the instance exists, so that device selection
+    // can require a graphics queue family that presents to the surface and VK_KHR_swapchain.
+    // False with a message: createDevice fails with it.
+    std::vector<const char*> instanceExtensions;
+    std::function<bool(VkInstance, VkSurfaceKHR&, std::string&)> createSurface;
 };
 
 // WARNING and ERROR messages of the validation layer, in arrival order (the callback may run
@@ -26,6 +33,7 @@ struct ValidationLog {
 struct Device {
     VkInstance instance = VK_NULL_HANDLE;
     VkDebugUtilsMessengerEXT messenger = VK_NULL_HANDLE;
+    VkSurfaceKHR surface = VK_NULL_HANDLE;  // presentation only; destroyed before the instance
     VkPhysicalDevice physical = VK_NULL_HANDLE;
     VkPhysicalDeviceProperties properties{};
     VkPhysicalDeviceMemoryProperties memory{};

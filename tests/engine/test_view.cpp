@@ -1,0 +1,178 @@
+// The windowed target end to end (issue 5): `unilod view` under Xvfb on Mesa lavapipe with the
+// validation layer on opens a window, renders 30 frames through the swapchain, writes the last
+// one as a screenshot and closes cleanly (exit 0, no validation message). The screenshot must
+// not be blank; in grid mode it shows the grid line and river colours. Without a display the
+// command exits 1 with a clear message. CI installs Xvfb, so these tests only skip (and say so)
+// where `xvfb-run` is absent.
+#include <gtest/gtest.h>
+#include <png.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <set>
+
+#include "shared.h"
+#include "testutil.h"
+#include "tools/cliutil.h"
+
+namespace fs = std::filesystem;
+using namespace unilod;
+using unilod::test::CliResult;
+using unilod::test::q;
+using unilod::test::runCli;
+using unilod::test::slurp;
+
+namespace {
+
+const std::string kAssets = UNILOD_ASSETS_DIR;
+
+struct Image {
+    std::uint32_t width = 0, height = 0;
+    std::vector<std::uint8_t> rgba;
+};
+
+bool readPng(const std::string& path, Image& image) {
+    png_image png{};
+    png.version = PNG_IMAGE_VERSION;
+    if (!png_image_begin_read_from_file(&png, path.c_str())) return false;
+    png.format = PNG_FORMAT_RGBA;
+    image.width = png.width;
+    image.height = png.height;
+    image.rgba.resize(PNG_IMAGE_SIZE(png));
+    return png_image_finish_read(&png, nullptr, image.rgba.data(), 0, nullptr) != 0;
+}
+
+bool haveXvfb() {
+    return std::system("command -v xvfb-run >/dev/null 2>&1") == 0;
+}
+
+// Runs `PREFIX 'unilod' ARGS` through the shell (PREFIX: a wrapper such as xvfb-run).
+CliResult runWrapped(const std::string& prefix, const std::string& args, const fs::path& dir) {
+    static int counter = 0;
+    const std::string base = (dir / ("run_" + std::to_string(counter++))).string();
+    const std::string command = prefix + " '" + std::string(UNILOD_CLI) + "' " + args + " >'" +
+                                base + ".out' 2>'" + base + ".err'";
+    const int status = std::system(command.c_str());
+    CliResult r;
+    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = slurp(base + ".out");
+    r.err = slurp(base + ".err");
+    return r;
+}
+
+const std::string kXvfb = "xvfb-run -a -s '-screen 0 1280x1024x24'";
+
+int channel(float c) {
+    return int(std::lround(c * 255));
+}
+
+bool near(const std::uint8_t* p, const engine::shader::vec3& c) {
+    return std::abs(p[0] - channel(c.r)) <= 2 && std::abs(p[1] - channel(c.g)) <= 2 &&
+           std::abs(p[2] - channel(c.b)) <= 2;
+}
+
+class View : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        dir_ = fs::temp_directory_path() / ("unilod_test_view_" + std::to_string(getpid()));
+        fs::create_directories(dir_);
+        file_ = (dir_ / "jacksboro.ulod").string();
+        const auto r = runCli("build -q " + q(kAssets + "/jacksboro_dem.tif") + " " +
+                              q(kAssets + "/jacksboro_rivers_grass.geojson") + " -o " + q(file_));
+        ASSERT_EQ(r.code, 0) << r.err;
+    }
+    static void TearDownTestSuite() { fs::remove_all(dir_); }
+
+    void SetUp() override {
+        if (!haveXvfb())
+            GTEST_SKIP() << "xvfb-run not found (Debian: xvfb): the window test needs a display";
+    }
+
+    // 30 validated frames at 640x480 under Xvfb, the last one written to `name`.png.
+    static Image view(const std::string& name, const std::string& extra, CliResult& r) {
+        const std::string png = (dir_ / (name + ".png")).string();
+        r = runWrapped(kXvfb,
+                       "view " + q(file_) + " --validation --frames 30 --size 640x480" + extra +
+                           " --screenshot " + q(png),
+                       dir_);
+        Image image;
+        EXPECT_EQ(r.code, 0) << r.out << r.err;
+        EXPECT_EQ(r.err.find("validation"), std::string::npos) << r.err;
+        EXPECT_TRUE(readPng(png, image)) << png;
+        return image;
+    }
+
+    static fs::path dir_;
+    static std::string file_;
+};
+
+fs::path View::dir_;
+std::string View::file_;
+
+TEST_F(View, RendersThirtyFramesAndScreenshot) {
+    CliResult r;
+    const Image image = view("perspective", "", r);
+    // The stats line (FPS, triangles, blocks, GPU memory) and the frame count.
+    EXPECT_NE(r.out.find(" fps, "), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find(" triangles, blocks "), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find(" MiB"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("30 frames on "), std::string::npos) << r.out;
+    ASSERT_EQ(image.width, 640u);
+    ASSERT_EQ(image.height, 480u);
+    // Not blank: many colours, most pixels terrain rather than the black clear colour, and the
+    // rivers drawn.
+    std::set<std::uint32_t> colours;
+    std::size_t covered = 0, river = 0;
+    const std::size_t pixels = std::size_t(image.width) * image.height;
+    for (std::size_t i = 0; i < pixels; ++i) {
+        const std::uint8_t* p = &image.rgba[i * 4];
+        colours.insert(std::uint32_t(p[0]) << 16 | std::uint32_t(p[1]) << 8 | p[2]);
+        if (p[0] || p[1] || p[2]) ++covered;
+        if (near(p, engine::shader::kRiverColour)) ++river;
+    }
+    EXPECT_GT(colours.size(), 50u);
+    EXPECT_GT(covered, pixels / 2);
+    EXPECT_GT(river, 50u);
+}
+
+TEST_F(View, GridModeShowsGridAndRivers) {
+    CliResult r;
+    const Image image = view("grid", " --grid", r);
+    ASSERT_EQ(image.width, 640u);
+    ASSERT_EQ(image.height, 480u);
+    std::size_t grid = 0, river = 0;
+    const std::size_t pixels = std::size_t(image.width) * image.height;
+    for (std::size_t i = 0; i < pixels; ++i) {
+        const std::uint8_t* p = &image.rgba[i * 4];
+        if (near(p, engine::shader::kGridColour)) ++grid;
+        if (near(p, engine::shader::kRiverColour)) ++river;
+    }
+    EXPECT_GT(grid, pixels / 20);
+    EXPECT_GT(river, 50u);
+    EXPECT_NE(r.out.find(", grid"), std::string::npos) << r.out;
+}
+
+TEST_F(View, ErrorsExitOneWithAMessage) {
+    // No display at all (no Xvfb): a clear error naming the file, no crash.
+    const std::string png = (dir_ / "nodisplay.png").string();
+    CliResult r = runWrapped("env -u DISPLAY -u WAYLAND_DISPLAY",
+                             "view " + q(file_) + " --frames 1 --screenshot " + q(png), dir_);
+    EXPECT_EQ(r.code, 1) << r.out << r.err;
+    EXPECT_NE(r.err.find("display"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("jacksboro.ulod"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(png));
+    // A missing file under a display: exit 1 naming it, no screenshot.
+    const std::string missing = (dir_ / "missing.ulod").string();
+    r = runWrapped(kXvfb, "view " + q(missing) + " --frames 1 --screenshot " + q(png), dir_);
+    EXPECT_EQ(r.code, 1) << r.out << r.err;
+    EXPECT_NE(r.err.find("missing.ulod"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(png));
+    // --screenshot without --frames is a usage error.
+    r = runCli("view " + q(file_) + " --screenshot " + q(png));
+    EXPECT_EQ(r.code, 2) << r.err;
+}
+
+}  // namespace

@@ -1,0 +1,106 @@
+// `unilod view FILE [--camera x,y,z,yaw,pitch] [--size WxH] [--pixels P] [--metric M]
+// [--distance nearest|centre] [--gpu-budget MiB] [--validation] [--device N] [--frames N]
+// [--screenshot PATH] [--grid]`: roams a .ulod file in a window (engine/view.h). Malformed
+// options are usage errors (exit 2); no display, no device, an unreadable file, a validation
+// message or a failed screenshot are errors (exit 1).
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "view.h"
+
+namespace unilod::cli {
+
+namespace {
+
+struct ViewCli {
+    engine::ViewOptions o;
+    std::vector<double> camera;
+    std::string size = "1280x720";
+    std::string distance = "nearest";
+    double gpuBudgetMiB = double(engine::kDefaultGpuBudget >> 20);
+};
+
+bool parseSize(const std::string& s, std::uint32_t& w, std::uint32_t& h) {
+    unsigned long a = 0, b = 0;
+    char tail = 0;
+    if (std::sscanf(s.c_str(), "%lux%lu%c", &a, &b, &tail) != 2) return false;
+    if (a == 0 || b == 0 || a > 16384 || b > 16384) return false;
+    w = std::uint32_t(a);
+    h = std::uint32_t(b);
+    return true;
+}
+
+int run(ViewCli& c) {
+    if (!parseSize(c.size, c.o.width, c.o.height)) {
+        std::fprintf(stderr, "unilod view: error: --size '%s' is not WxH (1..16384)\n",
+                     c.size.c_str());
+        return 2;
+    }
+    if (!c.o.screenshotPath.empty() && c.o.frames == 0) {
+        std::fprintf(stderr, "unilod view: error: --screenshot needs --frames N\n");
+        return 2;
+    }
+    c.o.scene.distance =
+        c.distance == "centre" ? engine::DistanceMode::Centre : engine::DistanceMode::Nearest;
+    c.o.scene.gpuBudget = std::uint64_t(c.gpuBudgetMiB * double(1 << 20));
+    if (!c.camera.empty()) {
+        c.o.hasCamera = true;
+        for (int i = 0; i < 3; ++i)
+            c.o.camera.eye[i] = c.camera[std::size_t(i)];
+        c.o.camera.yawDegrees = c.camera[3];
+        c.o.camera.pitchDegrees = c.camera[4];
+    }
+    engine::ViewResult result;
+    std::string error;
+    if (!engine::runView(c.o, result, error)) {
+        std::fprintf(stderr, "unilod view: error: %s: %s\n", c.o.path.c_str(), error.c_str());
+        return 1;
+    }
+    std::printf("%s: %llu frames on %s\n", c.o.path.c_str(),
+                static_cast<unsigned long long>(result.frames), result.deviceName.c_str());
+    return 0;
+}
+
+}  // namespace
+
+void addViewCommand(CLI::App& app, int& exitCode) {
+    auto c = std::make_shared<ViewCli>();
+    CLI::App* sub = app.add_subcommand(
+        "view",
+        "roam a .ulod file in a window: WASD + drag to look, wheel/Shift speed, +/- pixel "
+        "tolerance, G grid, L rivers, P/F12 screenshot, Esc quit");
+    sub->add_option("FILE", c->o.path, ".ulod file")->required();
+    sub->add_option("--camera", c->camera,
+                    "start eye x,y,z (file CRS, metres), yaw (0 = north, 90 = east), pitch "
+                    "(< 0 down) in degrees (default: above the data, looking at its centre)")
+        ->delimiter(',')
+        ->expected(5);
+    sub->add_option("--size", c->size, "window size WxH (default 1280x720)");
+    sub->add_option("--pixels", c->o.scene.pixels,
+                    "screen-space error tolerance P in pixels (default 1)")
+        ->check(CLI::Range(0.125, 64.0));
+    sub->add_option("--metric", c->o.scene.metric, "error metric (default: the file's)")
+        ->check(CLI::IsMember({"max", "paper"}));
+    sub->add_option("--distance", c->distance,
+                    "S for h_lim: nearest (default) or centre (the paper's block centre)")
+        ->check(CLI::IsMember({"nearest", "centre"}));
+    sub->add_option("--gpu-budget", c->gpuBudgetMiB,
+                    "device memory for block geometry in MiB (default 512)")
+        ->check(CLI::Range(1.0, 1048576.0));
+    sub->add_flag("--validation", c->o.device.validation,
+                  "enable the Vulkan validation layer; any warning or error fails the run");
+    sub->add_option("--device", c->o.device.deviceIndex,
+                    "Vulkan physical device index (default: $UNILOD_DEVICE, else the best)")
+        ->check(CLI::NonNegativeNumber);
+    sub->add_option("--frames", c->o.frames, "render N frames, then exit (default: until Esc)")
+        ->check(CLI::PositiveNumber);
+    sub->add_option("--screenshot", c->o.screenshotPath,
+                    "with --frames: write the last frame to this PNG");
+    sub->add_flag("--grid", c->o.grid, "start in the 2D grid mode (top-down wireframe)");
+    sub->callback([c, &exitCode] { exitCode = run(*c); });
+}
+
+}  // namespace unilod::cli
