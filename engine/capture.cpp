@@ -1,18 +1,15 @@
 #include "capture.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <thread>
 #include <nlohmann/json.hpp>
 
+#include "headless.h"
 #include "pngwrite.h"
-#include "vkcheck.h"
-
-#ifndef UNILOD_SPIRV_DIR
-#define UNILOD_SPIRV_DIR "spirv"
-#endif
 
 namespace unilod::engine {
 
@@ -43,6 +40,60 @@ bool writeText(const std::string& path, const std::string& text, std::string& er
     return true;
 }
 
+nlohmann::json frameJson(const CaptureOptions& options, const Camera& c, const CaptureFrame& f,
+                         std::uint32_t metric, const std::string& deviceName) {
+    nlohmann::json blocks = nlohmann::json::array();
+    for (const BlockSelection& b : f.blocks) {
+        blocks.push_back(
+            {{"col", b.col},
+             {"row", b.row},
+             {"level", b.drawnLevel},
+             {"wanted_level", b.wanted.level},
+             {"fallback", b.fallback},
+             {"step", b.wanted.step},
+             {"S", b.distance},
+             {"h_lim", b.hLim},
+             {"h_s", b.wanted.error},
+             {"next_level_error",
+              b.wanted.nextError < 0 ? nlohmann::json() : nlohmann::json(b.wanted.nextError)},
+             {"triangles", b.triangles},
+             {"river_edges", b.riverEdges}});
+    }
+    const bool nearest = options.scene.distance == DistanceMode::Nearest;
+    return {
+        {"file", options.path},
+        {"device", deviceName},
+        {"size", {options.width, options.height}},
+        {"camera",
+         {{"eye", {c.eye[0], c.eye[1], c.eye[2]}},
+          {"yaw", c.yawDegrees},
+          {"pitch", c.pitchDegrees},
+          {"fov", c.fovDegrees}}},
+        {"mode", options.grid ? "grid" : "perspective"},
+        {"pixels", options.scene.pixels},
+        {"metric", metric == format::kMetricPaper ? "paper" : "max"},
+        {"distance", nearest ? "nearest" : "centre"},
+        {"edge_factor", nearest ? frustumEdgeFactor(c.fovDegrees * kDegree,
+                                                    double(options.width) / options.height)
+                                : 1.0},
+        {"blocks", blocks},
+        {"totals",
+         {{"blocks_in_file", f.stats.blocks},
+          {"blocks_drawn", f.stats.visibleBlocks},
+          {"fallback_blocks", f.stats.fallbackBlocks},
+          {"resident_blocks", f.stats.residentBlocks},
+          {"triangles", f.stats.triangles},
+          {"river_edges", f.stats.riverEdges},
+          {"gpu_bytes_used", f.stats.gpuBytesUsed},
+          {"gpu_budget", f.stats.gpuBudget},
+          {"coarse_bytes", f.stats.coarseBytes}}},
+    };
+}
+
+bool finiteJson(const nlohmann::json& j) { return j.is_number() && std::isfinite(j.get<double>()); }
+
+}  // namespace
+
 bool validCamera(const Camera& c) {
     for (double v : c.eye)
         if (!std::isfinite(v)) return false;
@@ -50,90 +101,143 @@ bool validCamera(const Camera& c) {
            c.pitchDegrees <= 90 && c.fovDegrees > 0 && c.fovDegrees < 180;
 }
 
-}  // namespace
+bool loadCameraPath(const std::string& path, CameraPath& out, std::string& error) {
+    std::ifstream in(path);
+    if (!in) {
+        error = path + ": cannot open the camera path";
+        return false;
+    }
+    const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) {
+        error = path + ": not a JSON object";
+        return false;
+    }
+    double fov = 60;
+    if (j.contains("fov")) {
+        if (!finiteJson(j["fov"])) {
+            error = path + ": \"fov\" is not a number";
+            return false;
+        }
+        fov = j["fov"].get<double>();
+    }
+    if (!j.contains("keyframes") || !j["keyframes"].is_array() || j["keyframes"].empty()) {
+        error = path + ": needs a non-empty \"keyframes\" array";
+        return false;
+    }
+    out.keyframes.clear();
+    for (std::size_t i = 0; i < j["keyframes"].size(); ++i) {
+        const nlohmann::json& k = j["keyframes"][i];
+        const std::string where = path + ": keyframe " + std::to_string(i);
+        if (!k.is_object() || !k.contains("eye") || !k["eye"].is_array() ||
+            k["eye"].size() != 3 || !k.contains("yaw") || !k.contains("pitch")) {
+            error = where + ": needs \"eye\": [x, y, z], \"yaw\" and \"pitch\"";
+            return false;
+        }
+        Camera c;
+        c.fovDegrees = fov;
+        bool finite = finiteJson(k["yaw"]) && finiteJson(k["pitch"]);
+        for (int e = 0; e < 3; ++e) finite = finite && finiteJson(k["eye"][std::size_t(e)]);
+        if (!finite) {
+            error = where + ": a value is not a finite number";
+            return false;
+        }
+        for (int e = 0; e < 3; ++e) c.eye[e] = k["eye"][std::size_t(e)].get<double>();
+        c.yawDegrees = k["yaw"].get<double>();
+        c.pitchDegrees = k["pitch"].get<double>();
+        if (!validCamera(c)) {
+            error = where + ": pitch must be in [-90, 90] and fov in (0, 180)";
+            return false;
+        }
+        out.keyframes.push_back(c);
+    }
+    return true;
+}
 
-std::vector<CaptureBlock> chooseLevels(const Scene& scene, const CaptureOptions& options,
-                                       std::uint32_t metric) {
-    std::vector<CaptureBlock> out;
-    for (const SceneBlock& b : scene.blocks) {
-        CaptureBlock c;
-        c.col = b.col;
-        c.row = b.row;
-        c.distance = blockDistance(options.distance, options.camera.eye, b.boxMin, b.boxMax);
-        c.hLim = blockTolerance({options.pixels, options.camera.fovDegrees * kDegree,
-                                 double(options.width), double(options.height), options.distance},
-                                c.distance);
-        const std::vector<float>& errors =
-            metric == format::kMetricPaper ? b.errorPaper : b.errorMax;
-        c.choice = chooseLevel(b.levels, errors, c.hLim);
-        c.triangles = b.levels[c.choice.level].triangleCount;
-        c.riverEdges = b.levels[c.choice.level].riverCount;
+std::vector<Camera> sampleCameraPath(const CameraPath& path, std::uint32_t frames) {
+    std::vector<Camera> out;
+    const std::size_t k = path.keyframes.size();
+    for (std::uint32_t i = 0; i < frames; ++i) {
+        if (k == 1 || frames == 1) {
+            out.push_back(path.keyframes[0]);
+            continue;
+        }
+        const double t = double(i) * double(k - 1) / double(frames - 1);
+        const std::size_t a = std::min(std::size_t(t), k - 2);
+        const double u = t - double(a);
+        const Camera& p = path.keyframes[a];
+        const Camera& q = path.keyframes[a + 1];
+        Camera c = p;
+        for (int e = 0; e < 3; ++e) c.eye[e] = p.eye[e] + u * (q.eye[e] - p.eye[e]);
+        const double dyaw = std::remainder(q.yawDegrees - p.yawDegrees, 360.0);
+        c.yawDegrees = p.yawDegrees + u * dyaw;
+        c.pitchDegrees = p.pitchDegrees + u * (q.pitchDegrees - p.pitchDegrees);
         out.push_back(c);
     }
     return out;
 }
 
+double gridHalfHeight(const Camera& camera, double maxZ) {
+    const double height = std::max(camera.eye[2] - maxZ, 1.0);
+    return height * std::tan(camera.fovDegrees * kDegree / 2.0);
+}
+
 bool runCapture(const CaptureOptions& options, CaptureResult& result, std::string& error) {
-    if (!validCamera(options.camera)) {
-        error = "invalid camera (finite x, y, z, yaw; pitch in [-90, 90]; fov in (0, 180))";
+    if (options.cameras.empty()) {
+        error = "no camera";
         return false;
     }
+    for (const Camera& c : options.cameras) {
+        if (!validCamera(c)) {
+            error = "invalid camera (finite x, y, z, yaw; pitch in [-90, 90]; fov in (0, 180))";
+            return false;
+        }
+    }
     if (options.width == 0 || options.height == 0 || options.width > 16384 ||
-        options.height > 16384 || !(options.pixels > 0)) {
+        options.height > 16384 || !(options.scene.pixels > 0)) {
         error = "invalid size or pixel tolerance";
         return false;
     }
-    format::Reader reader;
-    if (!reader.open(options.path, error)) return false;
-    std::uint32_t metric = reader.header().defaultMetric;
-    if (options.metric == "max")
-        metric = format::kMetricMax;
-    else if (options.metric == "paper")
-        metric = format::kMetricPaper;
-    else if (!options.metric.empty()) {
-        error = "unknown metric '" + options.metric + "' (max or paper)";
-        return false;
-    }
-    if (!(reader.header().metrics & metric)) {
-        error = options.path + ": the file has no '" +
-                (metric == format::kMetricPaper ? "paper" : "max") + "' error metric";
-        return false;
-    }
 
-    std::string spirvDir = options.spirvDir;
-    if (spirvDir.empty()) {
-        const char* env = std::getenv("UNILOD_SPIRV_DIR");
-        spirvDir = env && *env ? env : UNILOD_SPIRV_DIR;
-    }
-
-    Device device;
-    if (!createDevice(options.device, device, error)) return false;
-    result.deviceName = device.properties.deviceName;
-    Scene scene;
-    Offscreen offscreen;
-    Pipelines pipelines;
-    std::vector<std::uint8_t> rgba;
-    bool ok = createScene(device, reader, scene, error);
+    HeadlessOptions ho;
+    ho.path = options.path;
+    ho.width = options.width;
+    ho.height = options.height;
+    ho.scene = options.scene;
+    ho.device = options.device;
+    ho.spirvDir = options.spirvDir;
+    HeadlessRenderer renderer;
+    std::vector<std::vector<std::uint8_t>> images;
+    bool ok = renderer.open(ho, error);
     if (ok) {
-        createOffscreen(device, options.width, options.height, offscreen);
-        ok = createPipelines(device, offscreen, spirvDir, pipelines, error);
-    }
-    if (ok) {
-        result.blocks = chooseLevels(scene, options, metric);
-        std::vector<DrawItem> items;
-        for (std::size_t i = 0; i < result.blocks.size(); ++i) {
-            items.push_back({i, &scene.blocks[i].levels[result.blocks[i].choice.level]});
-            result.triangles += result.blocks[i].triangles;
-            result.riverEdges += result.blocks[i].riverEdges;
+        result.deviceName = renderer.device().properties.deviceName;
+        for (const Camera& camera : options.cameras) {
+            FrameView view = renderer.view(camera);
+            view.grid = options.grid;
+            view.rivers = options.rivers;
+            if (options.grid) view.gridHalfHeight = gridHalfHeight(camera, view.maxZ);
+            // Settling: upload-only frames until the loads this view asks for are resident
+            // (or refused by the budget). A bounded loop: each round either uploads, or the
+            // loader is reading, or nothing is pending.
+            if (options.settle) {
+                for (int round = 0; round < 100000 && ok; ++round) {
+                    ok = renderer.renderFrame(view, false, nullptr, error);
+                    renderer.finish();
+                    if (renderer.scene().settled()) break;
+                    std::this_thread::yield();
+                }
+            }
+            std::vector<std::uint8_t> rgba;
+            if (ok) ok = renderer.renderFrame(view, true, &rgba, error);
+            if (!ok) break;
+            CaptureFrame frame;
+            frame.blocks = renderer.scene().selection();
+            frame.stats = renderer.scene().stats();
+            result.frames.push_back(std::move(frame));
+            images.push_back(std::move(rgba));
         }
-        renderFrame(device, offscreen, pipelines, scene, options.camera, items, rgba);
     }
-    VK_CHECK(vkDeviceWaitIdle(device.device));
-    destroyPipelines(device, pipelines);
-    destroyOffscreen(device, offscreen);
-    destroyScene(device, scene);
-    const std::vector<std::string> messages = validationMessages(device);
-    destroyDevice(device);
+    const std::uint32_t metric = ok ? renderer.scene().metric() : 0;
+    const std::vector<std::string> messages = renderer.close();
     if (!ok) return false;
     if (!messages.empty()) {
         error = std::to_string(messages.size()) +
@@ -147,51 +251,29 @@ bool runCapture(const CaptureOptions& options, CaptureResult& result, std::strin
         error = options.outDir + ": cannot create the output folder: " + ec.message();
         return false;
     }
-    nlohmann::json blocks = nlohmann::json::array();
-    for (const CaptureBlock& b : result.blocks) {
-        blocks.push_back(
-            {{"col", b.col},
-             {"row", b.row},
-             {"level", b.choice.level},
-             {"step", b.choice.step},
-             {"S", b.distance},
-             {"h_lim", b.hLim},
-             {"h_s", b.choice.error},
-             {"next_level_error",
-              b.choice.nextError < 0 ? nlohmann::json() : nlohmann::json(b.choice.nextError)},
-             {"triangles", b.triangles},
-             {"river_edges", b.riverEdges}});
-    }
-    const Camera& c = options.camera;
-    const nlohmann::json json = {
-        {"file", options.path},
-        {"device", result.deviceName},
-        {"size", {options.width, options.height}},
-        {"camera",
-         {{"eye", {c.eye[0], c.eye[1], c.eye[2]}},
-          {"yaw", c.yawDegrees},
-          {"pitch", c.pitchDegrees},
-          {"fov", c.fovDegrees}}},
-        {"pixels", options.pixels},
-        {"metric", metric == format::kMetricPaper ? "paper" : "max"},
-        {"distance", options.distance == DistanceMode::Nearest ? "nearest" : "centre"},
-        {"edge_factor", options.distance == DistanceMode::Nearest
-                            ? frustumEdgeFactor(c.fovDegrees * kDegree,
-                                                double(options.width) / options.height)
-                            : 1.0},
-        {"blocks", blocks},
-        {"totals",
-         {{"blocks_drawn", result.blocks.size()},
-          {"triangles", result.triangles},
-          {"river_edges", result.riverEdges}}},
-    };
     const std::filesystem::path dir(options.outDir);
-    result.pngPath = (dir / "frame_0000.png").string();
-    result.jsonPath = (dir / "frame_0000.json").string();
-    if (!writePng(result.pngPath, options.width, options.height, rgba, error)) return false;
-    if (!writeText(result.jsonPath, json.dump(2) + "\n", error)) {
-        std::filesystem::remove(result.pngPath, ec);
-        return false;
+    std::vector<std::string> written;
+    auto cleanup = [&] {
+        for (const std::string& f : written) std::filesystem::remove(f, ec);
+    };
+    for (std::size_t i = 0; i < result.frames.size(); ++i) {
+        CaptureFrame& f = result.frames[i];
+        char name[32];
+        std::snprintf(name, sizeof name, "frame_%04zu", i);
+        f.pngPath = (dir / (std::string(name) + ".png")).string();
+        f.jsonPath = (dir / (std::string(name) + ".json")).string();
+        if (!writePng(f.pngPath, options.width, options.height, images[i], error)) {
+            cleanup();
+            return false;
+        }
+        written.push_back(f.pngPath);
+        const nlohmann::json json =
+            frameJson(options, options.cameras[i], f, metric, result.deviceName);
+        if (!writeText(f.jsonPath, json.dump(2) + "\n", error)) {
+            cleanup();
+            return false;
+        }
+        written.push_back(f.jsonPath);
     }
     return true;
 }

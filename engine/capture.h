@@ -1,49 +1,61 @@
-// Headless capture: one frame of a .ulod file from a camera, per-block LOD chosen by the
-// screen-space error (paper §3.4), written as DIR/frame_0000.png + DIR/frame_0000.json.
+// Headless capture (issue 5): frames of a .ulod file from a camera or along a camera path, with
+// the streamed per-block LOD (paper §3.4), written as DIR/frame_NNNN.png + DIR/frame_NNNN.json.
 #pragma once
 
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "camera.h"
 #include "device.h"
-#include "renderer.h"
+#include "scene.h"
 
 namespace unilod::engine {
 
+// A camera path (PATH.json): {"fov": 60, "keyframes": [{"eye": [x, y, z], "yaw": d,
+// "pitch": d}, ...]}. Frames are sampled at equal steps of the keyframe parameter.
+struct CameraPath {
+    std::vector<Camera> keyframes;
+};
+// False with a message naming the file (unreadable, not JSON, a missing or non-finite field,
+// pitch outside [-90, 90], no keyframe).
+bool loadCameraPath(const std::string& path, CameraPath& out, std::string& error);
+// `frames` cameras along the path: keyframe parameter t = i * (K - 1) / (frames - 1), eye, yaw
+// (the short way round) and pitch interpolated linearly. One keyframe: `frames` copies.
+std::vector<Camera> sampleCameraPath(const CameraPath& path, std::uint32_t frames);
+
 struct CaptureOptions {
-    std::string path;    // the .ulod file
-    std::string outDir;  // created if missing
-    Camera camera;
+    std::string path;             // the .ulod file
+    std::string outDir;           // created if missing
+    std::vector<Camera> cameras;  // one frame each
     std::uint32_t width = 1024, height = 768;
-    double pixels = 1.0;  // P: the screen-space error tolerance in pixels
-    std::string metric;   // "max", "paper"; empty: the file's default
-    DistanceMode distance = DistanceMode::Nearest;  // how S is measured (lod.h)
+    SceneOptions scene;
+    bool settle = true;  // wait until each frame's wanted levels are resident (deterministic)
+    bool grid = false;   // 2D grid mode (top-down wireframe)
+    bool rivers = true;
     DeviceOptions device;
     std::string spirvDir;  // empty: $UNILOD_SPIRV_DIR, else the build's spirv folder
 };
 
-struct CaptureBlock {
-    std::uint32_t col = 0, row = 0;
-    LevelChoice choice;
-    double distance = 0;  // S
-    double hLim = 0;
-    std::uint32_t triangles = 0, riverEdges = 0;
+struct CaptureFrame {
+    std::vector<BlockSelection> blocks;
+    FrameStats stats;
+    std::string pngPath, jsonPath;
 };
 
 struct CaptureResult {
     std::string deviceName;
-    std::vector<CaptureBlock> blocks;
-    std::uint64_t triangles = 0, riverEdges = 0;
-    std::string pngPath, jsonPath;
+    std::vector<CaptureFrame> frames;
 };
 
-// The level choice of every block for a camera (no Vulkan): also what the capture draws.
-std::vector<CaptureBlock> chooseLevels(const Scene& scene, const CaptureOptions& options,
-                                       std::uint32_t metric);
+bool validCamera(const Camera& camera);
+
+// The grid mode's half height for a camera: the view covers what a perspective camera at the
+// eye's height above the data's top would see straight down.
+double gridHalfHeight(const Camera& camera, double maxZ);
 
 // Returns false with a message naming the file on a data error (unreadable file, bad camera,
-// no Vulkan device, validation messages when validation is on); no output is left behind then.
+// no Vulkan device, validation messages when validation is on); no frame is left behind then.
 bool runCapture(const CaptureOptions& options, CaptureResult& result, std::string& error);
 
 }  // namespace unilod::engine

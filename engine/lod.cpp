@@ -62,4 +62,19 @@ LevelChoice chooseLevel(const std::vector<format::Level>& levels, const std::vec
     return c;
 }
 
+LevelChoice chooseStoredLevel(const std::vector<format::Level>& levels, std::uint32_t metric,
+                              double hLim) {
+    assert(!levels.empty());
+    auto error = [metric](const format::Level& l) {
+        return double(metric == format::kMetricPaper ? l.errorPaper : l.errorMax);
+    };
+    LevelChoice c;
+    for (std::size_t i = 0; i < levels.size(); ++i)
+        if (error(levels[i]) <= hLim) c.level = i;  // errors are non-decreasing with the step
+    c.step = levels[c.level].step;
+    c.error = error(levels[c.level]);
+    if (c.level + 1 < levels.size()) c.nextError = error(levels[c.level + 1]);
+    return c;
+}
+
 }  // namespace unilod::engine

@@ -56,4 +56,11 @@ struct LevelChoice {
 LevelChoice chooseLevel(const std::vector<format::Level>& levels, const std::vector<float>& errors,
                         double hLim);
 
+// The same choice from the stored levels' own errors (format::Level::errorMax / errorPaper,
+// equal to the error table at their steps): the level with the largest step whose error is
+// <= hLim, or level 0 (full resolution) when none is. This is all the streaming engine keeps
+// in memory per block.
+LevelChoice chooseStoredLevel(const std::vector<format::Level>& levels, std::uint32_t metric,
+                              double hLim);
+
 }  // namespace unilod::engine

@@ -12,6 +12,7 @@
 
 #include "camera.h"
 #include "device.h"
+#include "ulod.h"
 
 namespace unilod::engine {
 

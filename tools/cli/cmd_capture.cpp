@@ -1,14 +1,16 @@
-// `unilod capture FILE --camera x,y,z,yaw,pitch [--size WxH] [--pixels P] [--fov DEG] --out DIR`:
-// one headless frame of a .ulod file with per-block LOD (engine/capture.h), written as
-// DIR/frame_0000.png and DIR/frame_0000.json. Malformed options are usage errors (exit 2);
-// an unreadable file, a camera out of range or no Vulkan device are data errors (exit 1).
+// `unilod capture FILE (--camera x,y,z,yaw,pitch | --path PATH.json) [--frames N] [--size WxH]
+// [--pixels P] ... --out DIR`: headless frames of a .ulod file with the streamed per-block LOD
+// (engine/capture.h), written as DIR/frame_NNNN.png + .json. Malformed options are usage errors
+// (exit 2); an unreadable file, a camera out of range or no Vulkan device are data errors (1).
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "capture.h"
 #include "commands.h"
+#include "engineopts.h"
 
 namespace unilod::cli {
 
@@ -16,43 +18,52 @@ namespace {
 
 struct CaptureCli {
     engine::CaptureOptions o;
+    EngineCli engine;
     std::vector<double> camera;
-    std::string size = "1024x768";
-    std::string distance = "nearest";
+    std::string cameraPath;
+    std::uint32_t frames = 0;
+    double fov = 60;
+    bool noSettle = false;
 };
 
-bool parseSize(const std::string& s, std::uint32_t& w, std::uint32_t& h) {
-    unsigned long a = 0, b = 0;
-    char tail = 0;
-    if (std::sscanf(s.c_str(), "%lux%lu%c", &a, &b, &tail) != 2) return false;
-    if (a == 0 || b == 0 || a > 16384 || b > 16384) return false;
-    w = std::uint32_t(a);
-    h = std::uint32_t(b);
-    return true;
-}
-
 int run(CaptureCli& c) {
-    if (!parseSize(c.size, c.o.width, c.o.height)) {
-        std::fprintf(stderr, "unilod capture: error: --size '%s' is not WxH (1..16384)\n",
-                     c.size.c_str());
+    if (!c.engine.apply(c.o.scene, c.o.device, c.o.width, c.o.height, "capture")) return 2;
+    if (c.camera.empty() == c.cameraPath.empty()) {
+        std::fprintf(stderr, "unilod capture: error: give exactly one of --camera and --path\n");
         return 2;
     }
-    c.o.distance =
-        c.distance == "centre" ? engine::DistanceMode::Centre : engine::DistanceMode::Nearest;
-    for (int i = 0; i < 3; ++i)
-        c.o.camera.eye[i] = c.camera[std::size_t(i)];
-    c.o.camera.yawDegrees = c.camera[3];
-    c.o.camera.pitchDegrees = c.camera[4];
-    engine::CaptureResult result;
     std::string error;
+    engine::CameraPath path;
+    if (!c.camera.empty()) {
+        engine::Camera cam;
+        for (int i = 0; i < 3; ++i) cam.eye[i] = c.camera[std::size_t(i)];
+        cam.yawDegrees = c.camera[3];
+        cam.pitchDegrees = c.camera[4];
+        cam.fovDegrees = c.fov;
+        path.keyframes.push_back(cam);
+    } else if (!engine::loadCameraPath(c.cameraPath, path, error)) {
+        std::fprintf(stderr, "unilod capture: error: %s\n", error.c_str());
+        return 1;
+    }
+    const std::uint32_t frames =
+        c.frames ? c.frames : std::uint32_t(path.keyframes.size());
+    c.o.cameras = engine::sampleCameraPath(path, frames);
+    c.o.settle = !c.noSettle;
+    engine::CaptureResult result;
     if (!engine::runCapture(c.o, result, error)) {
         std::fprintf(stderr, "unilod capture: error: %s: %s\n", c.o.path.c_str(), error.c_str());
         return 1;
     }
-    std::printf("%s: %zu blocks, %llu triangles, %llu river edges on %s -> %s\n", c.o.path.c_str(),
-                result.blocks.size(), static_cast<unsigned long long>(result.triangles),
-                static_cast<unsigned long long>(result.riverEdges), result.deviceName.c_str(),
-                result.pngPath.c_str());
+    for (const engine::CaptureFrame& f : result.frames) {
+        std::printf("%s: %u of %u blocks drawn (%u not yet resident), %llu triangles, %llu river "
+                    "edges, GPU %.1f / %.1f MiB -> %s\n",
+                    c.o.path.c_str(), f.stats.visibleBlocks, f.stats.blocks, f.stats.fallbackBlocks,
+                    static_cast<unsigned long long>(f.stats.triangles),
+                    static_cast<unsigned long long>(f.stats.riverEdges),
+                    double(f.stats.gpuBytesUsed) / 1048576.0,
+                    double(f.stats.gpuBudget) / 1048576.0, f.pngPath.c_str());
+    }
+    std::printf("device: %s\n", result.deviceName.c_str());
     return 0;
 }
 
@@ -61,33 +72,29 @@ int run(CaptureCli& c) {
 void addCaptureCommand(CLI::App& app, int& exitCode) {
     auto c = std::make_shared<CaptureCli>();
     CLI::App* sub = app.add_subcommand(
-        "capture", "render one frame of a .ulod file headless (Vulkan) to PNG + JSON");
+        "capture", "render frames of a .ulod file headless (Vulkan) to PNG + JSON");
     sub->add_option("FILE", c->o.path, ".ulod file")->required();
     sub->add_option("--camera", c->camera,
                     "eye x,y,z (file CRS, metres), yaw (0 = north, 90 = east), pitch (< 0 down) "
                     "in degrees")
-        ->required()
         ->delimiter(',')
         ->expected(5);
-    sub->add_option("--size", c->size, "image size WxH (default 1024x768)");
-    sub->add_option("--pixels", c->o.pixels, "screen-space error tolerance P in pixels (default 1)")
-        ->check(CLI::PositiveNumber);
-    sub->add_option("--fov", c->o.camera.fovDegrees,
-                    "vertical field of view in degrees (default 60)")
+    sub->add_option("--path", c->cameraPath,
+                    "camera path JSON: {\"fov\": 60, \"keyframes\": [{\"eye\": [x, y, z], "
+                    "\"yaw\": d, \"pitch\": d}, ...]}");
+    sub->add_option("--frames", c->frames,
+                    "frames to render (default: one per keyframe; sampled evenly along the path)")
+        ->check(CLI::Range(1u, 100000u));
+    sub->add_option("--fov", c->fov, "vertical field of view in degrees with --camera (default 60)")
         ->check(CLI::Range(1.0, 179.0));
-    sub->add_option("--metric", c->o.metric, "error metric (default: the file's)")
-        ->check(CLI::IsMember({"max", "paper"}));
-    sub->add_option("--distance", c->distance,
-                    "S for h_lim: nearest (nearest point of the block's box, scaled so the P-pixel "
-                    "bound holds over the whole view; default) or centre (the paper's block centre)")
-        ->check(CLI::IsMember({"nearest", "centre"}));
-    sub->add_option("--out", c->o.outDir, "output folder (frame_0000.png, frame_0000.json)")
+    c->engine.add(*sub, "1024x768");
+    sub->add_flag("--grid", c->o.grid,
+                  "2D grid mode: top-down orthographic wireframe, river edges highlighted");
+    sub->add_flag("--no-settle", c->noSettle,
+                  "draw each frame with what is resident (default: wait until the blocks the "
+                  "view wants are loaded, so the output is deterministic)");
+    sub->add_option("--out", c->o.outDir, "output folder (frame_NNNN.png, frame_NNNN.json)")
         ->required();
-    sub->add_flag("--validation", c->o.device.validation,
-                  "enable the Vulkan validation layer; any warning or error fails the capture");
-    sub->add_option("--device", c->o.device.deviceIndex,
-                    "Vulkan physical device index (default: $UNILOD_DEVICE, else the best)")
-        ->check(CLI::NonNegativeNumber);
     sub->callback([c, &exitCode] { exitCode = run(*c); });
 }
 

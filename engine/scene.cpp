@@ -1,0 +1,549 @@
+// Streaming of .ulod blocks under a GPU memory budget (scene.h). One device-local buffer is the
+// arena; a first-fit free list sub-allocates it by offset (the "few large buffers" of the
+// issue, here one). A loader thread reads blocks with pread; the frame records the uploads.
+#include "scene.h"
+
+#include <algorithm>
+#include <cassert>
+#include <condition_variable>
+#include <cstring>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "vkcheck.h"
+
+namespace unilod::engine {
+
+namespace {
+
+constexpr double kDegree = 3.14159265358979323846 / 180.0;
+constexpr std::uint64_t kAlignment = 16;  // vertex stride, and a multiple of the index size
+
+std::uint64_t alignUp(std::uint64_t n) { return (n + kAlignment - 1) / kAlignment * kAlignment; }
+
+// First fit over [0, size) with coalescing on release.
+class RangeAllocator {
+public:
+    void reset(std::uint64_t size) {
+        free_.clear();
+        if (size > 0) free_[0] = size;
+        used_ = 0;
+    }
+    bool allocate(std::uint64_t size, std::uint64_t& offset) {
+        size = alignUp(size);
+        for (auto it = free_.begin(); it != free_.end(); ++it) {
+            if (it->second < size) continue;
+            offset = it->first;
+            const std::uint64_t rest = it->second - size;
+            free_.erase(it);
+            if (rest > 0) free_[offset + size] = rest;
+            used_ += size;
+            return true;
+        }
+        return false;
+    }
+    void release(std::uint64_t offset, std::uint64_t size) {
+        size = alignUp(size);
+        assert(used_ >= size);
+        used_ -= size;
+        auto next = free_.lower_bound(offset);
+        if (next != free_.end() && offset + size == next->first) {
+            size += next->second;
+            next = free_.erase(next);
+        }
+        if (next != free_.begin()) {
+            auto prev = std::prev(next);
+            if (prev->first + prev->second == offset) {
+                prev->second += size;
+                return;
+            }
+        }
+        free_[offset] = size;
+    }
+    std::uint64_t used() const { return used_; }
+
+private:
+    std::map<std::uint64_t, std::uint64_t> free_;
+    std::uint64_t used_ = 0;
+};
+
+// Where a block's geometry lies in the arena: [vertices | terrain indices | river indices].
+struct Allocation {
+    std::uint64_t offset = 0, size = 0;
+    std::uint64_t vertexBytes = 0, terrainBytes = 0;
+    bool valid = false;
+};
+
+// Packed bytes of a block's geometry, ready for the staging buffer.
+struct Packed {
+    std::vector<unsigned char> bytes;
+    std::uint64_t vertexBytes = 0, terrainBytes = 0;
+};
+
+void pack(const format::BlockGeometry& g, std::uint64_t terrainTriangles, std::uint64_t riverEdges,
+          Packed& out) {
+    out.vertexBytes = g.vertices.size() * sizeof(format::Vertex);
+    out.terrainBytes = terrainTriangles * sizeof(format::Triangle);
+    const std::uint64_t riverBytes = riverEdges * sizeof(format::Edge);
+    out.bytes.resize(out.vertexBytes + out.terrainBytes + riverBytes);
+    unsigned char* p = out.bytes.data();
+    if (out.vertexBytes) std::memcpy(p, g.vertices.data(), out.vertexBytes);
+    if (out.terrainBytes) std::memcpy(p + out.vertexBytes, g.terrainIndices.data(), out.terrainBytes);
+    if (riverBytes)
+        std::memcpy(p + out.vertexBytes + out.terrainBytes, g.riverIndices.data(), riverBytes);
+}
+
+struct BlockState {
+    format::BlockInfo info;
+    double originX = 0, originY = 0;
+    double boxMin[3] = {}, boxMax[3] = {};
+    std::vector<format::Level> levels;
+    std::uint64_t terrainTriangles = 0, riverEdges = 0;  // index data the levels use
+    std::uint64_t fullBytes = 0;
+    Allocation coarse, full;  // coarse: the last level only, always resident
+    std::uint64_t lastUsedFrame = 0;
+    std::uint64_t deniedEpoch = ~0ull;  // space epoch in which an upload did not fit
+};
+
+struct Loaded {
+    std::uint32_t block = 0;
+    Packed packed;
+    std::string error;
+};
+
+struct Release {
+    std::int64_t afterFrame = 0;  // the memory is free once this frame has completed
+    std::uint64_t offset = 0, size = 0;
+};
+
+struct Staging {
+    Buffer buffer;
+};
+
+}  // namespace
+
+struct StreamingScene::Impl {
+    const Device* device = nullptr;
+    SceneOptions options;
+    format::Reader reader;
+    std::uint32_t metric = format::kMetricMax;
+    std::vector<BlockState> blocks;
+    Buffer arena;
+    RangeAllocator allocator;
+    std::uint64_t budget = 0, coarseBytes = 0;
+    Staging staging[kFramesInFlight];
+    std::uint64_t stagingSize = 0;
+    std::deque<Release> releases;
+    std::uint64_t spaceEpoch = 0;
+    std::vector<BlockSelection> selection;
+    std::vector<DrawBlock> draws;
+    FrameStats stats;
+
+    // Loader thread state, under `mutex`.
+    std::mutex mutex;
+    std::condition_variable wake;      // the loader waits for requests / room
+    std::deque<std::uint32_t> queue;   // requested, nearest first
+    std::int64_t loading = -1;         // the block being read
+    std::vector<Loaded> ready;         // read, waiting for an upload
+    bool stop = false;
+    std::thread loader;
+    static constexpr std::size_t kMaxReady = 2;
+
+    void loaderMain() {
+        for (;;) {
+            std::uint32_t index;
+            {
+                std::unique_lock lock(mutex);
+                wake.wait(lock, [&] { return stop || (!queue.empty() && ready.size() < kMaxReady); });
+                if (stop) return;
+                index = queue.front();
+                queue.pop_front();
+                loading = index;
+            }
+            Loaded item;
+            item.block = index;
+            format::BlockGeometry g;
+            if (reader.readGeometry(index, format::kAllLevels, g, item.error)) {
+                const BlockState& b = blocks[index];
+                if (g.terrainIndices.size() < b.terrainTriangles ||
+                    g.riverIndices.size() < b.riverEdges)
+                    item.error = reader.path() + ": block arrays shorter than its levels";
+                else
+                    pack(g, b.terrainTriangles, b.riverEdges, item.packed);
+            }
+            {
+                std::lock_guard lock(mutex);
+                loading = -1;
+                ready.push_back(std::move(item));
+            }
+        }
+    }
+
+    // Frees what completed frames no longer use.
+    void releaseCompleted(std::int64_t completedFrame) {
+        while (!releases.empty() && releases.front().afterFrame <= completedFrame) {
+            allocator.release(releases.front().offset, releases.front().size);
+            releases.pop_front();
+            ++spaceEpoch;
+        }
+    }
+
+    // Evicts the least recently used full block not drawn in `frame`. False if none.
+    bool evictOne(std::uint64_t frame, std::int64_t completedFrame) {
+        BlockState* victim = nullptr;
+        for (BlockState& b : blocks)
+            if (b.full.valid && b.lastUsedFrame < frame &&
+                (!victim || b.lastUsedFrame < victim->lastUsedFrame))
+                victim = &b;
+        if (!victim) return false;
+        // Frames up to lastUsedFrame may still read it.
+        Release r{std::int64_t(victim->lastUsedFrame), victim->full.offset, victim->full.size};
+        victim->full = Allocation{};
+        if (r.afterFrame <= completedFrame) {
+            allocator.release(r.offset, r.size);
+            ++spaceEpoch;
+        } else {
+            // Keep the list ordered by frame: evicted blocks were last used at most `frame - 1`.
+            auto at = std::upper_bound(
+                releases.begin(), releases.end(), r.afterFrame,
+                [](std::int64_t f, const Release& x) { return f < x.afterFrame; });
+            releases.insert(at, r);
+        }
+        ++stats.evictions;
+        return true;
+    }
+
+    bool allocate(std::uint64_t size, std::uint64_t frame, std::int64_t completedFrame,
+                  std::uint64_t& offset) {
+        for (;;) {
+            if (allocator.allocate(size, offset)) return true;
+            if (!evictOne(frame, completedFrame)) return false;
+        }
+    }
+};
+
+StreamingScene::StreamingScene() : impl_(std::make_unique<Impl>()) {}
+
+StreamingScene::~StreamingScene() { assert(!impl_->device && "StreamingScene::close() first"); }
+
+bool StreamingScene::open(const Device& device, const std::string& path,
+                          const SceneOptions& options, std::string& error) {
+    Impl& s = *impl_;
+    assert(!s.device);
+    s.options = options;
+    if (!s.reader.open(path, error)) return false;
+    const format::Header& header = s.reader.header();
+    s.metric = header.defaultMetric;
+    if (options.metric == "max")
+        s.metric = format::kMetricMax;
+    else if (options.metric == "paper")
+        s.metric = format::kMetricPaper;
+    else if (!options.metric.empty()) {
+        error = "unknown metric '" + options.metric + "' (max or paper)";
+        return false;
+    }
+    if (!(header.metrics & s.metric)) {
+        error = path + ": the file has no '" +
+                (s.metric == format::kMetricPaper ? "paper" : "max") + "' error metric";
+        return false;
+    }
+
+    // Levels of every block, and the coarse geometry.
+    std::vector<Packed> coarse;
+    std::uint64_t largest = 0;
+    for (std::size_t i = 0; i < s.reader.blocks().size(); ++i) {
+        format::BlockGeometry g;
+        const int last = int(s.reader.blocks()[i].levelCount) - 1;
+        if (!s.reader.readGeometry(i, last, g, error)) return false;
+        BlockState b;
+        b.info = s.reader.blocks()[i];
+        b.originX = g.originX;
+        b.originY = g.originY;
+        b.boxMin[0] = g.minX, b.boxMin[1] = g.minY, b.boxMin[2] = g.minZ;
+        b.boxMax[0] = g.maxX, b.boxMax[1] = g.maxY, b.boxMax[2] = g.maxZ;
+        for (const format::Level& l : g.levels) {
+            b.terrainTriangles =
+                std::max<std::uint64_t>(b.terrainTriangles, std::uint64_t(l.triangleFirst) + l.triangleCount);
+            b.riverEdges = std::max<std::uint64_t>(b.riverEdges, std::uint64_t(l.riverFirst) + l.riverCount);
+        }
+        b.fullBytes = std::uint64_t(b.info.vertexCount) * sizeof(format::Vertex) +
+                      b.terrainTriangles * sizeof(format::Triangle) +
+                      b.riverEdges * sizeof(format::Edge);
+        largest = std::max(largest, b.fullBytes);
+        b.levels = std::move(g.levels);
+        Packed p;
+        pack(g, g.terrainIndices.size(), g.riverIndices.size(), p);
+        s.coarseBytes += alignUp(p.bytes.size());
+        coarse.push_back(std::move(p));
+        s.blocks.push_back(std::move(b));
+    }
+    if (s.blocks.empty()) {
+        error = path + ": no blocks to draw";
+        return false;
+    }
+    // Indices are addressed in uint32 units from the start of the arena.
+    s.budget = std::min<std::uint64_t>(options.gpuBudget, 16ull << 30) / kAlignment * kAlignment;
+    if (s.coarseBytes > s.budget) {
+        char text[200];
+        std::snprintf(text, sizeof text,
+                      ": --gpu-budget %.2f MiB is below the always-resident coarse levels "
+                      "(%.2f MiB)",
+                      double(options.gpuBudget) / 1048576.0, double(s.coarseBytes) / 1048576.0);
+        error = path + text;
+        return false;
+    }
+    s.device = &device;
+    createBuffer(device, s.budget,
+                 VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_INDEX_BUFFER_BIT |
+                     VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                 VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, s.arena);
+    s.allocator.reset(s.budget);
+    s.stagingSize = std::max({options.uploadBytesPerFrame, largest, s.coarseBytes});
+    for (Staging& st : s.staging)
+        createBuffer(device, s.stagingSize, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                     VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                     st.buffer);
+    // The coarse set, in one transfer through the first staging buffer.
+    std::vector<VkBufferCopy> copies;
+    std::uint64_t at = 0;
+    for (std::size_t i = 0; i < s.blocks.size(); ++i) {
+        BlockState& b = s.blocks[i];
+        const Packed& p = coarse[i];
+        std::uint64_t offset = 0;
+        const bool ok = s.allocator.allocate(p.bytes.size(), offset);
+        assert(ok);
+        (void)ok;
+        b.coarse = {offset, p.bytes.size(), p.vertexBytes, p.terrainBytes, true};
+        if (p.bytes.empty()) continue;
+        std::memcpy(static_cast<unsigned char*>(s.staging[0].buffer.mapped) + at, p.bytes.data(),
+                    p.bytes.size());
+        copies.push_back({at, offset, p.bytes.size()});
+        at += alignUp(p.bytes.size());
+    }
+    submitAndWait(device, [&](VkCommandBuffer cmd) {
+        vkCmdCopyBuffer(cmd, s.staging[0].buffer.buffer, s.arena.buffer,
+                        std::uint32_t(copies.size()), copies.data());
+        VkMemoryBarrier barrier{};
+        barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+        barrier.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+        barrier.dstAccessMask = VK_ACCESS_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_INDEX_READ_BIT;
+        vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                             VK_PIPELINE_STAGE_VERTEX_INPUT_BIT, 0, 1, &barrier, 0, nullptr, 0,
+                             nullptr);
+    });
+    s.stats.blocks = std::uint32_t(s.blocks.size());
+    s.stats.gpuBudget = s.budget;
+    s.stats.coarseBytes = s.coarseBytes;
+    s.stats.gpuBytesUsed = s.allocator.used();
+    s.loader = std::thread([&s] { s.loaderMain(); });
+    return true;
+}
+
+void StreamingScene::close() {
+    Impl& s = *impl_;
+    if (s.loader.joinable()) {
+        {
+            std::lock_guard lock(s.mutex);
+            s.stop = true;
+        }
+        s.wake.notify_all();
+        s.loader.join();
+    }
+    if (!s.device) return;
+    for (Staging& st : s.staging) destroyBuffer(*s.device, st.buffer);
+    destroyBuffer(*s.device, s.arena);
+    s.device = nullptr;
+}
+
+bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int64_t completedFrame,
+                             const FrameView& view, std::string& error) {
+    Impl& s = *impl_;
+    assert(s.device);
+    assert(std::int64_t(frame) - completedFrame <= std::int64_t(kFramesInFlight) &&
+           "wait for frame - kFramesInFlight before prepare()");
+    FrameStats& st = s.stats;
+    st.frame = frame;
+    st.bytesUploaded = 0;
+    st.evictions = 0;
+    s.releaseCompleted(completedFrame);
+
+    // 1. Culling and the level each visible block asks for.
+    const Camera& camera = view.camera;
+    const double aspect = double(view.width) / double(view.height);
+    const ViewTolerance tolerance{s.options.pixels, camera.fovDegrees * kDegree,
+                                  double(view.width), double(view.height), s.options.distance};
+    s.selection.clear();
+    for (std::uint32_t i = 0; i < s.blocks.size(); ++i) {
+        const BlockState& b = s.blocks[i];
+        if (s.options.cull) {
+            const bool visible =
+                view.grid ? boxInGridView(camera, view.gridHalfHeight, aspect, b.boxMin, b.boxMax)
+                          : boxInFrustum(camera, aspect, b.boxMin, b.boxMax);
+            if (!visible) continue;
+        }
+        BlockSelection sel;
+        sel.block = i;
+        sel.col = b.info.col;
+        sel.row = b.info.row;
+        if (view.grid) {
+            // Top-down orthographic: a pixel is 2 * halfHeight / H metres everywhere.
+            sel.distance = 0;
+            sel.hLim = s.options.pixels * 2.0 * view.gridHalfHeight / double(view.height);
+        } else {
+            sel.distance = blockDistance(s.options.distance, camera.eye, b.boxMin, b.boxMax);
+            sel.hLim = blockTolerance(tolerance, sel.distance);
+        }
+        sel.wanted = s.options.policy == LodPolicy::Finest
+                         ? chooseStoredLevel(b.levels, s.metric, -1.0)
+                         : chooseStoredLevel(b.levels, s.metric, sel.hLim);
+        s.selection.push_back(sel);
+    }
+    // Nearest first: uploads and requests go in this order.
+    std::stable_sort(s.selection.begin(), s.selection.end(),
+                     [](const BlockSelection& a, const BlockSelection& b) {
+                         return a.distance < b.distance;
+                     });
+    for (const BlockSelection& sel : s.selection) {
+        BlockState& b = s.blocks[sel.block];
+        if (sel.wanted.level + 1 < b.levels.size()) b.lastUsedFrame = frame;
+    }
+
+    // 2. Uploads of what the loader has read, as far as the staging buffer and budget allow.
+    std::vector<Loaded> loaded;
+    {
+        std::lock_guard lock(s.mutex);
+        loaded.swap(s.ready);
+    }
+    s.wake.notify_all();
+    std::vector<VkBufferCopy> copies;
+    std::uint64_t stagingAt = 0;
+    unsigned char* stagingBytes =
+        static_cast<unsigned char*>(s.staging[frame % kFramesInFlight].buffer.mapped);
+    bool ok = true;
+    for (Loaded& item : loaded) {
+        BlockState& b = s.blocks[item.block];
+        if (!item.error.empty()) {
+            if (ok) error = item.error;
+            ok = false;
+            b.deniedEpoch = ~0ull - 1;  // never again in this session
+            continue;
+        }
+        if (b.full.valid) continue;
+        const std::uint64_t size = item.packed.bytes.size();
+        if (stagingAt + alignUp(size) > s.stagingSize) {
+            // No room in this frame's staging: keep it for the next frame.
+            std::lock_guard lock(s.mutex);
+            s.ready.push_back(std::move(item));
+            continue;
+        }
+        std::uint64_t offset = 0;
+        if (!s.allocate(size, frame, completedFrame, offset)) {
+            b.deniedEpoch = s.spaceEpoch;  // retried once memory is released
+            continue;
+        }
+        b.full = {offset, size, item.packed.vertexBytes, item.packed.terrainBytes, true};
+        std::memcpy(stagingBytes + stagingAt, item.packed.bytes.data(), size);
+        copies.push_back({stagingAt, offset, size});
+        stagingAt += alignUp(size);
+        st.bytesUploaded += size;
+    }
+    if (!copies.empty()) {
+        vkCmdCopyBuffer(cmd, s.staging[frame % kFramesInFlight].buffer.buffer, s.arena.buffer,
+                        std::uint32_t(copies.size()), copies.data());
+        VkMemoryBarrier barrier{};
+        barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+        barrier.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+        barrier.dstAccessMask = VK_ACCESS_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_INDEX_READ_BIT;
+        vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                             VK_PIPELINE_STAGE_VERTEX_INPUT_BIT, 0, 1, &barrier, 0, nullptr, 0,
+                             nullptr);
+    }
+
+    // 3. What is drawn: the wanted level where resident, else the coarse one.
+    s.draws.clear();
+    st.visibleBlocks = std::uint32_t(s.selection.size());
+    st.fallbackBlocks = 0;
+    st.triangles = st.riverEdges = 0;
+    std::vector<std::uint32_t> requests;
+    for (BlockSelection& sel : s.selection) {
+        const BlockState& b = s.blocks[sel.block];
+        const std::size_t coarseLevel = b.levels.size() - 1;
+        const bool needsFull = sel.wanted.level < coarseLevel;
+        DrawBlock d;
+        d.originX = b.originX;
+        d.originY = b.originY;
+        const Allocation* a;
+        if (needsFull && b.full.valid) {
+            sel.drawnLevel = sel.wanted.level;
+            a = &b.full;
+        } else {
+            sel.drawnLevel = coarseLevel;
+            a = &b.coarse;
+            if (needsFull) {
+                sel.fallback = true;
+                ++st.fallbackBlocks;
+                if (b.deniedEpoch != s.spaceEpoch && b.deniedEpoch != ~0ull - 1)
+                    requests.push_back(sel.block);
+            }
+        }
+        const format::Level& l = b.levels[sel.drawnLevel];
+        // The coarse allocation holds only its level, rebased to 0.
+        const std::uint64_t triangleFirst = a == &b.coarse ? 0 : l.triangleFirst;
+        const std::uint64_t riverFirst = a == &b.coarse ? 0 : l.riverFirst;
+        d.vertexOffset = a->offset;
+        d.terrainFirst = std::uint32_t((a->offset + a->vertexBytes) / 4 + triangleFirst * 3);
+        d.terrainCount = l.triangleCount * 3;
+        d.riverFirst =
+            std::uint32_t((a->offset + a->vertexBytes + a->terrainBytes) / 4 + riverFirst * 2);
+        d.riverCount = l.riverCount * 2;
+        sel.triangles = l.triangleCount;
+        sel.riverEdges = l.riverCount;
+        st.triangles += l.triangleCount;
+        st.riverEdges += l.riverCount;
+        s.draws.push_back(d);
+    }
+
+    // 4. Requests, nearest first, replacing those of the previous frame.
+    {
+        std::lock_guard lock(s.mutex);
+        s.queue.clear();
+        for (std::uint32_t i : requests) {
+            if (std::int64_t(i) == s.loading) continue;
+            if (std::any_of(s.ready.begin(), s.ready.end(),
+                            [i](const Loaded& l) { return l.block == i; }))
+                continue;
+            s.queue.push_back(i);
+        }
+        st.loadsPending = std::uint32_t(s.queue.size() + s.ready.size() + (s.loading >= 0));
+    }
+    s.wake.notify_all();
+    st.residentBlocks = 0;
+    for (const BlockState& b : s.blocks) st.residentBlocks += b.full.valid;
+    st.gpuBytesUsed = s.allocator.used();
+    return ok;
+}
+
+void StreamingScene::draw(VkCommandBuffer cmd, const Pipelines& pipelines,
+                          const FrameView& view) const {
+    recordDraws(cmd, pipelines, impl_->arena.buffer, view, impl_->draws);
+}
+
+bool StreamingScene::settled() const {
+    std::lock_guard lock(impl_->mutex);
+    return impl_->queue.empty() && impl_->loading < 0 && impl_->ready.empty();
+}
+
+const FrameStats& StreamingScene::stats() const { return impl_->stats; }
+const std::vector<BlockSelection>& StreamingScene::selection() const { return impl_->selection; }
+const format::Header& StreamingScene::header() const { return impl_->reader.header(); }
+std::uint32_t StreamingScene::metric() const { return impl_->metric; }
+const std::vector<format::Level>& StreamingScene::levels(std::size_t index) const {
+    return impl_->blocks[index].levels;
+}
+const format::BlockInfo& StreamingScene::blockInfo(std::size_t index) const {
+    return impl_->blocks[index].info;
+}
+
+}  // namespace unilod::engine

@@ -1,0 +1,58 @@
+#include "engineopts.h"
+
+#include <cstdio>
+
+namespace unilod::cli {
+
+bool parseSize(const std::string& s, std::uint32_t& w, std::uint32_t& h) {
+    unsigned long a = 0, b = 0;
+    char tail = 0;
+    if (std::sscanf(s.c_str(), "%lux%lu%c", &a, &b, &tail) != 2) return false;
+    if (a == 0 || b == 0 || a > 16384 || b > 16384) return false;
+    w = std::uint32_t(a);
+    h = std::uint32_t(b);
+    return true;
+}
+
+void EngineCli::add(CLI::App& sub, const std::string& defaultSize) {
+    size = defaultSize;
+    sub.add_option("--size", size, "image size WxH (default " + defaultSize + ")");
+    sub.add_option("--pixels", pixels, "screen-space error tolerance P in pixels (default 1)")
+        ->check(CLI::PositiveNumber);
+    sub.add_option("--metric", metric, "error metric: max (a bound, default) or paper")
+        ->check(CLI::IsMember({"max", "paper"}));
+    sub.add_option("--distance", distance,
+                   "S for h_lim: nearest (nearest point of the block's box, scaled so the "
+                   "P-pixel bound holds over the whole view; default) or centre (the paper's "
+                   "block centre)")
+        ->check(CLI::IsMember({"nearest", "centre"}));
+    sub.add_option("--gpu-budget", gpuBudgetMiB,
+                   "device memory for block geometry in MiB (default " +
+                       std::to_string(engine::kDefaultGpuBudget >> 20) +
+                       "); must hold every block's coarsest level")
+        ->check(CLI::PositiveNumber);
+    sub.add_flag("--validation", validation,
+                 "enable the Vulkan validation layer; any warning or error fails the command");
+    sub.add_option("--device", device,
+                   "Vulkan physical device index (default: $UNILOD_DEVICE, else the best)")
+        ->check(CLI::NonNegativeNumber);
+}
+
+bool EngineCli::apply(engine::SceneOptions& scene, engine::DeviceOptions& dev, std::uint32_t& width,
+                      std::uint32_t& height, const char* command) const {
+    if (!parseSize(size, width, height)) {
+        std::fprintf(stderr, "unilod %s: error: --size '%s' is not WxH (1..16384)\n", command,
+                     size.c_str());
+        return false;
+    }
+    scene.pixels = pixels;
+    scene.metric = metric;
+    scene.distance =
+        distance == "centre" ? engine::DistanceMode::Centre : engine::DistanceMode::Nearest;
+    scene.gpuBudget = std::uint64_t(gpuBudgetMiB * 1048576.0);
+    dev.validation = validation;
+    dev.deviceIndex = device;
+    return true;
+}
+
+}  // namespace unilod::cli
