@@ -535,6 +535,11 @@ bool StreamingScene::settled() const {
     return impl_->queue.empty() && impl_->loading < 0 && impl_->ready.empty();
 }
 
+void StreamingScene::setPixels(double pixels) {
+    assert(pixels > 0);
+    impl_->options.pixels = pixels;
+}
+
 const FrameStats& StreamingScene::stats() const { return impl_->stats; }
 const std::vector<BlockSelection>& StreamingScene::selection() const { return impl_->selection; }
 const format::Header& StreamingScene::header() const { return impl_->reader.header(); }

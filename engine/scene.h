@@ -105,6 +105,9 @@ public:
     // prepare() is then final for its view (captures wait for this, frames do not).
     bool settled() const;
 
+    // Changes P for the following prepare() calls (the viewer's +/- keys).
+    void setPixels(double pixels);
+
     const FrameStats& stats() const;
     const std::vector<BlockSelection>& selection() const;
     const format::Header& header() const;

@@ -146,6 +146,15 @@ bool runView(const ViewOptions& options, ViewResult& result, std::string& error)
     const format::Header header = opened ? scene.header() : format::Header{};
     Camera camera = options.hasCamera ? options.camera : defaultViewCamera(header, 60.0);
     bool grid = options.grid, rivers = true;
+    if (grid && !options.hasCamera) {
+        // Starting in grid mode: the map of the whole data set, centred.
+        camera.eye[0] = (header.minX + header.maxX) / 2;
+        camera.eye[1] = (header.minY + header.maxY) / 2;
+        const double half = 0.55 * std::max(header.maxY - header.minY,
+                                            (header.maxX - header.minX) * options.height /
+                                                std::max(options.width, 1u));
+        camera.eye[2] = header.minZ + half / std::tan(camera.fovDegrees * kDegree / 2);
+    }
     double speed = std::max(header.maxX - header.minX, header.maxY - header.minY) / 10;
     if (!(speed > 0)) speed = 100;
     double cursor[2] = {0, 0};
@@ -172,7 +181,6 @@ bool runView(const ViewOptions& options, ViewResult& result, std::string& error)
         last = now;
 
         bool screenshot = false;
-        bool reopen = false;
         for (int key : window.keyPresses) {
             switch (key) {
                 case GLFW_KEY_ESCAPE:
@@ -188,14 +196,14 @@ bool runView(const ViewOptions& options, ViewResult& result, std::string& error)
                 case GLFW_KEY_KP_ADD:
                     if (sceneOptions.pixels * 2 <= kMaxPixels) {
                         sceneOptions.pixels *= 2;
-                        reopen = true;
+                        scene.setPixels(sceneOptions.pixels);
                     }
                     break;
                 case GLFW_KEY_MINUS:
                 case GLFW_KEY_KP_SUBTRACT:
                     if (sceneOptions.pixels / 2 >= kMinPixels) {
                         sceneOptions.pixels /= 2;
-                        reopen = true;
+                        scene.setPixels(sceneOptions.pixels);
                     }
                     break;
                 case GLFW_KEY_P:
@@ -209,17 +217,6 @@ bool runView(const ViewOptions& options, ViewResult& result, std::string& error)
         window.keyPresses.clear();
         speed *= std::pow(1.25, window.scroll);
         window.scroll = 0;
-        if (reopen) {
-            // P is fixed when the scene opens (SceneOptions), so a new tolerance reopens it;
-            // the device must be idle for close().
-            VK_CHECK(vkDeviceWaitIdle(device.device));
-            scene.close();
-            if (!scene.open(device, options.path, sceneOptions, error)) {
-                ok = false;
-                break;
-            }
-            std::printf("pixel tolerance P = %g px\n", sceneOptions.pixels);
-        }
         moveCamera(window.window, seconds, speed, grid, camera, cursor, dragging);
 
         int fbWidth = 0, fbHeight = 0;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "commands.h"
+#include "engineopts.h"
 #include "view.h"
 
 namespace unilod::cli {
@@ -17,35 +18,16 @@ namespace {
 
 struct ViewCli {
     engine::ViewOptions o;
+    EngineCli engine;
     std::vector<double> camera;
-    std::string size = "1280x720";
-    std::string distance = "nearest";
-    double gpuBudgetMiB = double(engine::kDefaultGpuBudget >> 20);
 };
 
-bool parseSize(const std::string& s, std::uint32_t& w, std::uint32_t& h) {
-    unsigned long a = 0, b = 0;
-    char tail = 0;
-    if (std::sscanf(s.c_str(), "%lux%lu%c", &a, &b, &tail) != 2) return false;
-    if (a == 0 || b == 0 || a > 16384 || b > 16384) return false;
-    w = std::uint32_t(a);
-    h = std::uint32_t(b);
-    return true;
-}
-
 int run(ViewCli& c) {
-    if (!parseSize(c.size, c.o.width, c.o.height)) {
-        std::fprintf(stderr, "unilod view: error: --size '%s' is not WxH (1..16384)\n",
-                     c.size.c_str());
-        return 2;
-    }
+    if (!c.engine.apply(c.o.scene, c.o.device, c.o.width, c.o.height, "view")) return 2;
     if (!c.o.screenshotPath.empty() && c.o.frames == 0) {
         std::fprintf(stderr, "unilod view: error: --screenshot needs --frames N\n");
         return 2;
     }
-    c.o.scene.distance =
-        c.distance == "centre" ? engine::DistanceMode::Centre : engine::DistanceMode::Nearest;
-    c.o.scene.gpuBudget = std::uint64_t(c.gpuBudgetMiB * double(1 << 20));
     if (!c.camera.empty()) {
         c.o.hasCamera = true;
         for (int i = 0; i < 3; ++i)
@@ -78,23 +60,7 @@ void addViewCommand(CLI::App& app, int& exitCode) {
                     "(< 0 down) in degrees (default: above the data, looking at its centre)")
         ->delimiter(',')
         ->expected(5);
-    sub->add_option("--size", c->size, "window size WxH (default 1280x720)");
-    sub->add_option("--pixels", c->o.scene.pixels,
-                    "screen-space error tolerance P in pixels (default 1)")
-        ->check(CLI::Range(0.125, 64.0));
-    sub->add_option("--metric", c->o.scene.metric, "error metric (default: the file's)")
-        ->check(CLI::IsMember({"max", "paper"}));
-    sub->add_option("--distance", c->distance,
-                    "S for h_lim: nearest (default) or centre (the paper's block centre)")
-        ->check(CLI::IsMember({"nearest", "centre"}));
-    sub->add_option("--gpu-budget", c->gpuBudgetMiB,
-                    "device memory for block geometry in MiB (default 512)")
-        ->check(CLI::Range(1.0, 1048576.0));
-    sub->add_flag("--validation", c->o.device.validation,
-                  "enable the Vulkan validation layer; any warning or error fails the run");
-    sub->add_option("--device", c->o.device.deviceIndex,
-                    "Vulkan physical device index (default: $UNILOD_DEVICE, else the best)")
-        ->check(CLI::NonNegativeNumber);
+    c->engine.add(*sub, "1280x720");
     sub->add_option("--frames", c->o.frames, "render N frames, then exit (default: until Esc)")
         ->check(CLI::PositiveNumber);
     sub->add_option("--screenshot", c->o.screenshotPath,
