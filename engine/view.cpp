@@ -161,6 +161,7 @@ bool runView(const ViewOptions& options, ViewResult& result, std::string& error)
     bool dragging = false;
 
     std::uint64_t frame = 0;
+    bool resizeRequested = false;
     std::uint64_t secondFrames = 0;
     Clock::time_point secondStart = Clock::now(), last = secondStart;
     const Clock::time_point runStart = secondStart;
@@ -217,6 +218,11 @@ bool runView(const ViewOptions& options, ViewResult& result, std::string& error)
         window.keyPresses.clear();
         speed *= std::pow(1.25, window.scroll);
         window.scroll = 0;
+        if (options.resizeWidth > 0 && options.frames > 0 && frame == options.frames / 2 &&
+            !resizeRequested) {
+            glfwSetWindowSize(window.window, int(options.resizeWidth), int(options.resizeHeight));
+            resizeRequested = true;
+        }
         moveCamera(window.window, seconds, speed, grid, camera, cursor, dragging);
 
         int fbWidth = 0, fbHeight = 0;

@@ -22,6 +22,9 @@ struct ViewOptions {
     std::uint64_t frames = 0;    // 0: until the window closes
     std::string screenshotPath;  // with frames: the last frame as PNG
     bool grid = false;           // start in grid mode
+    // With frames: resize the window to this size after half of them (as a window manager
+    // would; exercises swapchain recreation). 0: no resize.
+    std::uint32_t resizeWidth = 0, resizeHeight = 0;
 };
 
 struct ViewResult {

@@ -1,7 +1,8 @@
 // The windowed target end to end (issue 5): `unilod view` under Xvfb on Mesa lavapipe with the
 // validation layer on opens a window, renders 30 frames through the swapchain, writes the last
 // one as a screenshot and closes cleanly (exit 0, no validation message). The screenshot must
-// not be blank; in grid mode it shows the grid line and river colours. Without a display the
+// not be blank; in grid mode it shows the grid line and river colours; a window resized half way
+// gets a new swapchain and the screenshot has the new size. Without a display the
 // command exits 1 with a clear message. CI installs Xvfb, so these tests only skip (and say so)
 // where `xvfb-run` is absent.
 #include <gtest/gtest.h>
@@ -154,6 +155,17 @@ TEST_F(View, GridModeShowsGridAndRivers) {
     EXPECT_GT(grid, pixels / 20);
     EXPECT_GT(river, 50u);
     EXPECT_NE(r.out.find(", grid"), std::string::npos) << r.out;
+}
+
+// The window is resized half way (as a window manager would): the swapchain is recreated, the
+// frames go on at the new size without a validation message, and the screenshot has that size.
+TEST_F(View, ResizeRecreatesTheSwapchain) {
+    SKIP_WITHOUT_XVFB();
+    CliResult r;
+    const Image image = view("resized", " --resize 400x300", r);
+    EXPECT_EQ(image.width, 400u);
+    EXPECT_EQ(image.height, 300u);
+    EXPECT_NE(r.out.find("30 frames on "), std::string::npos) << r.out;
 }
 
 TEST_F(View, ErrorsExitOneWithAMessage) {

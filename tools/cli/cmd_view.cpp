@@ -1,6 +1,6 @@
 // `unilod view FILE [--camera x,y,z,yaw,pitch] [--size WxH] [--pixels P] [--metric M]
 // [--distance nearest|centre] [--gpu-budget MiB] [--validation] [--device N] [--frames N]
-// [--screenshot PATH] [--grid]`: roams a .ulod file in a window (engine/view.h). Malformed
+// [--screenshot PATH] [--resize WxH] [--grid]`: roams a .ulod file in a window (engine/view.h). Malformed
 // options are usage errors (exit 2); no display, no device, an unreadable file, a validation
 // message or a failed screenshot are errors (exit 1).
 #include <cstdio>
@@ -20,12 +20,19 @@ struct ViewCli {
     engine::ViewOptions o;
     EngineCli engine;
     std::vector<double> camera;
+    std::string resize;
 };
 
 int run(ViewCli& c) {
     if (!c.engine.apply(c.o.scene, c.o.device, c.o.width, c.o.height, "view")) return 2;
     if (!c.o.screenshotPath.empty() && c.o.frames == 0) {
         std::fprintf(stderr, "unilod view: error: --screenshot needs --frames N\n");
+        return 2;
+    }
+    if (!c.resize.empty() &&
+        (c.o.frames == 0 || !parseSize(c.resize, c.o.resizeWidth, c.o.resizeHeight))) {
+        std::fprintf(stderr, "unilod view: error: --resize '%s' needs --frames and WxH\n",
+                     c.resize.c_str());
         return 2;
     }
     if (!c.camera.empty()) {
@@ -65,6 +72,9 @@ void addViewCommand(CLI::App& app, int& exitCode) {
         ->check(CLI::PositiveNumber);
     sub->add_option("--screenshot", c->o.screenshotPath,
                     "with --frames: write the last frame to this PNG");
+    sub->add_option("--resize", c->resize,
+                    "with --frames: resize the window to WxH after half the frames (tests the "
+                    "swapchain recreation)");
     sub->add_flag("--grid", c->o.grid, "start in the 2D grid mode (top-down wireframe)");
     sub->callback([c, &exitCode] { exitCode = run(*c); });
 }
