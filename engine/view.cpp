@@ -162,6 +162,7 @@ bool runView(const ViewOptions& options, ViewResult& result, std::string& error)
 
     std::uint64_t frame = 0;
     bool resizeRequested = false;
+    double lastPixels = sceneOptions.pixels;
     std::uint64_t secondFrames = 0;
     Clock::time_point secondStart = Clock::now(), last = secondStart;
     const Clock::time_point runStart = secondStart;
@@ -214,6 +215,10 @@ bool runView(const ViewOptions& options, ViewResult& result, std::string& error)
                 default:
                     break;
             }
+        }
+        if (window.keyPresses.size() && sceneOptions.pixels != lastPixels) {
+            std::printf("pixel tolerance P = %g px\n", sceneOptions.pixels);
+            lastPixels = sceneOptions.pixels;
         }
         window.keyPresses.clear();
         speed *= std::pow(1.25, window.scroll);

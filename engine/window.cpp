@@ -300,8 +300,9 @@ bool beginWindowFrame(const Device& device, WindowTarget& target, std::uint64_t 
     Swapchain& sc = target.swapchain;
     const VkExtent2D fb = framebufferExtent(target.window->window);
     if (fb.width == 0 || fb.height == 0) return false;  // minimised
-    if (!sc.swapchain || target.window->resized ||
-        fb.width != sc.extent.width || fb.height != sc.extent.height) {
+    // Resizes arrive as GLFW's framebuffer-size callback, or as OUT_OF_DATE / SUBOPTIMAL from
+    // acquire and present (some platforms report only one of them).
+    if (!sc.swapchain || target.window->resized) {
         if (!createSwapchain(device, target)) return false;
     }
 
