@@ -100,71 +100,89 @@ struct Projector {
 };
 
 // Point location in one level of one block: the level's triangles bucketed into a uniform grid
-// over the block (block-relative coordinates, as stored).
+// over the block. Positions are the vertices' exact fixed-grid integers (Block::grid, the ones
+// the triangulation was computed on), not their float metres: with floats, a point lying a
+// fraction of a millimetre off a sliver triangle's long edge can round into it.
 class Surface {
 public:
     Surface(const format::Block& block, const format::Level& level) : block_(block) {
         const std::uint32_t first = level.triangleFirst, count = level.triangleCount;
         triangles_.assign(block.terrainIndices.begin() + first,
                           block.terrainIndices.begin() + first + count);
-        minX_ = block.minX - block.originX;
-        minY_ = block.minY - block.originY;
-        const double w = std::max(block.maxX - block.minX, 1.0);
-        const double h = std::max(block.maxY - block.minY, 1.0);
+        double lo[2] = {1e300, 1e300}, hi[2] = {-1e300, -1e300};
+        for (const format::GridXY& g : block.grid) {
+            lo[0] = std::min(lo[0], double(g.x));
+            lo[1] = std::min(lo[1], double(g.y));
+            hi[0] = std::max(hi[0], double(g.x));
+            hi[1] = std::max(hi[1], double(g.y));
+        }
+        minX_ = lo[0];
+        minY_ = lo[1];
         cells_ = std::clamp(int(std::sqrt(double(count) / 4)), 1, 512);
-        cellW_ = w / cells_;
-        cellH_ = h / cells_;
+        cellW_ = std::max(hi[0] - lo[0], 1.0) / cells_;
+        cellH_ = std::max(hi[1] - lo[1], 1.0) / cells_;
+        maxX_ = minX_ + cellW_ * cells_;
+        maxY_ = minY_ + cellH_ * cells_;
         buckets_.assign(std::size_t(cells_) * cells_, {});
         for (std::uint32_t t = 0; t < count; ++t) {
-            double lo[2] = {1e300, 1e300}, hi[2] = {-1e300, -1e300};
+            double tlo[2] = {1e300, 1e300}, thi[2] = {-1e300, -1e300};
             for (std::uint32_t v : {triangles_[t].a, triangles_[t].b, triangles_[t].c}) {
-                const format::Vertex& p = block.vertices[v];
-                lo[0] = std::min(lo[0], double(p.x));
-                lo[1] = std::min(lo[1], double(p.y));
-                hi[0] = std::max(hi[0], double(p.x));
-                hi[1] = std::max(hi[1], double(p.y));
+                const format::GridXY& g = block.grid[v];
+                tlo[0] = std::min(tlo[0], double(g.x));
+                tlo[1] = std::min(tlo[1], double(g.y));
+                thi[0] = std::max(thi[0], double(g.x));
+                thi[1] = std::max(thi[1], double(g.y));
             }
-            const int c0 = cellX(lo[0] - 1e-3), c1 = cellX(hi[0] + 1e-3);
-            const int r0 = cellY(lo[1] - 1e-3), r1 = cellY(hi[1] + 1e-3);
-            for (int r = r0; r <= r1; ++r)
-                for (int c = c0; c <= c1; ++c) buckets_[std::size_t(r) * cells_ + c].push_back(t);
+            for (int r = cellY(tlo[1]); r <= cellY(thi[1]); ++r)
+                for (int c = cellX(tlo[0]); c <= cellX(thi[0]); ++c)
+                    buckets_[std::size_t(r) * cells_ + c].push_back(t);
         }
     }
 
-    // z of the surface at block-relative (x, y), or NaN outside the level's triangulation.
-    // Barycentric interpolation in the triangle that contains the point most deeply (so points
-    // on shared edges and vertices are found despite rounding; z is continuous there).
-    double z(double x, double y) const {
-        if (x < minX_ - 1e-3 || y < minY_ - 1e-3 || x > minX_ + cellW_ * cells_ + 1e-3 ||
-            y > minY_ + cellH_ * cells_ + 1e-3)
+    // z of the surface at block-relative (x, y) metres, or NaN outside the triangulation.
+    double z(double x, double y) const { return zGrid(x / format::kGridUnit, y / format::kGridUnit); }
+
+    // The same at fixed-grid (x, y): barycentric interpolation in the triangle that contains the
+    // point most deeply (every barycentric >= 0; on a shared edge or vertex any of the
+    // triangles, z is continuous there). With integer vertices (|coordinate| < 2^26) the areas
+    // below are exact in double, so for a grid point "inside" is decided exactly.
+    double zGrid(double x, double y) const {
+        if (x < minX_ || y < minY_ || x > maxX_ || y > maxY_)
             return std::numeric_limits<double>::quiet_NaN();
-        double best = -1e-9, value = std::numeric_limits<double>::quiet_NaN();
+        double best = -1e-12, value = std::numeric_limits<double>::quiet_NaN();
         for (std::uint32_t t : buckets_[std::size_t(cellY(y)) * cells_ + cellX(x)]) {
-            const format::Vertex& a = block_.vertices[triangles_[t].a];
-            const format::Vertex& b = block_.vertices[triangles_[t].b];
-            const format::Vertex& c = block_.vertices[triangles_[t].c];
+            const format::GridXY& a = block_.grid[triangles_[t].a];
+            const format::GridXY& b = block_.grid[triangles_[t].b];
+            const format::GridXY& c = block_.grid[triangles_[t].c];
             const double ax = a.x, ay = a.y, bx = b.x, by = b.y, cx = c.x, cy = c.y;
             const double area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax);
             if (area == 0) continue;
             const double la = ((bx - x) * (cy - y) - (by - y) * (cx - x)) / area;
             const double lb = ((cx - x) * (ay - y) - (cy - y) * (ax - x)) / area;
-            const double lc = 1 - la - lb;
+            const double lc = ((ax - x) * (by - y) - (ay - y) * (bx - x)) / area;
             const double m = std::min({la, lb, lc});
             if (m > best) {
                 best = m;
-                value = la * a.z + lb * b.z + lc * c.z;
+                const double sum = la + lb + lc;  // 1 up to rounding
+                value = (la * block_.vertices[triangles_[t].a].z +
+                         lb * block_.vertices[triangles_[t].b].z +
+                         lc * block_.vertices[triangles_[t].c].z) / sum;
             }
         }
         return value;
     }
 
 private:
-    int cellX(double x) const { return std::clamp(int(std::floor((x - minX_) / cellW_)), 0, cells_ - 1); }
-    int cellY(double y) const { return std::clamp(int(std::floor((y - minY_) / cellH_)), 0, cells_ - 1); }
+    int cellX(double x) const {
+        return std::clamp(int(std::floor((x - minX_) / cellW_)), 0, cells_ - 1);
+    }
+    int cellY(double y) const {
+        return std::clamp(int(std::floor((y - minY_) / cellH_)), 0, cells_ - 1);
+    }
 
     const format::Block& block_;
     std::vector<format::Triangle> triangles_;
-    double minX_ = 0, minY_ = 0, cellW_ = 1, cellH_ = 1;
+    double minX_ = 0, minY_ = 0, maxX_ = 0, maxY_ = 0, cellW_ = 1, cellH_ = 1;
     int cells_ = 1;
     std::vector<std::vector<std::uint32_t>> buckets_;
 };
@@ -241,6 +259,8 @@ protected:
                 continue;
             }
             const format::Block& block = (*blocks_)[i];
+            EXPECT_EQ(block.grid.size(), block.vertices.size());  // the build stores it
+            if (block.grid.size() != block.vertices.size()) continue;
             d.level[i] = b["level"].get<std::size_t>();
             EXPECT_LT(d.level[i], block.levels.size());
             if (d.level[i] >= block.levels.size()) continue;
@@ -268,9 +288,10 @@ protected:
             const format::Level& level = block.levels[d.level[i]];
             if (level.step > 0) ++out.coarseBlocks;
             const double hs = block.errorMax[level.step];
-            for (const format::Vertex& v : block.vertices) {
+            for (std::size_t k = 0; k < block.vertices.size(); ++k) {
+                const format::Vertex& v = block.vertices[k];
                 ++out.total;
-                const double s = d.surfaces[i]->z(v.x, v.y);
+                const double s = d.surfaces[i]->zGrid(block.grid[k].x, block.grid[k].y);
                 if (std::isnan(s)) {
                     ADD_FAILURE() << "point (" << v.x << ", " << v.y << ") of block " << block.col
                                   << "," << block.row << " is outside its level's triangulation";
@@ -278,6 +299,10 @@ protected:
                 }
                 const double h = std::abs(s - double(v.z));
                 out.maxMetresOverHs = std::max(out.maxMetresOverHs, h - hs);
+                if (h - hs > 1e-3 && std::getenv("DEBUG_GUARANTEE"))
+                    std::printf("DBG block %u,%u level %zu step %u idx %zu grid %d %d z %g s %g hs %g\n",
+                                block.col, block.row, d.level[i], level.step, k, block.grid[k].x,
+                                block.grid[k].y, double(v.z), s, hs);
                 const double wx = block.originX + double(v.x), wy = block.originY + double(v.y);
                 const auto a = cam.project(wx, wy, v.z);
                 const auto b = cam.project(wx, wy, s);
