@@ -63,7 +63,8 @@ struct Projector {
 
     explicit Projector(const nlohmann::json& capture) {
         const nlohmann::json& c = capture["camera"];
-        for (int i = 0; i < 3; ++i) eye[i] = c["eye"][i].get<double>();
+        for (int i = 0; i < 3; ++i)
+            eye[i] = c["eye"][i].get<double>();
         const double yaw = c["yaw"].get<double>() * kDegree;
         const double pitch = c["pitch"].get<double>() * kDegree;
         f[0] = std::sin(yaw) * std::cos(pitch);
@@ -140,7 +141,9 @@ public:
     }
 
     // z of the surface at block-relative (x, y) metres, or NaN outside the triangulation.
-    double z(double x, double y) const { return zGrid(x / format::kGridUnit, y / format::kGridUnit); }
+    double z(double x, double y) const {
+        return zGrid(x / format::kGridUnit, y / format::kGridUnit);
+    }
 
     // The same at fixed-grid (x, y): barycentric interpolation in the triangle that contains the
     // point most deeply (every barycentric >= 0; on a shared edge or vertex any of the
@@ -166,7 +169,8 @@ public:
                 const double sum = la + lb + lc;  // 1 up to rounding
                 value = (la * block_.vertices[triangles_[t].a].z +
                          lb * block_.vertices[triangles_[t].b].z +
-                         lc * block_.vertices[triangles_[t].c].z) / sum;
+                         lc * block_.vertices[triangles_[t].c].z) /
+                        sum;
             }
         }
         return value;
@@ -203,8 +207,9 @@ protected:
         file_ = (dir_ / "jacksboro.ulod").string();
         // 64-cell blocks (6 x 7 blocks of ~5.3 km) instead of the default 256 (2 x 2): a view
         // then holds blocks at many distances and levels.
-        const auto r = runCli("build -q --block-size 64 " + q(kAssets + "/jacksboro_dem.tif") + " " +
-                              q(kAssets + "/jacksboro_rivers_grass.geojson") + " -o " + q(file_));
+        const auto r =
+            runCli("build -q --block-size 64 " + q(kAssets + "/jacksboro_dem.tif") + " " +
+                   q(kAssets + "/jacksboro_rivers_grass.geojson") + " -o " + q(file_));
         ASSERT_EQ(r.code, 0) << r.err;
         reader_ = new format::Reader;
         std::string error;
@@ -276,12 +281,17 @@ protected:
         double maxPixels = 0;     // largest on-screen distance between a point and its surface
         double maxOverBound = 0;  // largest (deviation - allowed)
         std::size_t checked = 0, total = 0, coarseBlocks = 0;
-        std::size_t unlocated = 0;  // points not found in their block's level (a failure)
+        std::size_t unlocated = 0;        // points not found in their block's level (a failure)
         double maxMetresOverHs = -1e300;  // largest vertical distance minus the block's h_s
     };
 
     // Every original point of every block against the surface drawn below it: the segment from
-    // the DEM point to the surface point, projected, when both ends are inside the frustum.
+    // the DEM point to the surface point, projected, when both ends are inside the frustum (in
+    // front of the 1 m near plane and inside the image rectangle; engine/lod.h
+    // frustumEdgeFactor bounds exactly such segments). The deviation measured is the full
+    // on-screen length of the projected segment, not only its vertical component: the bound
+    // holds for it as well (the Cauchy-Schwarz step there bounds |fwd x (d x p)| <= |d| |p|),
+    // so this is the stronger check. Border points are checked in every block that holds them.
     static Deviation deviation(const Drawn& d, double pixels) {
         const Projector cam(d.json);
         Deviation out;
@@ -297,8 +307,9 @@ protected:
                 const double s = d.surfaces[i]->zGrid(block.grid[k].x, block.grid[k].y);
                 if (std::isnan(s)) {
                     if (++out.unlocated <= 5)
-                        ADD_FAILURE() << "point (" << v.x << ", " << v.y << ") of block " << block.col
-                                  << "," << block.row << " is outside its level's triangulation";
+                        ADD_FAILURE()
+                            << "point (" << v.x << ", " << v.y << ") of block " << block.col << ","
+                            << block.row << " is outside its level's triangulation";
                     continue;
                 }
                 const double h = std::abs(s - double(v.z));
@@ -322,9 +333,10 @@ protected:
     }
 
     static void print(const char* what, const Deviation& dev, double pixels) {
-        std::printf("[ guarantee ] %s: P = %g px, max deviation %.4f px, %zu of %zu points checked, "
-                    "%zu blocks coarser than full resolution\n",
-                    what, pixels, dev.maxPixels, dev.checked, dev.total, dev.coarseBlocks);
+        std::printf(
+            "[ guarantee ] %s: P = %g px, max deviation %.4f px, %zu of %zu points checked, "
+            "%zu blocks coarser than full resolution\n",
+            what, pixels, dev.maxPixels, dev.checked, dev.total, dev.coarseBlocks);
     }
 
     // The guarantee and its non-vacuity.
@@ -375,7 +387,8 @@ TEST_F(Guarantee, ObliqueView) {
 
 TEST_F(Guarantee, TopDownView) {
     const format::Header& h = reader_->header();
-    const Drawn d = capture("topdown", camera(0, (h.maxY - h.minY) / 2, 22000, 0, -90), 1, "nearest");
+    const Drawn d =
+        capture("topdown", camera(0, (h.maxY - h.minY) / 2, 22000, 0, -90), 1, "nearest");
     expectGuarantee("top-down", d, 1);
 }
 
@@ -444,8 +457,7 @@ TEST_F(Guarantee, RiversAreDrawn) {
                                      block.originY + a.y + t * (double(b.y) - a.y),
                                      a.z + t * (double(b.z) - a.z)};
                 const auto s = cam.project(p[0], p[1], p[2]);
-                if (!s.inside || s.x < 2 || s.y < 2 || s.x > cam.width - 2 ||
-                    s.y > cam.height - 2)
+                if (!s.inside || s.x < 2 || s.y < 2 || s.x > cam.width - 2 || s.y > cam.height - 2)
                     continue;
                 // Occlusion on the CPU: march from the eye towards the sample (only where the
                 // ray is below the data's top) and call the sample hidden if the drawn surface
@@ -455,7 +467,8 @@ TEST_F(Guarantee, RiversAreDrawn) {
                 // triangles (the river edge is one of their edges) must not count. Steps of
                 // 20 m are a fraction of the DEM's 74 x 93 m cells.
                 const double ray[3] = {p[0] - cam.eye[0], p[1] - cam.eye[1], p[2] - cam.eye[2]};
-                const double length = std::sqrt(ray[0] * ray[0] + ray[1] * ray[1] + ray[2] * ray[2]);
+                const double length =
+                    std::sqrt(ray[0] * ray[0] + ray[1] * ray[1] + ray[2] * ray[2]);
                 double t0 = 0;
                 if (cam.eye[2] > topZ && ray[2] < 0) t0 = (cam.eye[2] - topZ) / -ray[2];
                 const double t1 = 1 - 2.0 * engine::shader::kRiverDepthBias;
@@ -474,10 +487,16 @@ TEST_F(Guarantee, RiversAreDrawn) {
             }
         }
     }
-    std::printf("[ rivers    ] %zu unoccluded samples (%zu hidden), %zu on river pixels (%.1f%%); "
-                "control 12 px to the right: %zu (%.1f%%)\n",
-                samples, occluded, hits, 100.0 * hits / std::max<std::size_t>(samples, 1),
-                shiftedHits, 100.0 * shiftedHits / std::max<std::size_t>(samples, 1));
+    // Threshold 90%: a miss comes from the CPU's occlusion proxy (a 20 m march that stops short
+    // of the sample and ignores the depth-buffer precision) and from 1-px line rasterisation at
+    // grazing angles, where the terrain's own depth at a neighbouring pixel can still win; the
+    // observed rate is ~96%. A broken river pass (not drawn, wrong colour, wrong transform,
+    // lost depth bias) drops it far below: a 12 px shift, for instance, gives ~23%.
+    std::printf(
+        "[ rivers    ] %zu unoccluded samples (%zu hidden), %zu on river pixels (%.1f%%); "
+        "control 12 px to the right: %zu (%.1f%%)\n",
+        samples, occluded, hits, 100.0 * hits / std::max<std::size_t>(samples, 1), shiftedHits,
+        100.0 * shiftedHits / std::max<std::size_t>(samples, 1));
     EXPECT_GE(samples, 100u);
     EXPECT_GE(double(hits), 0.9 * double(samples));
     // Control: the same samples moved off the rivers mostly miss them, so the hits above are
