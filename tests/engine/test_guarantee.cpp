@@ -255,7 +255,10 @@ protected:
         EXPECT_EQ(d.json["distance"], distance);
         d.level.assign(blocks_->size(), SIZE_MAX);
         d.surfaces.resize(blocks_->size());
-        EXPECT_EQ(d.json["blocks"].size(), blocks_->size());
+        // Frustum culling lists only the blocks in view (the deviation check below makes sure
+        // no culled block has a point on screen); a capture settles, so none is a fallback.
+        EXPECT_GT(d.json["blocks"].size(), 0u);
+        EXPECT_LE(d.json["blocks"].size(), blocks_->size());
         for (const nlohmann::json& b : d.json["blocks"]) {
             std::size_t i = 0;
             while (i < blocks_->size() &&
@@ -268,6 +271,7 @@ protected:
             const format::Block& block = (*blocks_)[i];
             EXPECT_EQ(block.grid.size(), block.vertices.size());  // the build stores it
             if (block.grid.size() != block.vertices.size()) continue;
+            EXPECT_FALSE(b["fallback"].get<bool>()) << b.dump();
             d.level[i] = b["level"].get<std::size_t>();
             EXPECT_LT(d.level[i], block.levels.size());
             if (d.level[i] >= block.levels.size()) continue;
@@ -296,8 +300,18 @@ protected:
         const Projector cam(d.json);
         Deviation out;
         for (std::size_t i = 0; i < blocks_->size(); ++i) {
-            if (!d.surfaces[i]) continue;
             const format::Block& block = (*blocks_)[i];
+            if (!d.surfaces[i]) {
+                // Culled: none of its points may be on screen.
+                for (const format::Vertex& v : block.vertices) {
+                    const auto a = cam.project(block.originX + double(v.x),
+                                               block.originY + double(v.y), v.z);
+                    EXPECT_FALSE(a.inside) << "culled block " << block.col << "," << block.row
+                                           << " has a point on screen";
+                    if (a.inside) break;
+                }
+                continue;
+            }
             const format::Level& level = block.levels[d.level[i]];
             if (level.step > 0) ++out.coarseBlocks;
             const double hs = block.errorMax[level.step];
