@@ -109,6 +109,17 @@ std::vector<std::string> HeadlessRenderer::close() {
 
 bool HeadlessRenderer::renderFrame(const FrameView& view, bool draw,
                                    std::vector<std::uint8_t>* rgba, std::string& error) {
+    return record(view, draw, nullptr, rgba, error);
+}
+
+void HeadlessRenderer::renderBareFrame(const FrameView& view, const std::vector<DrawBlock>& draws) {
+    std::string error;
+    record(view, true, &draws, nullptr, error);
+}
+
+bool HeadlessRenderer::record(const FrameView& view, bool draw,
+                              const std::vector<DrawBlock>* bare, std::vector<std::uint8_t>* rgba,
+                              std::string& error) {
     Impl& h = *impl_;
     const auto start = std::chrono::steady_clock::now();
     const std::uint64_t frame = h.nextFrame++;
@@ -125,7 +136,7 @@ bool HeadlessRenderer::renderFrame(const FrameView& view, bool draw,
         vkCmdResetQueryPool(slot.cmd, h.queries, index * 2, 2);
         vkCmdWriteTimestamp(slot.cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, h.queries, index * 2);
     }
-    const bool ok = h.scene.prepare(slot.cmd, frame, h.completed, view, error);
+    const bool ok = bare || h.scene.prepare(slot.cmd, frame, h.completed, view, error);
     if (draw) {
         VkClearValue clears[2]{};
         clears[0].color = {{0.0f, 0.0f, 0.0f, 1.0f}};
@@ -138,7 +149,10 @@ bool HeadlessRenderer::renderFrame(const FrameView& view, bool draw,
         pass.clearValueCount = 2;
         pass.pClearValues = clears;
         vkCmdBeginRenderPass(slot.cmd, &pass, VK_SUBPASS_CONTENTS_INLINE);
-        h.scene.draw(slot.cmd, h.pipelines, view);
+        if (bare)
+            recordDraws(slot.cmd, h.pipelines, h.scene.geometryBuffer(), view, *bare);
+        else
+            h.scene.draw(slot.cmd, h.pipelines, view);
         vkCmdEndRenderPass(slot.cmd);
         if (rgba) recordReadback(slot.cmd, h.offscreen);
     }
@@ -154,7 +168,7 @@ bool HeadlessRenderer::renderFrame(const FrameView& view, bool draw,
     slot.pending = true;
     slot.timing = FrameTiming{};
     slot.timing.frame = frame;
-    slot.timing.stats = h.scene.stats();
+    if (!bare) slot.timing.stats = h.scene.stats();
     slot.timing.cpuMs =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     if (rgba && draw) {

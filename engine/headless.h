@@ -47,6 +47,9 @@ public:
     // message on a scene data error.
     bool renderFrame(const FrameView& view, bool draw, std::vector<std::uint8_t>* rgba,
                      std::string& error);
+    // A bare frame: `draws` (in the scene's geometry buffer) recorded as they are, with no
+    // level selection and no streaming (the benchmark's baseline).
+    void renderBareFrame(const FrameView& view, const std::vector<DrawBlock>& draws);
     // Waits for every submitted frame; their timings in submission order since the last call.
     std::vector<FrameTiming> finish();
 
@@ -58,6 +61,8 @@ public:
     FrameView view(const Camera& camera) const;
 
 private:
+    bool record(const FrameView& view, bool draw, const std::vector<DrawBlock>* bare,
+                std::vector<std::uint8_t>* rgba, std::string& error);
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };

@@ -283,8 +283,14 @@ bool StreamingScene::open(const Device& device, const std::string& path,
         error = path + ": no blocks to draw";
         return false;
     }
+    std::uint64_t budget = options.gpuBudget;
+    if (options.preloadAll) {
+        std::uint64_t all = s.coarseBytes;
+        for (const BlockState& b : s.blocks) all += alignUp(b.fullBytes);
+        budget = std::max(budget, all);
+    }
     // Indices are addressed in uint32 units from the start of the arena.
-    s.budget = std::min<std::uint64_t>(options.gpuBudget, 16ull << 30) / kAlignment * kAlignment;
+    s.budget = std::min<std::uint64_t>(budget, 16ull << 30) / kAlignment * kAlignment;
     if (s.coarseBytes > s.budget) {
         char text[200];
         std::snprintf(text, sizeof text,
@@ -333,6 +339,38 @@ bool StreamingScene::open(const Device& device, const std::string& path,
                              VK_PIPELINE_STAGE_VERTEX_INPUT_BIT, 0, 1, &barrier, 0, nullptr, 0,
                              nullptr);
     });
+    if (options.preloadAll) {
+        // Block by block through the first staging buffer (it holds the largest block).
+        for (std::uint32_t i = 0; i < s.blocks.size(); ++i) {
+            BlockState& b = s.blocks[i];
+            if (b.levels.size() < 2) continue;  // the coarse level is all there is
+            format::BlockGeometry g;
+            if (!s.reader.readGeometry(i, format::kAllLevels, g, error)) {
+                close();
+                return false;
+            }
+            Packed p;
+            pack(g, b.terrainTriangles, b.riverEdges, p);
+            std::uint64_t offset = 0;
+            const bool fits = s.allocator.allocate(p.bytes.size(), offset);
+            assert(fits);
+            (void)fits;
+            b.full = {offset, p.bytes.size(), p.vertexBytes, p.terrainBytes, true};
+            std::memcpy(s.staging[0].buffer.mapped, p.bytes.data(), p.bytes.size());
+            submitAndWait(device, [&](VkCommandBuffer cmd) {
+                const VkBufferCopy copy{0, offset, p.bytes.size()};
+                vkCmdCopyBuffer(cmd, s.staging[0].buffer.buffer, s.arena.buffer, 1, &copy);
+                VkMemoryBarrier barrier{};
+                barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+                barrier.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+                barrier.dstAccessMask =
+                    VK_ACCESS_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_INDEX_READ_BIT;
+                vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                                     VK_PIPELINE_STAGE_VERTEX_INPUT_BIT, 0, 1, &barrier, 0,
+                                     nullptr, 0, nullptr);
+            });
+        }
+    }
     s.stats.blocks = std::uint32_t(s.blocks.size());
     s.stats.gpuBudget = s.budget;
     s.stats.coarseBytes = s.coarseBytes;
@@ -387,14 +425,10 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
         sel.block = i;
         sel.col = b.info.col;
         sel.row = b.info.row;
-        if (view.grid) {
-            // Top-down orthographic: a pixel is 2 * halfHeight / H metres everywhere.
-            sel.distance = 0;
-            sel.hLim = s.options.pixels * 2.0 * view.gridHalfHeight / double(view.height);
-        } else {
-            sel.distance = blockDistance(s.options.distance, camera.eye, b.boxMin, b.boxMax);
-            sel.hLim = blockTolerance(tolerance, sel.distance);
-        }
+        // The grid mode shows, top-down, the levels the perspective view from the same eye
+        // selects (the paper's 2D grid diagrams at a view distance).
+        sel.distance = blockDistance(s.options.distance, camera.eye, b.boxMin, b.boxMax);
+        sel.hLim = blockTolerance(tolerance, sel.distance);
         sel.wanted = s.options.policy == LodPolicy::Finest
                          ? chooseStoredLevel(b.levels, s.metric, -1.0)
                          : chooseStoredLevel(b.levels, s.metric, sel.hLim);
@@ -529,6 +563,9 @@ void StreamingScene::draw(VkCommandBuffer cmd, const Pipelines& pipelines,
                           const FrameView& view) const {
     recordDraws(cmd, pipelines, impl_->arena.buffer, view, impl_->draws);
 }
+
+const std::vector<DrawBlock>& StreamingScene::drawList() const { return impl_->draws; }
+VkBuffer StreamingScene::geometryBuffer() const { return impl_->arena.buffer; }
 
 bool StreamingScene::settled() const {
     std::lock_guard lock(impl_->mutex);

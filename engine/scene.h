@@ -49,6 +49,9 @@ struct SceneOptions {
     DistanceMode distance = DistanceMode::Nearest;
     LodPolicy policy = LodPolicy::Adaptive;
     bool cull = true;  // frustum culling (off: every block is drawn)
+    // Everything resident: open() also uploads every block's full LOD geometry (the budget
+    // is raised to what that needs) and nothing is streamed: the benchmark's baseline.
+    bool preloadAll = false;
 };
 
 // One visible block's choice in the last prepared frame.
@@ -100,6 +103,10 @@ public:
                  const FrameView& view, std::string& error);
     // Inside the render pass: draws the selection of the last prepare().
     void draw(VkCommandBuffer cmd, const Pipelines& pipelines, const FrameView& view) const;
+    // The draw list of the last prepare() and the buffer it refers to (the benchmark replays
+    // it in a bare pipeline).
+    const std::vector<DrawBlock>& drawList() const;
+    VkBuffer geometryBuffer() const;
 
     // True when no load is queued, in flight or waiting for upload: the selection of the last
     // prepare() is then final for its view (captures wait for this, frames do not).

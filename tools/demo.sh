@@ -1,32 +1,82 @@
 #!/usr/bin/env bash
-# unilod main job on the bundled demo data (README Quick start).
-# Installs missing Debian packages, builds (optimised), then runs the pipeline as far as it exists
-# today on the Jacksboro DEM + GRASS river network: the unified LOD model (.ulod), its full check,
-# its summary, the paper's Tables 2/3 for it, and the improved 3D_DP importance order of the whole point set as CSV. Later stages
-# (capture, bench, report) join here as they land.
+# unilod main job on the bundled demo data (README Quick start): installs missing Debian packages,
+# builds (optimised), then runs the whole chain on the Jacksboro DEM + GRASS river network:
+#   build -> check -> info -> stats -> capture (perspective, top-down, 2D grid) -> bench ->
+#   report -> importance order,
+# and prints where every output is. With --view (or a display and UNILOD_DEMO_VIEW=1) it then
+# opens the viewer on the model.
+#
+# Options: --frames N   bench frames per run (default 200; CI uses a handful)
+#          --size WxH   bench frame size (default 1920x1080)
+#          --out DIR    output folder (default out/)
+#          --no-build   use the existing build (build/tools/unilod, or $UNILOD_BIN)
+#          --view       open `unilod view` at the end
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
-source tools/deps.sh
-unilod_ensure_packages
+frames=200 size=1920x1080 out=out build=1 view=${UNILOD_DEMO_VIEW:-0}
+while [ $# -gt 0 ]; do
+    case "$1" in
+        --frames) frames=$2; shift 2 ;;
+        --size) size=$2; shift 2 ;;
+        --out) out=$2; shift 2 ;;
+        --no-build) build=0; shift ;;
+        --view) view=1; shift ;;
+        -h|--help) sed -n '2,15p' "$0"; exit 0 ;;
+        *) echo "tools/demo.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
+    esac
+done
 
-cmake --preset default >/dev/null
-cmake --build --preset default -j "$(nproc)"
-unilod=build/tools/unilod
+unilod=${UNILOD_BIN:-build/tools/unilod}
+if [ "$build" = 1 ]; then
+    source tools/deps.sh
+    unilod_ensure_packages
+    cmake --preset default >/dev/null
+    cmake --build --preset default -j "$(nproc)"
+    unilod=build/tools/unilod
+fi
 dem=assets/jacksboro_dem.tif
 rivers=assets/jacksboro_rivers_grass.geojson
-mkdir -p out
+path=assets/jacksboro_path.json
+mkdir -p "$out"
+model=$out/jacksboro.ulod
 
-echo "== 1. unilod build: DEM + rivers -> unified LOD model =="
-$unilod build "$dem" "$rivers" -o out/jacksboro.ulod --force "$@"
+echo "== 1. unilod build: DEM + rivers -> unified LOD model (64-cell blocks, 42 blocks) =="
+$unilod build "$dem" "$rivers" -o "$model" --block-size 64 --force
 echo "== 2. unilod check: checksums + topology invariants at every stored level =="
-$unilod check -q out/jacksboro.ulod
+$unilod check -q "$model"
 echo "== 3. unilod info =="
-$unilod info out/jacksboro.ulod
+$unilod info "$model"
 echo "== 4. unilod stats: the paper's Table 2 / 3 for this model (1-3 pixels, 100-1500 km) =="
-$unilod stats out/jacksboro.ulod --pixels 1,2,3
-echo "== 5. unilod order: improved 3D_DP importance order of the whole point set =="
-$unilod order "$dem" "$rivers" --out out/jacksboro_order.csv -q
+$unilod stats "$model" --pixels 1,2,3
+echo "== 5. unilod capture: headless frames (Vulkan; validation on) =="
+$unilod capture "$model" --validation --size 1280x720 --camera 735000,4034000,3500,30,-20 \
+    --out "$out/capture/oblique"
+$unilod capture "$model" --validation --size 1024x1024 --camera 746400,4052900,30000,0,-90 \
+    --out "$out/capture/topdown"
+$unilod capture "$model" --validation --size 1024x1024 --camera 746400,4052900,30000,0,-90 \
+    --grid --out "$out/capture/grid"
+$unilod capture "$model" --validation --size 640x360 --path "$path" --frames 5 \
+    --out "$out/capture/path"
+echo "== 6. unilod bench: $frames frames at $size along $path =="
+$unilod bench "$model" --path "$path" --frames "$frames" --size "$size" --json "$out/bench.json"
+if $unilod --help 2>/dev/null | grep -q "^  report"; then
+    echo "== 7. unilod report: tables, error curves, BAI vs plain 3D_DP rivers, grid diagrams =="
+    $unilod report "$model" -o "$out/report" --dem "$dem" --rivers "$rivers"
+fi
+echo "== 8. unilod order: improved 3D_DP importance order of the whole point set =="
+$unilod order "$dem" "$rivers" --out "$out/jacksboro_order.csv" -q
 echo "== outputs =="
-echo "  unified LOD model: $root/out/jacksboro.ulod"
-echo "  importance order:  $root/out/jacksboro_order.csv"
+echo "  unified LOD model:  $out/jacksboro.ulod"
+echo "  captures (PNG+JSON): $out/capture/{oblique,topdown,grid,path}/"
+echo "  benchmark JSON:     $out/bench.json"
+[ -d "$out/report" ] && echo "  report:             $out/report/report.md"
+echo "  importance order:   $out/jacksboro_order.csv"
+if [ "$view" = 1 ]; then
+    if [ -n "${DISPLAY:-}${WAYLAND_DISPLAY:-}" ] && $unilod --help 2>/dev/null | grep -q "^  view"; then
+        echo "== viewer: WASD + mouse, +/- tolerance, G grid, L rivers, P screenshot, Esc quits =="
+        $unilod view "$model"
+    else
+        echo "(no display or no viewer: skipped)"
+    fi
+fi

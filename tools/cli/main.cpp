@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
     unilod::cli::addCheckCommand(app, exitCode);
     unilod::cli::addStatsCommand(app, exitCode);
     unilod::cli::addCaptureCommand(app, exitCode);
+    unilod::cli::addBenchCommand(app, exitCode);
     unilod::cli::addViewCommand(app, exitCode);
     try {
         app.parse(argc, argv);

@@ -1,0 +1,231 @@
+#include "bench.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <numeric>
+
+#include "headless.h"
+
+namespace unilod::engine {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+nlohmann::json summary(std::vector<double> v) {
+    if (v.empty()) return nullptr;
+    std::sort(v.begin(), v.end());
+    auto pct = [&](double p) {
+        const double at = p * double(v.size() - 1);
+        const std::size_t i = std::size_t(at);
+        const double f = at - double(i);
+        return i + 1 < v.size() ? v[i] * (1 - f) + v[i + 1] * f : v[i];
+    };
+    const double mean = std::accumulate(v.begin(), v.end(), 0.0) / double(v.size());
+    return {{"mean", mean}, {"median", pct(0.5)}, {"p95", pct(0.95)}, {"p99", pct(0.99)},
+            {"min", v.front()}, {"max", v.back()}};
+}
+
+struct RunData {
+    std::vector<double> frameMs, cpuMs, gpuMs;
+    std::vector<FrameStats> stats;
+    std::vector<std::vector<DrawBlock>> drawLists;  // "resident" keeps them for "bare"
+    double seconds = 0;
+};
+
+nlohmann::json runJson(const RunData& r, bool perFrame) {
+    std::vector<double> triangles, resident, fallback, visible;
+    std::uint64_t uploaded = 0, gpuUsed = 0, evictions = 0;
+    for (const FrameStats& s : r.stats) {
+        triangles.push_back(double(s.triangles));
+        resident.push_back(double(s.residentBlocks));
+        fallback.push_back(double(s.fallbackBlocks));
+        visible.push_back(double(s.visibleBlocks));
+        uploaded += s.bytesUploaded;
+        gpuUsed = std::max(gpuUsed, s.gpuBytesUsed);
+        evictions += s.evictions;
+    }
+    const double medianFrame = summary(r.frameMs)["median"].get<double>();
+    nlohmann::json j = {
+        {"frames", r.frameMs.size()},
+        {"seconds", r.seconds},
+        {"fps", r.seconds > 0 ? double(r.frameMs.size()) / r.seconds : 0.0},
+        {"fps_median", medianFrame > 0 ? 1000.0 / medianFrame : 0.0},
+        {"frame_ms", summary(r.frameMs)},
+        {"cpu_ms", summary(r.cpuMs)},
+        {"gpu_ms", summary(r.gpuMs)},
+        {"triangles", summary(triangles)},
+        {"visible_blocks", summary(visible)},
+        {"resident_blocks", summary(resident)},
+        {"fallback_blocks", summary(fallback)},
+        {"bytes_uploaded", uploaded},
+        {"gpu_bytes_used_max", gpuUsed},
+        {"gpu_budget", r.stats.empty() ? 0 : r.stats.back().gpuBudget},
+        {"evictions", evictions},
+    };
+    if (perFrame) {
+        nlohmann::json frames = nlohmann::json::array();
+        for (std::size_t i = 0; i < r.frameMs.size(); ++i)
+            frames.push_back({{"frame_ms", r.frameMs[i]},
+                              {"cpu_ms", r.cpuMs[i]},
+                              {"gpu_ms", i < r.gpuMs.size() ? r.gpuMs[i] : -1.0},
+                              {"triangles", r.stats[i].triangles},
+                              {"resident_blocks", r.stats[i].residentBlocks},
+                              {"bytes_uploaded", r.stats[i].bytesUploaded}});
+        j["per_frame"] = frames;
+    }
+    return j;
+}
+
+// One run over the path. `bareLists`: replay these instead of selecting (the bare run).
+bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
+         const std::vector<std::vector<DrawBlock>>* bareLists, RunData& data,
+         std::string& error) {
+    const std::size_t n = o.cameras.size();
+    // Warm-up on the first camera (pipelines, caches), not measured.
+    for (std::uint32_t i = 0; i < o.warmup; ++i) {
+        const FrameView view = renderer.view(o.cameras.front());
+        if (bareLists)
+            renderer.renderBareFrame(view, (*bareLists)[0]);
+        else if (!renderer.renderFrame(view, true, nullptr, error))
+            return false;
+    }
+    renderer.finish();
+    std::vector<FrameStats> stats;
+    const auto start = Clock::now();
+    auto last = start;
+    for (std::size_t i = 0; i < n; ++i) {
+        const FrameView view = renderer.view(o.cameras[i]);
+        if (bareLists) {
+            renderer.renderBareFrame(view, (*bareLists)[i]);
+            FrameStats s;
+            for (const DrawBlock& d : (*bareLists)[i]) s.triangles += d.terrainCount / 3;
+            s.visibleBlocks = std::uint32_t((*bareLists)[i].size());
+            stats.push_back(s);
+        } else {
+            if (!renderer.renderFrame(view, true, nullptr, error)) return false;
+            stats.push_back(renderer.scene().stats());
+            if (keepLists) data.drawLists.push_back(renderer.scene().drawList());
+        }
+        const auto now = Clock::now();
+        data.frameMs.push_back(std::chrono::duration<double, std::milli>(now - last).count());
+        last = now;
+    }
+    const std::vector<FrameTiming> timings = renderer.finish();
+    data.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    // The last frames' intervals do not include their GPU work: add the drain to the last one.
+    data.frameMs.back() += std::chrono::duration<double, std::milli>(Clock::now() - last).count();
+    for (const FrameTiming& t : timings) {
+        data.cpuMs.push_back(t.cpuMs);
+        if (t.gpuMs >= 0) data.gpuMs.push_back(t.gpuMs);
+    }
+    data.stats = std::move(stats);
+    return true;
+}
+
+}  // namespace
+
+bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error, bool progress) {
+    if (o.cameras.empty()) {
+        error = "no frames";
+        return false;
+    }
+    auto has = [&](const char* name) {
+        return std::find(o.runs.begin(), o.runs.end(), name) != o.runs.end();
+    };
+    nlohmann::json runs = nlohmann::json::object();
+    std::string deviceName;
+    std::vector<std::string> messages;
+    auto openRenderer = [&](HeadlessRenderer& r, const SceneOptions& scene) {
+        HeadlessOptions ho;
+        ho.path = o.path;
+        ho.width = o.width;
+        ho.height = o.height;
+        ho.scene = scene;
+        ho.device = o.device;
+        ho.spirvDir = o.spirvDir;
+        if (!r.open(ho, error)) return false;
+        deviceName = r.device().properties.deviceName;
+        return true;
+    };
+    auto closeRenderer = [&](HeadlessRenderer& r) {
+        for (std::string& m : r.close()) messages.push_back(std::move(m));
+    };
+    auto say = [&](const char* what) {
+        if (progress) std::fprintf(stderr, "unilod bench: %s (%zu frames)...\n", what, o.cameras.size());
+    };
+
+    if (has("lod")) {
+        say("lod: streamed, per-block LOD");
+        HeadlessRenderer r;
+        RunData d;
+        const bool ok = openRenderer(r, o.scene) && run(r, o, false, nullptr, d, error);
+        closeRenderer(r);
+        if (!ok) return false;
+        runs["lod"] = runJson(d, o.perFrame);
+    }
+    if (has("resident") || has("bare")) {
+        SceneOptions scene = o.scene;
+        scene.preloadAll = true;
+        HeadlessRenderer r;
+        RunData resident, bare;
+        bool ok = openRenderer(r, scene);
+        if (ok) {
+            say("resident: per-block LOD, everything preloaded");
+            ok = run(r, o, true, nullptr, resident, error);
+        }
+        if (ok && has("bare")) {
+            say("bare: the resident run's draws replayed");
+            ok = run(r, o, false, &resident.drawLists, bare, error);
+        }
+        closeRenderer(r);
+        if (!ok) return false;
+        if (has("resident")) runs["resident"] = runJson(resident, o.perFrame);
+        if (has("bare")) runs["bare"] = runJson(bare, o.perFrame);
+    }
+    if (has("full")) {
+        say("full: every visible block at full resolution");
+        SceneOptions scene = o.scene;
+        scene.preloadAll = true;
+        scene.policy = LodPolicy::Finest;
+        HeadlessRenderer r;
+        RunData d;
+        const bool ok = openRenderer(r, scene) && run(r, o, false, nullptr, d, error);
+        closeRenderer(r);
+        if (!ok) return false;
+        runs["full"] = runJson(d, o.perFrame);
+    }
+    if (!messages.empty()) {
+        error = std::to_string(messages.size()) +
+                " Vulkan validation message(s) (first: " + messages.front() + ")";
+        return false;
+    }
+    auto median = [&](const char* name) {
+        return runs.contains(name) ? runs[name]["frame_ms"]["median"].get<double>() : 0.0;
+    };
+    nlohmann::json ratios = nlohmann::json::object();
+    if (median("lod") > 0 && median("bare") > 0)
+        ratios["lod_over_bare"] = median("lod") / median("bare");
+    if (median("resident") > 0 && median("bare") > 0)
+        ratios["resident_over_bare"] = median("resident") / median("bare");
+    if (median("lod") > 0 && median("full") > 0)
+        ratios["full_over_lod"] = median("full") / median("lod");
+    out = {
+        {"file", o.path},
+        {"device", deviceName},
+        {"size", {o.width, o.height}},
+        {"frames", o.cameras.size()},
+        {"warmup_frames", o.warmup},
+        {"pixels", o.scene.pixels},
+        {"metric", o.scene.metric.empty() ? "file default" : o.scene.metric},
+        {"distance", o.scene.distance == DistanceMode::Nearest ? "nearest" : "centre"},
+        {"gpu_budget", o.scene.gpuBudget},
+        {"runs", runs},
+        {"ratios_of_median_frame_ms", ratios},
+        {"goals", {{"lod_over_bare_at_most", 1.2}, {"full_over_lod_at_least", 3.0}}},
+    };
+    return true;
+}
+
+}  // namespace unilod::engine

@@ -1,0 +1,41 @@
+// The frame-time benchmark (paper §4.2.3; issues 5 and 6): a fixed camera path rendered
+// headless, without waiting for streaming, in four runs on one device:
+// - "lod": the product: streamed blocks under the GPU budget, per-block level from h_lim;
+// - "resident": the same level choice with every block preloaded (no streaming);
+// - "bare": the draw lists of "resident" replayed frame by frame with no level selection and
+//   no streaming: the cost of drawing the same triangles and nothing else;
+// - "full": every visible block at full resolution, preloaded.
+// Frame time is the wall-clock interval between successive frame submissions with two frames
+// in flight (the pace of the slower of CPU and GPU); CPU time is the recording work; GPU time
+// comes from timestamp queries.
+#pragma once
+
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "camera.h"
+#include "device.h"
+#include "scene.h"
+
+namespace unilod::engine {
+
+struct BenchOptions {
+    std::string path;             // the .ulod file
+    std::vector<Camera> cameras;  // one per frame
+    std::uint32_t width = 1920, height = 1080;
+    SceneOptions scene;
+    DeviceOptions device;
+    std::string spirvDir;
+    std::uint32_t warmup = 5;  // frames rendered before each run's measured frames
+    bool perFrame = false;     // include every frame's numbers in the JSON
+    std::vector<std::string> runs = {"lod", "resident", "bare", "full"};
+};
+
+// Runs the benchmark and returns its JSON (see README "unilod bench" for the fields). False
+// with a message on a data or device error or a validation message when validation is on.
+bool runBench(const BenchOptions& options, nlohmann::json& out, std::string& error,
+              bool progress);
+
+}  // namespace unilod::engine

@@ -1,0 +1,301 @@
+// Streaming under a GPU budget, frustum culling and camera paths, on lavapipe with validation on
+// (any validation message fails). The bundled data is built with 64-cell blocks (42 blocks) so
+// that views cull and stream.
+// - The first frame after open draws every visible block at its resident coarse level: a frame
+//   never waits on disk. Later frames bring in what h_lim asks for.
+// - A budget that holds about a third of the full blocks: over a path, memory in use never
+//   exceeds the budget, blocks are evicted, every visible block is drawn every frame.
+// - A tiny budget (just above the coarse set) still renders every block; below it the open
+//   fails with a message naming the budget.
+// - Culling never drops a block with a vertex on screen.
+// - `capture --path ... --frames N` writes N frames whose cameras follow the keyframes.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "camera.h"
+#include "capture.h"
+#include "headless.h"
+#include "testutil.h"
+#include "tools/cliutil.h"
+#include "ulod.h"
+
+namespace fs = std::filesystem;
+using namespace unilod;
+using unilod::test::q;
+using unilod::test::runCli;
+using unilod::test::slurp;
+
+namespace {
+
+const std::string kAssets = UNILOD_ASSETS_DIR;
+
+class Streaming : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        dir_ = fs::temp_directory_path() / ("unilod_test_streaming_" + std::to_string(getpid()));
+        fs::create_directories(dir_);
+        file_ = (dir_ / "jacksboro64.ulod").string();
+        const auto r = runCli("build -q --block-size 64 " + q(kAssets + "/jacksboro_dem.tif") +
+                              " " + q(kAssets + "/jacksboro_rivers_grass.geojson") + " -o " +
+                              q(file_));
+        ASSERT_EQ(r.code, 0) << r.err;
+        std::string error;
+        ASSERT_TRUE(reader_.open(file_, error)) << error;
+    }
+    static void TearDownTestSuite() { fs::remove_all(dir_); }
+
+    static engine::HeadlessOptions options(std::uint64_t budget) {
+        engine::HeadlessOptions o;
+        o.path = file_;
+        o.width = 320;
+        o.height = 240;
+        o.scene.gpuBudget = budget;
+        o.device.validation = true;
+        return o;
+    }
+
+    // Oblique camera south of the data looking north-east over it.
+    static engine::Camera oblique(double t) {
+        const format::Header& h = reader_.header();
+        engine::Camera c;
+        c.eye[0] = h.minX + t * (h.maxX - h.minX);
+        c.eye[1] = h.minY + 0.2 * (h.maxY - h.minY);
+        c.eye[2] = h.maxZ + 1500;
+        c.yawDegrees = 20;
+        c.pitchDegrees = -20;
+        return c;
+    }
+
+    static fs::path dir_;
+    static std::string file_;
+    static format::Reader reader_;
+};
+
+fs::path Streaming::dir_;
+std::string Streaming::file_;
+format::Reader Streaming::reader_;
+
+TEST_F(Streaming, FirstFrameDrawsCoarseThenStreamsIn) {
+    engine::HeadlessRenderer r;
+    std::string error;
+    ASSERT_TRUE(r.open(options(engine::kDefaultGpuBudget), error)) << error;
+    const engine::FrameView view = r.view(oblique(0.5));
+    ASSERT_TRUE(r.renderFrame(view, true, nullptr, error)) << error;
+    const engine::FrameStats first = r.scene().stats();
+    EXPECT_GT(first.visibleBlocks, 0u);
+    EXPECT_EQ(first.residentBlocks, 0u);
+    std::uint32_t wantFiner = 0;
+    for (const engine::BlockSelection& s : r.scene().selection()) {
+        const bool finer = s.wanted.level + 1 < r.scene().levels(s.block).size();
+        wantFiner += finer;
+        EXPECT_EQ(s.fallback, finer);
+        EXPECT_EQ(s.drawnLevel, r.scene().levels(s.block).size() - 1);  // coarse
+    }
+    EXPECT_GT(wantFiner, 0u);
+    EXPECT_EQ(first.fallbackBlocks, wantFiner);
+    // Upload-only frames until settled, then nothing is drawn coarser than wanted.
+    for (int i = 0; i < 100000 && !r.scene().settled(); ++i) {
+        ASSERT_TRUE(r.renderFrame(view, false, nullptr, error)) << error;
+        r.finish();
+    }
+    ASSERT_TRUE(r.renderFrame(view, true, nullptr, error)) << error;
+    r.finish();
+    EXPECT_EQ(r.scene().stats().fallbackBlocks, 0u);
+    EXPECT_EQ(r.scene().stats().residentBlocks, wantFiner);
+    for (const engine::BlockSelection& s : r.scene().selection())
+        EXPECT_EQ(s.drawnLevel, s.wanted.level);
+    const std::vector<std::string> messages = r.close();
+    EXPECT_TRUE(messages.empty()) << messages.front();
+}
+
+TEST_F(Streaming, BudgetIsNeverExceededAndBlocksAreEvicted) {
+    // Budget: the coarse set plus about a third of the full blocks.
+    std::uint64_t coarse = 0, full = 0;
+    {
+        engine::HeadlessRenderer probe;
+        std::string error;
+        engine::HeadlessOptions o = options(engine::kDefaultGpuBudget);
+        o.scene.preloadAll = true;
+        ASSERT_TRUE(probe.open(o, error)) << error;
+        coarse = probe.scene().stats().coarseBytes;
+        full = probe.scene().stats().gpuBytesUsed - coarse;
+        probe.close();
+    }
+    const std::uint64_t budget = coarse + full / 3;
+    engine::HeadlessRenderer r;
+    std::string error;
+    ASSERT_TRUE(r.open(options(budget), error)) << error;
+    std::uint64_t evictions = 0, peak = 0;
+    for (int i = 0; i <= 60; ++i) {
+        // Sweep west to east and back, settling each view so the budget is really used.
+        const double t = i <= 30 ? i / 30.0 : (60 - i) / 30.0;
+        const engine::FrameView view = r.view(oblique(t));
+        for (int k = 0; k < 100000; ++k) {
+            ASSERT_TRUE(r.renderFrame(view, true, nullptr, error)) << error;
+            const engine::FrameStats& s = r.scene().stats();
+            EXPECT_LE(s.gpuBytesUsed, s.gpuBudget);
+            EXPECT_LE(s.gpuBudget, budget);
+            EXPECT_EQ(r.scene().selection().size(), s.visibleBlocks);  // every visible block drawn
+            evictions += s.evictions;
+            peak = std::max(peak, s.gpuBytesUsed);
+            if (r.scene().settled()) break;
+        }
+        r.finish();
+    }
+    EXPECT_GT(evictions, 0u);
+    EXPECT_GT(peak, coarse + full / 6);  // the budget was put to use
+    const std::vector<std::string> messages = r.close();
+    EXPECT_TRUE(messages.empty()) << messages.front();
+}
+
+TEST_F(Streaming, TinyBudgetStillRendersEveryBlock) {
+    // The coarse set's size from a capture's JSON, then a budget 10% above it.
+    const fs::path big = dir_ / "big", tiny = dir_ / "tiny", below = dir_ / "below";
+    const std::string camera = "--camera " + [] {
+        const engine::Camera c = oblique(0.5);
+        char text[200];
+        std::snprintf(text, sizeof text, "%.3f,%.3f,%.3f,%.1f,%.1f", c.eye[0], c.eye[1], c.eye[2],
+                      c.yawDegrees, c.pitchDegrees);
+        return std::string(text);
+    }();
+    auto r = runCli("capture " + q(file_) + " --validation --size 320x240 " + camera + " --out " +
+                    q(big.string()));
+    ASSERT_EQ(r.code, 0) << r.err;
+    const nlohmann::json bigJson = nlohmann::json::parse(slurp((big / "frame_0000.json").string()));
+    const auto coarse = bigJson["totals"]["coarse_bytes"].get<std::uint64_t>();
+    const double tinyMiB = double(coarse) * 1.1 / 1048576.0;
+    r = runCli("capture " + q(file_) + " --validation --size 320x240 " + camera +
+               " --gpu-budget " + std::to_string(tinyMiB) + " --out " + q(tiny.string()));
+    ASSERT_EQ(r.code, 0) << r.err;
+    const nlohmann::json tinyJson =
+        nlohmann::json::parse(slurp((tiny / "frame_0000.json").string()));
+    const nlohmann::json& t = tinyJson["totals"];
+    EXPECT_EQ(t["blocks_drawn"], bigJson["totals"]["blocks_drawn"]);
+    EXPECT_LE(t["gpu_bytes_used"].get<std::uint64_t>(), t["gpu_budget"].get<std::uint64_t>());
+    EXPECT_LE(t["gpu_budget"].get<double>(), tinyMiB * 1048576.0);
+    EXPECT_GT(t["fallback_blocks"].get<int>(), 0);  // the budget forced coarse blocks
+    EXPECT_LT(t["triangles"].get<std::uint64_t>(),
+              bigJson["totals"]["triangles"].get<std::uint64_t>());
+    EXPECT_GT(t["triangles"].get<std::uint64_t>(), 0u);
+    EXPECT_GT(fs::file_size(tiny / "frame_0000.png"), 1000u);
+    // Below the coarse set: refused, with the numbers, and no frame.
+    r = runCli("capture " + q(file_) + " --size 320x240 " + camera + " --gpu-budget " +
+               std::to_string(double(coarse) * 0.5 / 1048576.0) + " --out " + q(below.string()));
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find("coarse"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("jacksboro64.ulod"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(below / "frame_0000.png"));
+}
+
+TEST_F(Streaming, CullingKeepsEveryBlockWithAVertexOnScreen) {
+    const double aspect = 4.0 / 3.0;
+    for (const engine::Camera& camera : {oblique(0.1), oblique(0.9)}) {
+        engine::Camera c = camera;
+        c.yawDegrees = 80;  // looking east along the south edge: many blocks out of view
+        const engine::CameraBasis b = engine::cameraBasis(c);
+        const double ty = std::tan(c.fovDegrees * 3.14159265358979323846 / 360.0);
+        std::size_t kept = 0, culled = 0;
+        for (std::size_t i = 0; i < reader_.blocks().size(); ++i) {
+            const format::BlockInfo& info = reader_.blocks()[i];
+            const double lo[3] = {info.minX, info.minY, info.minZ};
+            const double hi[3] = {info.maxX, info.maxY, info.maxZ};
+            if (engine::boxInFrustum(c, aspect, lo, hi)) {
+                ++kept;
+                continue;
+            }
+            ++culled;
+            format::BlockGeometry g;
+            std::string error;
+            ASSERT_TRUE(reader_.readGeometry(i, format::kAllLevels, g, error)) << error;
+            for (const format::Vertex& v : g.vertices) {
+                const double p[3] = {g.originX + v.x - c.eye[0], g.originY + v.y - c.eye[1],
+                                     v.z - c.eye[2]};
+                const double z = p[0] * b.forward[0] + p[1] * b.forward[1] + p[2] * b.forward[2];
+                const double x = p[0] * b.right[0] + p[1] * b.right[1] + p[2] * b.right[2];
+                const double y = p[0] * b.up[0] + p[1] * b.up[1] + p[2] * b.up[2];
+                const bool onScreen = z >= engine::kNearPlane && std::abs(x) <= z * ty * aspect &&
+                                      std::abs(y) <= z * ty;
+                ASSERT_FALSE(onScreen) << "block " << info.col << "," << info.row << " culled";
+            }
+        }
+        EXPECT_GT(kept, 0u);
+        EXPECT_GT(culled, 0u);
+    }
+}
+
+TEST_F(Streaming, CapturePathWritesEveryFrame) {
+    const engine::Camera a = oblique(0.2), b = oblique(0.8);
+    const fs::path pathFile = dir_ / "path.json";
+    nlohmann::json path = {{"fov", 50},
+                           {"keyframes",
+                            {{{"eye", {a.eye[0], a.eye[1], a.eye[2]}}, {"yaw", 350}, {"pitch", -20}},
+                             {{"eye", {b.eye[0], b.eye[1], b.eye[2]}}, {"yaw", 30}, {"pitch", -30}}}}};
+    std::ofstream(pathFile) << path.dump();
+    const fs::path out = dir_ / "path";
+    auto r = runCli("capture " + q(file_) + " --validation --size 160x120 --path " +
+                    q(pathFile.string()) + " --frames 5 --out " + q(out.string()));
+    ASSERT_EQ(r.code, 0) << r.err;
+    for (int i = 0; i < 5; ++i) {
+        char name[32];
+        std::snprintf(name, sizeof name, "frame_%04d", i);
+        ASSERT_TRUE(fs::exists(out / (std::string(name) + ".png"))) << name;
+        const nlohmann::json j = nlohmann::json::parse(slurp((out / (std::string(name) + ".json")).string()));
+        const double u = i / 4.0;
+        EXPECT_NEAR(j["camera"]["eye"][0].get<double>(), a.eye[0] + u * (b.eye[0] - a.eye[0]), 1e-6);
+        // Yaw goes the short way round: 350 -> 390 (= 30).
+        EXPECT_NEAR(j["camera"]["yaw"].get<double>(), 350 + u * 40, 1e-9);
+        EXPECT_NEAR(j["camera"]["pitch"].get<double>(), -20 - u * 10, 1e-9);
+        EXPECT_EQ(j["camera"]["fov"].get<double>(), 50);
+        EXPECT_EQ(j["totals"]["fallback_blocks"].get<int>(), 0);
+    }
+    EXPECT_FALSE(fs::exists(out / "frame_0005.png"));
+    // A broken path file: exit 1, named, no frames.
+    std::ofstream(dir_ / "bad.json") << R"({"keyframes": [{"eye": [1, 2], "yaw": 0, "pitch": 0}]})";
+    const fs::path badOut = dir_ / "badpath";
+    r = runCli("capture " + q(file_) + " --path " + q((dir_ / "bad.json").string()) + " --out " +
+               q(badOut.string()));
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find("bad.json"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(badOut / "frame_0000.png"));
+    // Both --camera and --path: a usage error.
+    r = runCli("capture " + q(file_) + " --camera 0,0,0,0,0 --path " + q(pathFile.string()) +
+               " --out " + q(badOut.string()));
+    EXPECT_EQ(r.code, 2);
+}
+
+TEST_F(Streaming, BenchEmitsEveryField) {
+    const fs::path json = dir_ / "bench.json";
+    const auto r = runCli("bench " + q(file_) + " --validation --frames 10 --warmup 1 --size 320x240 --json " +
+                          q(json.string()));
+    ASSERT_EQ(r.code, 0) << r.err;
+    const nlohmann::json j = nlohmann::json::parse(slurp(json.string()));
+    for (const char* k : {"device", "size", "frames", "pixels", "metric", "distance", "runs",
+                          "ratios_of_median_frame_ms"})
+        EXPECT_TRUE(j.contains(k)) << k;
+    for (const char* run : {"lod", "resident", "bare", "full"}) {
+        ASSERT_TRUE(j["runs"].contains(run)) << run;
+        const nlohmann::json& x = j["runs"][run];
+        EXPECT_EQ(x["frames"].get<int>(), 10) << run;
+        for (const char* k : {"fps", "frame_ms", "cpu_ms", "gpu_ms", "triangles",
+                              "resident_blocks", "bytes_uploaded", "gpu_bytes_used_max"})
+            EXPECT_TRUE(x.contains(k)) << run << " " << k;
+        for (const char* k : {"median", "p95", "p99"})
+            EXPECT_GT(x["frame_ms"][k].get<double>(), 0.0) << run << " " << k;
+        EXPECT_GT(x["triangles"]["mean"].get<double>(), 0.0) << run;
+    }
+    // The streamed run uploads, the preloaded ones do not; bare draws what resident drew; full
+    // draws at least as many triangles as the LOD.
+    EXPECT_GT(j["runs"]["lod"]["bytes_uploaded"].get<std::uint64_t>(), 0u);
+    EXPECT_EQ(j["runs"]["resident"]["bytes_uploaded"].get<std::uint64_t>(), 0u);
+    EXPECT_EQ(j["runs"]["bare"]["triangles"]["mean"], j["runs"]["resident"]["triangles"]["mean"]);
+    EXPECT_GE(j["runs"]["full"]["triangles"]["mean"].get<double>(),
+              j["runs"]["resident"]["triangles"]["mean"].get<double>());
+    EXPECT_GT(j["ratios_of_median_frame_ms"]["full_over_lod"].get<double>(), 0.0);
+}
+
+}  // namespace

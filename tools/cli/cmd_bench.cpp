@@ -1,0 +1,145 @@
+// `unilod bench FILE [--path PATH.json] [--frames 200] [--size 1920x1080] [--pixels 1]
+// [--json OUT]`: the paper's §4.2.3 roaming experiment (engine/bench.h): one fixed camera path,
+// four runs (streamed LOD, everything resident, bare replay of the same draws, full resolution),
+// FPS and frame time median / p95 / p99, GPU time, triangles, resident blocks, bytes uploaded.
+// A benchmark, not a test: it prints numbers and asserts nothing.
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "bench.h"
+#include "capture.h"
+#include "commands.h"
+#include "engineopts.h"
+#include "ulod.h"
+
+namespace unilod::cli {
+
+namespace {
+
+struct BenchCli {
+    engine::BenchOptions o;
+    EngineCli engine;
+    std::string cameraPath, jsonOut, runs = "lod,resident,bare,full";
+    std::uint32_t frames = 200;
+};
+
+// Without --path: a straight oblique fly-over of the data at a fifth of its width above its
+// top, looking ahead and down 25 degrees, from the south-west corner to the north-east one.
+engine::CameraPath defaultPath(const format::Header& h) {
+    const double w = std::max(h.maxX - h.minX, h.maxY - h.minY);
+    engine::CameraPath p;
+    engine::Camera a, b;
+    a.eye[0] = h.minX + 0.1 * (h.maxX - h.minX);
+    a.eye[1] = h.minY + 0.1 * (h.maxY - h.minY);
+    b.eye[0] = h.minX + 0.9 * (h.maxX - h.minX);
+    b.eye[1] = h.minY + 0.9 * (h.maxY - h.minY);
+    a.eye[2] = b.eye[2] = h.maxZ + 0.2 * w;
+    a.yawDegrees = b.yawDegrees = 45;
+    a.pitchDegrees = b.pitchDegrees = -25;
+    p.keyframes = {a, b};
+    return p;
+}
+
+int run(BenchCli& c) {
+    if (!c.engine.apply(c.o.scene, c.o.device, c.o.width, c.o.height, "bench")) return 2;
+    c.o.runs.clear();
+    std::stringstream list(c.runs);
+    for (std::string r; std::getline(list, r, ',');) {
+        if (r != "lod" && r != "resident" && r != "bare" && r != "full") {
+            std::fprintf(stderr, "unilod bench: error: unknown run '%s' (lod, resident, bare, full)\n",
+                         r.c_str());
+            return 2;
+        }
+        c.o.runs.push_back(r);
+    }
+    std::string error;
+    engine::CameraPath path;
+    if (!c.cameraPath.empty()) {
+        if (!engine::loadCameraPath(c.cameraPath, path, error)) {
+            std::fprintf(stderr, "unilod bench: error: %s\n", error.c_str());
+            return 1;
+        }
+    } else {
+        format::Reader reader;
+        if (!reader.open(c.o.path, error)) {
+            std::fprintf(stderr, "unilod bench: error: %s\n", error.c_str());
+            return 1;
+        }
+        path = defaultPath(reader.header());
+    }
+    c.o.cameras = engine::sampleCameraPath(path, c.frames);
+    nlohmann::json out;
+    if (!engine::runBench(c.o, out, error, true)) {
+        std::fprintf(stderr, "unilod bench: error: %s: %s\n", c.o.path.c_str(), error.c_str());
+        return 1;
+    }
+    out["path"] = c.cameraPath.empty() ? "default fly-over" : c.cameraPath;
+    std::printf("%-9s %9s %9s %9s %9s %9s %12s %9s %12s\n", "run", "fps", "median", "p95", "p99",
+                "gpu ms", "triangles", "resident", "uploaded MB");
+    for (const char* name : {"lod", "resident", "bare", "full"}) {
+        if (!out["runs"].contains(name)) continue;
+        const nlohmann::json& r = out["runs"][name];
+        auto num = [](const nlohmann::json& j) { return j.is_null() ? -1.0 : j.get<double>(); };
+        std::printf("%-9s %9.1f %9.2f %9.2f %9.2f %9.2f %12.0f %9.1f %12.1f\n", name,
+                    num(r["fps"]), num(r["frame_ms"]["median"]), num(r["frame_ms"]["p95"]),
+                    num(r["frame_ms"]["p99"]),
+                    r["gpu_ms"].is_null() ? -1.0 : num(r["gpu_ms"]["median"]),
+                    num(r["triangles"]["mean"]), num(r["resident_blocks"]["mean"]),
+                    double(r["bytes_uploaded"].get<std::uint64_t>()) / 1e6);
+    }
+    for (auto& [k, v] : out["ratios_of_median_frame_ms"].items())
+        std::printf("%s = %.3f\n", k.c_str(), v.get<double>());
+    std::printf("device: %s, %ux%u, %zu frames\n", out["device"].get<std::string>().c_str(),
+                c.o.width, c.o.height, c.o.cameras.size());
+    if (!c.jsonOut.empty()) {
+        const std::string temp = c.jsonOut + ".tmp";
+        {
+            std::ofstream f(temp, std::ios::trunc);
+            f << out.dump(2) << "\n";
+            if (!f.flush()) {
+                std::error_code ec;
+                std::filesystem::remove(temp, ec);
+                std::fprintf(stderr, "unilod bench: error: %s: cannot write\n", c.jsonOut.c_str());
+                return 1;
+            }
+        }
+        std::error_code ec;
+        std::filesystem::rename(temp, c.jsonOut, ec);
+        if (ec) {
+            std::filesystem::remove(temp, ec);
+            std::fprintf(stderr, "unilod bench: error: %s: cannot move into place\n",
+                         c.jsonOut.c_str());
+            return 1;
+        }
+        std::printf("json: %s\n", c.jsonOut.c_str());
+    }
+    return 0;
+}
+
+}  // namespace
+
+void addBenchCommand(CLI::App& app, int& exitCode) {
+    auto c = std::make_shared<BenchCli>();
+    CLI::App* sub = app.add_subcommand(
+        "bench", "frame-time benchmark along a camera path (paper §4.2.3): streamed LOD vs "
+                 "everything resident, a bare pipeline and full resolution; prints JSON");
+    sub->add_option("FILE", c->o.path, ".ulod file")->required();
+    sub->add_option("--path", c->cameraPath,
+                    "camera path JSON (as for capture; default: a fly-over of the data)");
+    sub->add_option("--frames", c->frames, "measured frames per run (default 200)")
+        ->check(CLI::Range(1u, 100000u));
+    sub->add_option("--warmup", c->o.warmup, "unmeasured frames before each run (default 5)");
+    c->engine.add(*sub, "1920x1080");
+    sub->add_option("--runs", c->runs,
+                    "comma-separated runs: lod, resident, bare, full (default: all four)");
+    sub->add_flag("--per-frame", c->o.perFrame, "include every frame's numbers in the JSON");
+    sub->add_option("--json", c->jsonOut, "write the JSON here");
+    sub->callback([c, &exitCode] { exitCode = run(*c); });
+}
+
+}  // namespace unilod::cli
