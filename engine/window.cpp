@@ -315,7 +315,9 @@ bool beginWindowFrame(const Device& device, WindowTarget& target, std::uint64_t 
                                                     slot.acquired, VK_NULL_HANDLE,
                                                     &target.imageIndex);
     if (acquired == VK_ERROR_OUT_OF_DATE_KHR) {
-        // Nothing was signalled and the fence is untouched: recreate and let the caller retry.
+        // Nothing was signalled and the fence is untouched: recreate (now, or at a later call
+        // while minimised) and let the caller retry.
+        target.window->resized = true;
         createSwapchain(device, target);
         return false;
     }
