@@ -23,6 +23,8 @@ int main(int argc, char** argv) {
     unilod::cli::addCheckCommand(app, exitCode);
     unilod::cli::addStatsCommand(app, exitCode);
     unilod::cli::addCaptureCommand(app, exitCode);
+    unilod::cli::addExportCommand(app, exitCode);
+    unilod::cli::addReportCommand(app, exitCode);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
