@@ -67,7 +67,7 @@ void addBlock(tinygltf::Model& model, const format::Header& header, const format
     std::vector<double> hi(3, -std::numeric_limits<double>::infinity());
     for (std::size_t i = 0; i < n; ++i) {
         const format::Vertex& v = block.vertices[i];
-        toGltf(dx0 + double(v.x), dy0 + double(v.y), double(v.z), &positions[3 * i]);
+        toGltf(double(v.x), double(v.y), double(v.z), &positions[3 * i]);
         for (int k = 0; k < 3; ++k) {
             lo[k] = std::min(lo[k], double(positions[3 * i + k]));
             hi[k] = std::max(hi[k], double(positions[3 * i + k]));
@@ -148,6 +148,7 @@ void addBlock(tinygltf::Model& model, const format::Header& header, const format
     }
     tinygltf::Node node;
     node.name = mesh.name;
+    node.translation = {dx0, 0.0, -dy0};
     if (!mesh.primitives.empty()) {
         model.meshes.push_back(mesh);
         node.mesh = int(model.meshes.size() - 1);

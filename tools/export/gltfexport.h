@@ -6,12 +6,14 @@
 //   (x east, y north, z up) becomes glTF (X - originX, Z, -(Y - originY)): x -> x, z (up) -> y,
 //   y (north) -> -z. This is a rotation (determinant +1), so the counter-clockwise triangles of
 //   the file (seen from above) stay front-facing seen from above. The origin is the .ulod
-//   header's origin (the DEM's cell (0, 0) centre); positions are floats relative to it, so they
-//   keep millimetres over a few hundred kilometres.
+//   header's origin (the DEM's cell (0, 0) centre). Positions are the file's own block-relative
+//   floats (x, y relative to the block origin, z absolute), mapped as above; each block's node
+//   has translation (blockOriginX - originX, 0, -(blockOriginY - originY)) in double, so a viewer
+//   gets the same precision as the engine.
 // - asset.extras: {"crs_wkt": header WKT, "origin": [originX, originY, 0], "axes": the mapping
 //   above in words, "source": the .ulod path, "metric": "max"|"paper", "selection": the options}.
 // - One node and one mesh per block (node name "block_COL_ROW", extras: col, row, level, step,
-//   h_lim, error, distance), no node transform. The mesh's first primitive: mode TRIANGLES,
+//   h_lim, error, distance), translated as above. The mesh's first primitive: mode TRIANGLES,
 //   POSITION (with min / max) and NORMAL (per-vertex, area-weighted over the level's triangles)
 //   of the level's vertex prefix [0, vertexCount), UNSIGNED_INT indices = the level's triangles.
 //   Second primitive (only when the level has river edges): mode LINES on the same POSITION
@@ -40,7 +42,7 @@ struct ExportSummary {
     std::uint64_t bytes = 0;
 };
 
-// glTF position of a world point relative to (originX, originY): see the layout above.
+// glTF axes of a file vector (x east, y north, z up): see the layout above.
 inline void toGltf(double dx, double dy, double z, float out[3]) {
     out[0] = static_cast<float>(dx);
     out[1] = static_cast<float>(z);
