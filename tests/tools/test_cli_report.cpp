@@ -266,6 +266,7 @@ TEST_F(ReportTest, FailuresLeaveNothing) {
         {"report -q " + q(model) + " -o " + q(other) + " --dem " + q(dir->file("no.tif")), 1},
         {"report -q " + q(model) + " -o " + q(other) + " --rivers " + q(dir->file("no.json")), 1},
         {"report -q " + q(dir->file("missing.ulod")) + " -o " + q(other), 1},
+        {"report -q " + q(model) + " -o " + q(other) + " --distance 500m,0.5km", 1},
         {"report -q " + q(model) + " -o " + q(other) + " --budget 150", 2},
         {"report -q " + q(model) + " -o " + q(other) + " --distance 0km", 2},
         {"report -q " + q(model) + " -o " + q(other) + " --image-size 0", 2},

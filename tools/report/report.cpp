@@ -240,6 +240,14 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
         error = "image size must be in 16..16384";
         return false;
     }
+    for (std::size_t i = 0; i < o.stats.distances.size(); ++i) {
+        for (std::size_t k = 0; k < i; ++k) {
+            if (gridName(o.stats.distances[i]) == gridName(o.stats.distances[k])) {
+                error = "view distance " + fmt("%g m", o.stats.distances[i]) + " listed twice";
+                return false;
+            }
+        }
+    }
     format::Reader reader;
     if (!reader.open(o.path, error)) return false;
     const std::string buildInfo = reader.header().buildInfo;
