@@ -1,20 +1,21 @@
 #!/usr/bin/env bash
 # unilod main job on the bundled demo data (README Quick start): installs missing Debian packages,
 # builds (optimised), then runs the whole chain on the Jacksboro DEM + GRASS river network:
-#   build -> check -> info -> stats -> capture (perspective, top-down, 2D grid) -> bench ->
-#   report -> importance order,
-# and prints where every output is. With --view (or a display and UNILOD_DEMO_VIEW=1) it then
-# opens the viewer on the model.
+#   build -> check -> info -> stats -> capture (perspective, top-down, 2D grid, path) -> bench
+#   -> export (glTF) -> report -> importance order,
+# and prints where every output is. On an interactive terminal with a display (or with --view)
+# it then opens the viewer on the model.
 #
 # Options: --frames N   bench frames per run (default 200; CI uses a handful)
 #          --size WxH   bench frame size (default 1920x1080)
 #          --out DIR    output folder (default out/)
 #          --no-build   use the existing build (build/tools/unilod, or $UNILOD_BIN)
-#          --view       open `unilod view` at the end
+#          --view       open `unilod view` at the end (needs a display)
+#          --no-view    never open the viewer
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
-frames=200 size=1920x1080 out=out build=1 view=${UNILOD_DEMO_VIEW:-0}
+frames=200 size=1920x1080 out=out build=1 view=auto
 while [ $# -gt 0 ]; do
     case "$1" in
         --frames) frames=$2; shift 2 ;;
@@ -22,7 +23,8 @@ while [ $# -gt 0 ]; do
         --out) out=$2; shift 2 ;;
         --no-build) build=0; shift ;;
         --view) view=1; shift ;;
-        -h|--help) sed -n '2,15p' "$0"; exit 0 ;;
+        --no-view) view=0; shift ;;
+        -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
         *) echo "tools/demo.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
     esac
 done
@@ -60,20 +62,27 @@ $unilod capture "$model" --validation --size 640x360 --path "$path" --frames 5 \
     --out "$out/capture/path"
 echo "== 6. unilod bench: $frames frames at $size along $path =="
 $unilod bench "$model" --path "$path" --frames "$frames" --size "$size" --json "$out/bench.json"
-if $unilod --help 2>/dev/null | grep -q "^  report"; then
-    echo "== 7. unilod report: tables, error curves, BAI vs plain 3D_DP rivers, grid diagrams =="
-    $unilod report "$model" -o "$out/report" --dem "$dem" --rivers "$rivers"
-fi
-echo "== 8. unilod order: improved 3D_DP importance order of the whole point set =="
+echo "== 7. unilod export: the oblique capture's LOD as glTF 2.0 (Blender, three.js) =="
+$unilod export "$model" -q --camera 735000,4034000,3500,30,-20 --size 1280x720 \
+    -o "$out/jacksboro_oblique.glb"
+echo "== 8. unilod report: tables, error curves, BAI vs plain 3D_DP rivers, grid diagrams =="
+rm -rf "$out/report"
+$unilod report "$model" -q -o "$out/report" --dem "$dem" --rivers "$rivers"
+echo "== 9. unilod order: improved 3D_DP importance order of the whole point set =="
 $unilod order "$dem" "$rivers" --out "$out/jacksboro_order.csv" -q
 echo "== outputs =="
 echo "  unified LOD model:  $out/jacksboro.ulod"
 echo "  captures (PNG+JSON): $out/capture/{oblique,topdown,grid,path}/"
 echo "  benchmark JSON:     $out/bench.json"
-[ -d "$out/report" ] && echo "  report:             $out/report/report.md"
+echo "  glTF export:        $out/jacksboro_oblique.glb"
+echo "  report:             $out/report/report.md (tables, curves, rivers, grid diagrams)"
 echo "  importance order:   $out/jacksboro_order.csv"
+if [ "$view" = auto ]; then
+    view=0
+    [ -t 0 ] && [ -t 1 ] && [ -n "${DISPLAY:-}${WAYLAND_DISPLAY:-}" ] && view=1
+fi
 if [ "$view" = 1 ]; then
-    if [ -n "${DISPLAY:-}${WAYLAND_DISPLAY:-}" ] && $unilod --help 2>/dev/null | grep -q "^  view"; then
+    if [ -n "${DISPLAY:-}${WAYLAND_DISPLAY:-}" ]; then
         echo "== viewer: WASD + mouse, +/- tolerance, G grid, L rivers, P screenshot, Esc quits =="
         $unilod view "$model"
     else

@@ -25,6 +25,8 @@ int main(int argc, char** argv) {
     unilod::cli::addCaptureCommand(app, exitCode);
     unilod::cli::addBenchCommand(app, exitCode);
     unilod::cli::addViewCommand(app, exitCode);
+    unilod::cli::addExportCommand(app, exitCode);
+    unilod::cli::addReportCommand(app, exitCode);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

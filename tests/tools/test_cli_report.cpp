@@ -1,0 +1,293 @@
+// `unilod report` (tools/report/report.h) on the bundled Jacksboro model: every file is written;
+// tables.csv is byte-identical to `unilod stats --csv`; the grid diagrams have the requested
+// size, are not blank, draw exactly the levels chooseLevel picks at the stats viewpoint (counts
+// recomputed here) and fewer edges far than near; the curves match the file's error arrays; the
+// river comparison has rows for the landform classes present and is exact at a 100 % budget;
+// failures leave no folder behind.
+#include <gtest/gtest.h>
+#include <png.h>
+
+#include <cmath>
+#include <filesystem>
+#include <set>
+#include <sstream>
+
+#include "lod.h"
+#include "testutil.h"
+#include "tools/cliutil.h"
+#include "ulod.h"
+
+using namespace unilod;
+namespace fs = std::filesystem;
+using unilod::test::q;
+using unilod::test::runCli;
+using unilod::test::slurp;
+
+namespace {
+
+const std::string kDem = std::string(UNILOD_ASSETS_DIR) + "/jacksboro_dem.tif";
+const std::string kRivers = std::string(UNILOD_ASSETS_DIR) + "/jacksboro_rivers_grass.geojson";
+
+std::vector<std::vector<std::string>> readCsv(const std::string& path) {
+    std::vector<std::vector<std::string>> rows;
+    std::istringstream in(slurp(path));
+    std::string line;
+    while (std::getline(in, line)) {
+        std::vector<std::string> f;
+        std::stringstream s(line);
+        std::string x;
+        while (std::getline(s, x, ','))
+            f.push_back(x);
+        rows.push_back(f);
+    }
+    return rows;
+}
+
+struct Image {
+    std::uint32_t width = 0, height = 0;
+    std::vector<std::uint8_t> rgba;
+};
+
+bool readPng(const std::string& path, Image& img) {
+    png_image image{};
+    image.version = PNG_IMAGE_VERSION;
+    if (!png_image_begin_read_from_file(&image, path.c_str())) return false;
+    image.format = PNG_FORMAT_RGBA;
+    img.width = image.width;
+    img.height = image.height;
+    img.rgba.resize(PNG_IMAGE_SIZE(image));
+    return png_image_finish_read(&image, nullptr, img.rgba.data(), 0, nullptr) != 0;
+}
+
+class ReportTest : public ::testing::Test {
+protected:
+    static inline test::TempDir* dir = nullptr;
+    static inline std::string model, out;
+    static inline format::Header header;
+    static inline std::vector<format::Block> blocks;
+    static inline std::vector<format::BlockInfo> infos;
+    static inline test::CliResult result;
+    static constexpr const char* kDistances = "5km,30km,1000km";
+
+    static void SetUpTestSuite() {
+        dir = new test::TempDir("report");
+        model = dir->file("j.ulod");
+        const auto r = runCli("build -q " + q(kDem) + " " + q(kRivers) + " -o " + q(model));
+        ASSERT_EQ(r.code, 0) << r.err;
+        format::Reader reader;
+        std::string error;
+        ASSERT_TRUE(reader.open(model, error)) << error;
+        header = reader.header();
+        infos = reader.blocks();
+        blocks.resize(infos.size());
+        for (std::size_t i = 0; i < blocks.size(); ++i)
+            ASSERT_TRUE(reader.readBlock(i, blocks[i], error)) << error;
+        out = dir->file("report");
+        result = runCli("report " + q(model) + " -o " + q(out) + " --distance " + kDistances +
+                        " --budget 10,100 --image-size 300");
+    }
+    static void TearDownTestSuite() {
+        delete dir;
+        dir = nullptr;
+    }
+};
+
+}  // namespace
+
+TEST_F(ReportTest, WritesEveryFile) {
+    ASSERT_EQ(result.code, 0) << result.err;
+    for (const char* f : {"report.md", "report.json", "tables.md", "tables.csv", "curves.svg",
+                          "curves.csv", "rivers.md", "rivers.csv", "grid.csv", "grid_5km.png",
+                          "grid_30km.png", "grid_1000km.png"}) {
+        EXPECT_TRUE(fs::is_regular_file(fs::path(out) / f)) << f;
+        EXPECT_GT(fs::file_size(fs::path(out) / f), 0u) << f;
+        EXPECT_NE(result.out.find(f), std::string::npos) << "the CLI names " << f;
+        if (std::string(f) != "report.md") {
+            EXPECT_NE(slurp(out + "/report.md").find(f), std::string::npos) << f;
+        }
+    }
+    EXPECT_NE(result.err.find("grid diagram"), std::string::npos);  // progress
+    EXPECT_EQ(std::distance(fs::directory_iterator(dir->path), fs::directory_iterator{}), 2)
+        << "only the model and the report folder (no temporary folder left)";
+}
+
+TEST_F(ReportTest, TablesEqualStats) {
+    ASSERT_EQ(result.code, 0) << result.err;
+    const auto stats = runCli("stats " + q(model) + " --csv --distance " + kDistances);
+    ASSERT_EQ(stats.code, 0) << stats.err;
+    EXPECT_EQ(slurp(out + "/tables.csv"), stats.out);
+    const std::string md = slurp(out + "/tables.md");
+    const auto rows = readCsv(out + "/tables.csv");
+    ASSERT_EQ(rows.size(), 4u);
+    for (std::size_t i = 1; i < rows.size(); ++i)
+        EXPECT_NE(md.find("| " + rows[i][5] + " | "), std::string::npos) << rows[i][5];
+}
+
+TEST_F(ReportTest, GridDiagrams) {
+    ASSERT_EQ(result.code, 0) << result.err;
+    const auto rows = readCsv(out + "/grid.csv");
+    ASSERT_EQ(rows.size(), 4u);
+    std::vector<std::uint64_t> edges;
+    for (std::size_t i = 1; i < rows.size(); ++i) {
+        const double d = std::stod(rows[i][0]);
+        SCOPED_TRACE(rows[i][1]);
+        // The stats viewpoint, Eq. 11 and chooseLevel, written out again.
+        const double eye[3] = {(header.minX + header.maxX) / 2, (header.minY + header.maxY) / 2,
+                               header.maxZ + d};
+        std::uint64_t triangles = 0, river = 0;
+        for (std::size_t b = 0; b < blocks.size(); ++b) {
+            const format::BlockInfo& in = infos[b];
+            const double s = std::hypot((in.minX + in.maxX) / 2 - eye[0],
+                                        (in.minY + in.maxY) / 2 - eye[1],
+                                        (in.minZ + in.maxZ) / 2 - eye[2]);
+            const double h = 2 * 1.0 * s * std::tan(30 * M_PI / 180) / 1080;
+            const auto choice = engine::chooseLevel(blocks[b].levels, blocks[b].errorMax, h);
+            triangles += blocks[b].levels[choice.level].triangleCount;
+            river += blocks[b].levels[choice.level].riverCount;
+        }
+        EXPECT_EQ(std::stoull(rows[i][2]), blocks.size());
+        EXPECT_EQ(std::stoull(rows[i][3]), triangles);
+        EXPECT_EQ(std::stoull(rows[i][5]), river);
+        edges.push_back(std::stoull(rows[i][4]));
+        // Every triangle has 3 edges, shared ones counted once per block.
+        EXPECT_GT(edges.back(), triangles);
+        EXPECT_LT(edges.back(), 3 * triangles);
+
+        Image img;
+        ASSERT_TRUE(readPng(out + "/" + rows[i][1], img));
+        EXPECT_EQ(img.width, 300u);
+        EXPECT_EQ(img.height, 300u);
+        std::size_t grey = 0, blue = 0;
+        for (std::size_t p = 0; p < img.rgba.size(); p += 4) {
+            const std::uint8_t r = img.rgba[p], g = img.rgba[p + 1], b = img.rgba[p + 2];
+            grey += r == g && g == b && r < 200;
+            blue += b > 200 && r < 50;
+        }
+        EXPECT_GT(grey, 1000u);
+        EXPECT_GT(blue, 100u);
+        EXPECT_NE(slurp(out + "/report.md").find("| " + rows[i][3] + " |"), std::string::npos);
+    }
+    EXPECT_GT(edges[0], edges[1]);
+    EXPECT_GT(edges[1], edges[2]);
+}
+
+TEST_F(ReportTest, CurvesMatchTheFile) {
+    ASSERT_EQ(result.code, 0) << result.err;
+    const auto rows = readCsv(out + "/curves.csv");
+    ASSERT_EQ(rows.size(), 101u);
+    ASSERT_EQ(rows[0].size(), 5u);
+    for (int r : {1, 37, 50, 100}) {
+        SCOPED_TRACE(r);
+        const auto& row = rows[std::size_t(r)];
+        ASSERT_EQ(std::stod(row[0]), r);
+        double maxMax = 0, meanMax = 0, maxPaper = 0, meanPaper = 0;
+        for (const format::Block& b : blocks) {
+            const std::size_t removable =
+                std::size_t(std::floor((1 - r / 100.0) * double(b.vertices.size()) + 1e-9));
+            const std::size_t k = std::min(b.steps.size(), removable);
+            maxMax = std::max(maxMax, double(b.errorMax[k]));
+            meanMax += b.errorMax[k] / double(blocks.size());
+            maxPaper = std::max(maxPaper, double(b.errorPaper[k]));
+            meanPaper += b.errorPaper[k] / double(blocks.size());
+        }
+        EXPECT_NEAR(std::stod(row[1]), maxMax, 1e-6 * (1 + maxMax));
+        EXPECT_NEAR(std::stod(row[2]), meanMax, 1e-6 * (1 + meanMax));
+        EXPECT_NEAR(std::stod(row[3]), maxPaper, 1e-6 * (1 + maxPaper));
+        EXPECT_NEAR(std::stod(row[4]), meanPaper, 1e-6 * (1 + meanPaper));
+    }
+    for (std::size_t i = 2; i < rows.size(); ++i)  // less error with more points kept
+        EXPECT_LE(std::stod(rows[i][1]), std::stod(rows[i - 1][1]));
+    EXPECT_GT(std::stod(rows[1][1]), std::stod(rows[100][1]));
+    const std::string svg = slurp(out + "/curves.svg");
+    std::size_t polylines = 0;
+    for (std::size_t at = svg.find("<polyline"); at != std::string::npos;
+         at = svg.find("<polyline", at + 1))
+        ++polylines;
+    EXPECT_EQ(polylines, 4u);
+    EXPECT_NE(svg.find("Retention"), std::string::npos);
+}
+
+TEST_F(ReportTest, RiverComparison) {
+    ASSERT_EQ(result.code, 0) << result.err;
+    const auto rows = readCsv(out + "/rivers.csv");
+    ASSERT_EQ(rows.size(), 1u + 3 * 2);  // 3 classes x 2 budgets
+    std::uint64_t rivers10 = 0, rivers100 = 0;
+    std::set<std::string> classes;
+    for (std::size_t i = 1; i < rows.size(); ++i) {
+        const auto& r = rows[i];
+        const std::uint64_t n = std::stoull(r[4]), original = std::stoull(r[5]),
+                            kept = std::stoull(r[6]);
+        if (n > 0) classes.insert(r[0]);
+        const double meanBai = std::stod(r[7]), meanPlain = std::stod(r[8]);
+        const double maxBai = std::stod(r[9]), maxPlain = std::stod(r[10]);
+        if (r[3] == "100") {
+            rivers100 += n;
+            EXPECT_EQ(kept, original);  // everything kept: the original polyline
+            EXPECT_EQ(maxBai, 0.0);
+            EXPECT_EQ(maxPlain, 0.0);
+        } else {
+            ASSERT_EQ(r[3], "10");
+            rivers10 += n;
+            EXPECT_LE(kept, original);
+            if (n > 0) {
+                EXPECT_LT(kept, original);
+                EXPECT_GT(maxBai, 0.0);
+                EXPECT_GT(maxPlain, 0.0);
+                EXPECT_LE(meanBai, maxBai);
+                EXPECT_LE(meanPlain, maxPlain);
+            }
+        }
+    }
+    EXPECT_EQ(rivers10, rivers100);
+    EXPECT_GT(rivers10, 100u);  // the bundled network has 142 lines
+    // Jacksboro: rivers in the 0-500 m and 500-1000 m classes (z 245..1072 m).
+    EXPECT_TRUE(classes.count("0"));
+    EXPECT_TRUE(classes.count("1"));
+    const std::string md = slurp(out + "/rivers.md");
+    EXPECT_NE(md.find("| 0-500 m | 10 |"), std::string::npos);
+    EXPECT_NE(md.find("| 500-1000 m | 10 |"), std::string::npos);
+}
+
+TEST_F(ReportTest, FailuresLeaveNothing) {
+    ASSERT_EQ(result.code, 0) << result.err;
+    // An existing non-empty folder is refused and left as it is.
+    const std::string before = slurp(out + "/tables.csv");
+    auto r = runCli("report -q " + q(model) + " -o " + q(out) + " --no-rivers");
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find("not an empty folder"), std::string::npos) << r.err;
+    EXPECT_EQ(slurp(out + "/tables.csv"), before);
+
+    const std::string other = dir->file("other");
+    struct Case {
+        std::string args;
+        int code;
+    };
+    const Case cases[] = {
+        {"report -q " + q(model) + " -o " + q(other) + " --dem " + q(dir->file("no.tif")), 1},
+        {"report -q " + q(model) + " -o " + q(other) + " --rivers " + q(dir->file("no.json")), 1},
+        {"report -q " + q(dir->file("missing.ulod")) + " -o " + q(other), 1},
+        {"report -q " + q(model) + " -o " + q(other) + " --distance 500m,0.5km", 1},
+        {"report -q " + q(model) + " -o " + q(other) + " --budget 150", 2},
+        {"report -q " + q(model) + " -o " + q(other) + " --distance 0km", 2},
+        {"report -q " + q(model) + " -o " + q(other) + " --image-size 0", 2},
+        {"report -q " + q(model), 2},
+    };
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.args);
+        r = runCli(c.args);
+        EXPECT_EQ(r.code, c.code) << r.err;
+        EXPECT_FALSE(r.err.empty());
+        EXPECT_FALSE(fs::exists(other));
+    }
+    for (const auto& e : fs::directory_iterator(dir->path))
+        EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
+
+    // Without the river comparison no DEM or rivers are needed and no rivers.* is written.
+    r = runCli("report -q " + q(model) + " -o " + q(other) + " --no-rivers --dem " +
+               q(dir->file("no.tif")) + " --distance 50km --image-size 64");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_TRUE(fs::exists(other + "/tables.csv"));
+    EXPECT_TRUE(fs::exists(other + "/grid_50km.png"));
+    EXPECT_FALSE(fs::exists(other + "/rivers.csv"));
+    EXPECT_EQ(runCli("report --help").code, 0);
+}

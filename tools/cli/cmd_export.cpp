@@ -1,0 +1,137 @@
+// `unilod export FILE (--camera X,Y,Z[,YAW,PITCH] | --h-lim METRES) -o OUT.glb`: the LOD selected
+// for one view as glTF 2.0 binary (issue 6, item 2; layout in tools/export/gltfexport.h). With
+// --camera the levels are the ones the streaming engine draws for that view (same S, h_lim and
+// level choice: tools/export/selection.h); with yaw and pitch the blocks outside the view
+// frustum are left out as the engine culls them (unless --no-cull), with X,Y,Z only every block
+// is written. With --h-lim every block uses that h_lim. Usage errors exit 2, data errors 1; no partial .glb is ever left.
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "gltfexport.h"
+#include "ulod.h"
+
+namespace unilod::cli {
+
+namespace {
+
+struct ExportCli {
+    exporter::ExportOptions o;
+    std::vector<double> camera;
+    double hLim = -1;
+    std::string size = "1920x1080";
+    std::string metric;
+    std::string distance = "nearest";
+    bool noCull = false;
+    bool quiet = false;
+};
+
+bool parseSize(const std::string& s, double& width, double& height) {
+    unsigned long w = 0, h = 0;
+    char tail = 0;
+    if (std::sscanf(s.c_str(), "%lux%lu%c", &w, &h, &tail) != 2) return false;
+    if (w == 0 || h == 0 || w > 16384 || h > 16384) return false;
+    width = double(w);
+    height = double(h);
+    return true;
+}
+
+int run(ExportCli& c) {
+    exporter::SelectionOptions& s = c.o.selection;
+    if (!parseSize(c.size, s.widthPixels, s.heightPixels)) {
+        std::fprintf(stderr, "unilod export: error: --size '%s' is not WxH (1..16384)\n",
+                     c.size.c_str());
+        return 2;
+    }
+    s.useCamera = !c.camera.empty();
+    if (s.useCamera) {
+        if (c.camera.size() != 3 && c.camera.size() != 5) {
+            std::fprintf(stderr, "unilod export: error: --camera takes X,Y,Z[,YAW,PITCH]\n");
+            return 2;
+        }
+        for (int i = 0; i < 3; ++i)
+            s.eye[i] = c.camera[std::size_t(i)];
+        if (c.camera.size() == 5 && !c.noCull) {
+            s.cull = true;
+            s.yawDegrees = c.camera[3];
+            s.pitchDegrees = c.camera[4];
+        }
+        s.distance = c.distance == "centre" ? engine::DistanceMode::Centre
+                                            : engine::DistanceMode::Nearest;
+    } else {
+        s.hLim = c.hLim;
+    }
+    s.metric = 0;
+    if (c.metric == "paper") s.metric = format::kMetricPaper;
+    if (c.metric == "max") s.metric = format::kMetricMax;
+    if (!c.quiet) {
+        c.o.progress = [](std::size_t done, std::size_t total) {
+            if (done == total || done % 16 == 0)
+                std::fprintf(stderr, "  blocks %zu / %zu\n", done, total);
+        };
+    }
+    exporter::ExportSummary summary;
+    std::string error;
+    if (!exporter::exportGltf(c.o, summary, error)) {
+        std::fprintf(stderr, "unilod export: error: %s\n", error.c_str());
+        return 1;
+    }
+    std::printf("%s: %zu blocks, %llu vertices, %llu triangles, %llu river edges (%llu bytes)\n",
+                c.o.outPath.c_str(), summary.blocks.size(),
+                static_cast<unsigned long long>(summary.vertices),
+                static_cast<unsigned long long>(summary.triangles),
+                static_cast<unsigned long long>(summary.riverEdges),
+                static_cast<unsigned long long>(summary.bytes));
+    return 0;
+}
+
+}  // namespace
+
+void addExportCommand(CLI::App& app, int& exitCode) {
+    auto c = std::make_shared<ExportCli>();
+    CLI::App* sub = app.add_subcommand(
+        "export",
+        "the LOD selected for a camera or an h_lim as glTF 2.0 binary (.glb): terrain mesh, "
+        "rivers as lines, georeference in asset.extras");
+    sub->add_option("FILE", c->o.path, ".ulod file")->required();
+    CLI::Option* camera =
+        sub->add_option("--camera", c->camera,
+                        "eye X,Y,Z (file CRS, metres), optionally yaw,pitch in degrees (as in `unilod "
+                        "capture`): then only the blocks in the view frustum")
+            ->delimiter(',')
+            ->expected(3, 5);
+    CLI::Option* hLim = sub->add_option("--h-lim", c->hLim,
+                                        "model-space error tolerance in metres for every block")
+                            ->check(CLI::NonNegativeNumber);
+    camera->excludes(hLim);
+    hLim->excludes(camera);
+    sub->add_option("--pixels", c->o.selection.pixels,
+                    "screen-space error tolerance P in pixels (--camera; default 1)")
+        ->check(CLI::PositiveNumber);
+    sub->add_option("--fov", c->o.selection.fovDegrees,
+                    "vertical field of view in degrees (--camera; default 60)")
+        ->check(CLI::Range(1e-6, 179.999));
+    sub->add_option("--size", c->size,
+                    "viewport WxH: H enters h_lim, W/H the frustum (--camera; default 1920x1080)");
+    sub->add_option("--distance", c->distance,
+                    "S: nearest point of a block's box (default) or its centre (the paper's)")
+        ->check(CLI::IsMember({"nearest", "centre"}));
+    sub->add_flag("--no-cull", c->noCull, "with yaw,pitch: keep the blocks outside the view");
+    sub->add_option("--metric", c->metric, "error metric (default: the file's)")
+        ->check(CLI::IsMember({"max", "paper"}));
+    sub->add_option("-o,--out", c->o.outPath, "output .glb")->required();
+    sub->add_flag("-q,--quiet", c->quiet, "no progress lines on stderr");
+    sub->callback([c, sub, &exitCode] {
+        if (c->camera.empty() && c->hLim < 0) {
+            std::fprintf(stderr, "unilod export: error: one of --camera or --h-lim is required\n%s",
+                         sub->help().c_str());
+            exitCode = 2;
+            return;
+        }
+        exitCode = run(*c);
+    });
+}
+
+}  // namespace unilod::cli

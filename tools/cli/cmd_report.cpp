@@ -1,0 +1,106 @@
+// `unilod report FILE -o DIR`: the paper's evaluation for one .ulod file (issue 6, item 3):
+// Tables 2 / 3, error-vs-retention curves, BAI vs plain 3D_DP river shapes, grid diagrams.
+// What each file holds and the definitions: tools/report/report.h. Usage errors exit 2, data
+// errors 1; DIR appears only when everything was written.
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "report.h"
+#include "ulod.h"
+
+namespace unilod::cli {
+
+namespace {
+
+struct ReportCli {
+    report::ReportOptions o;
+    std::vector<std::string> distances = {"100km", "200km", "500km", "1000km", "1500km"};
+    std::vector<double> budgets = {5, 10, 20, 40};
+    std::string metric;
+    bool noRivers = false;
+    bool quiet = false;
+};
+
+int run(ReportCli& c) {
+    c.o.stats.distances.clear();
+    for (const std::string& d : c.distances) {
+        double m = 0;
+        parseDistance(d, m);  // validated while parsing
+        c.o.stats.distances.push_back(m);
+    }
+    c.o.stats.metric = 0;
+    if (c.metric == "paper") c.o.stats.metric = format::kMetricPaper;
+    if (c.metric == "max") c.o.stats.metric = format::kMetricMax;
+    c.o.budgets.clear();
+    for (double b : c.budgets)
+        c.o.budgets.push_back(b / 100.0);
+    c.o.rivers = !c.noRivers;
+    if (!c.quiet) {
+        c.o.progress = [](const std::string& s) { std::fprintf(stderr, "  %s\n", s.c_str()); };
+    }
+    report::ReportSummary summary;
+    std::string error;
+    if (!report::runReport(c.o, summary, error)) {
+        std::fprintf(stderr, "unilod report: error: %s\n", error.c_str());
+        return 1;
+    }
+    std::printf("%s: report of %s\n", c.o.outDir.c_str(), c.o.path.c_str());
+    for (const std::string& f : summary.files)
+        std::printf("  %s/%s\n", c.o.outDir.c_str(), f.c_str());
+    return 0;
+}
+
+}  // namespace
+
+void addReportCommand(CLI::App& app, int& exitCode) {
+    auto c = std::make_shared<ReportCli>();
+    CLI::App* sub = app.add_subcommand(
+        "report",
+        "the paper's evaluation of a .ulod file in a folder: Tables 2/3 (Markdown + CSV), error "
+        "vs retention curves (SVG), BAI vs plain 3D_DP river shapes, grid diagrams (PNG)");
+    sub->add_option("FILE", c->o.path, ".ulod file")->required();
+    sub->add_option("-o,--out", c->o.outDir, "output folder (must not exist or be empty)")
+        ->required();
+    const CLI::Validator positiveDistance(
+        [](std::string& s) -> std::string {
+            double m = 0;
+            if (!parseDistance(s, m)) return "not a distance (e.g. 100km, 500m): " + s;
+            if (!(m > 0)) return "distance must be positive: " + s;
+            return {};
+        },
+        "DISTANCE");
+    sub->add_option("--distance", c->distances,
+                    "view distances for the tables and the grid diagrams, comma-separated, with m "
+                    "or km (default 100km,200km,500km,1000km,1500km, as `unilod stats`)")
+        ->delimiter(',')
+        ->check(positiveDistance);
+    sub->add_option("--pixels", c->o.stats.pixels,
+                    "pixel tolerances P, comma-separated (default 1; diagrams use the first)")
+        ->delimiter(',')
+        ->check(CLI::PositiveNumber);
+    sub->add_option("--fov", c->o.stats.fovDegrees, "vertical field of view in degrees (default 60)")
+        ->check(CLI::Range(1e-6, 179.999));
+    sub->add_option("--height", c->o.stats.heightPixels, "viewport height in pixels (default 1080)")
+        ->check(CLI::Range(1.0, 1e9));
+    sub->add_option("--metric", c->metric, "error metric (default: the file's default)")
+        ->check(CLI::IsMember({"max", "paper"}));
+    sub->add_option("--dem", c->o.demPath, "DEM for the river comparison (default: the build's)");
+    sub->add_option("--rivers", c->o.riversPath,
+                    "rivers for the river comparison (default: the build's)");
+    sub->add_flag("--no-rivers", c->noRivers, "skip the BAI vs plain 3D_DP river comparison");
+    sub->add_option("--budget", c->budgets,
+                    "river point budgets in percent of unlocked points, comma-separated "
+                    "(default 5,10,20,40)")
+        ->delimiter(',')
+        ->check(CLI::Range(0.0, 100.0));
+    sub->add_option("--image-size", c->o.imageSize, "grid diagram size in pixels (default 1024)")
+        ->check(CLI::Range(16, 16384));
+    sub->add_flag("-q,--quiet", c->quiet, "no progress lines on stderr");
+    sub->callback([c, &exitCode] { exitCode = run(*c); });
+}
+
+}  // namespace unilod::cli

@@ -1,0 +1,374 @@
+// `unilod report` (report.h): runs the pieces and writes the folder.
+#include "report.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "pngwrite.h"
+#include "ulod.h"
+
+namespace unilod::report {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string fmt(const char* f, double v) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, f, v);
+    return buf;
+}
+
+std::string fmtU(std::uint64_t v) { return std::to_string(v); }
+
+bool writeText(const fs::path& dir, const std::string& name, const std::string& text,
+               ReportSummary& summary, std::string& error) {
+    std::ofstream out(dir / name, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.flush();
+    if (!out) {
+        error = (dir / name).string() + ": cannot write";
+        return false;
+    }
+    summary.files.push_back(name);
+    return true;
+}
+
+// Exactly `unilod stats --csv` (tools/cli/cmd_stats.cpp printCsv).
+std::string tablesCsv(const StatsTable& t) {
+    std::string s =
+        "view_distance_m,pixels,hlim_edge_m,hlim_corner_m,hlim_middle_m,points,"
+        "river_bound_edges,triangles,retention_percent\n";
+    char buf[512];
+    for (const StatsRow& r : t.rows) {
+        std::snprintf(buf, sizeof buf, "%.17g,%.17g,%.17g,%.17g,%.17g,%llu,%llu,%llu,%.17g\n",
+                      r.distance, r.pixels, r.hEdge, r.hCorner, r.hMiddle,
+                      static_cast<unsigned long long>(r.points),
+                      static_cast<unsigned long long>(r.riverEdges),
+                      static_cast<unsigned long long>(r.triangles), r.retention);
+        s += buf;
+    }
+    return s;
+}
+
+std::string tablesMd(const StatsTable& t, const std::string& path) {
+    std::ostringstream s;
+    s << "# Tables 2 / 3: " << path << "\n\n"
+      << "Metric: " << (t.metric == format::kMetricPaper ? "paper" : "max") << "; " << t.blocksX
+      << " x " << t.blocksY << " blocks; corner (" << t.cornerCol << "," << t.cornerRow
+      << "), edge (" << t.edgeCol << "," << t.edgeRow << "), middle (" << t.middleCol << ","
+      << t.middleRow << "); " << t.fullPoints
+      << " points at full resolution. Definitions: preprocess/stats.h (same as `unilod "
+         "stats`).\n\n"
+      << "| View distance (km) | Pixel tolerance | h_lim edge (m) | h_lim corner (m) | h_lim "
+         "middle (m) | Points | River bound edges | Triangles | Retention (%) |\n"
+      << "|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+    for (const StatsRow& r : t.rows) {
+        s << "| " << fmt("%g", r.distance / 1000) << " | " << fmt("%g", r.pixels) << " | "
+          << fmt("%.2f", r.hEdge) << " | " << fmt("%.2f", r.hCorner) << " | "
+          << fmt("%.2f", r.hMiddle) << " | " << r.points << " | " << r.riverEdges << " | "
+          << r.triangles << " | " << fmt("%.1f", r.retention) << " |\n";
+    }
+    return s.str();
+}
+
+std::string curvesCsv(const ReportSummary& s) {
+    std::string out = "retention_percent";
+    if (s.hasMax) out += ",max_metric_max_over_blocks_m,max_metric_mean_over_blocks_m";
+    if (s.hasPaper) out += ",paper_metric_max_over_blocks_m,paper_metric_mean_over_blocks_m";
+    out += "\n";
+    for (const CurvePoint& p : s.curve) {
+        out += fmt("%g", p.retention);
+        if (s.hasMax) out += fmt(",%.9g", p.maxOfMax) + fmt(",%.9g", p.meanOfMax);
+        if (s.hasPaper) out += fmt(",%.9g", p.maxOfPaper) + fmt(",%.9g", p.meanOfPaper);
+        out += "\n";
+    }
+    return out;
+}
+
+// Hand-written SVG: retention (%) on x, error (m, log10) on y; solid = mean over blocks,
+// dashed = max over blocks; red = metric "max", blue = metric "paper".
+std::string curvesSvg(const ReportSummary& s) {
+    const double W = 800, H = 500, left = 80, right = 200, top = 30, bottom = 60;
+    double lo = HUGE_VAL, hi = 0;
+    for (const CurvePoint& p : s.curve) {
+        for (double v : {s.hasMax ? p.maxOfMax : 0.0, s.hasMax ? p.meanOfMax : 0.0,
+                         s.hasPaper ? p.maxOfPaper : 0.0, s.hasPaper ? p.meanOfPaper : 0.0}) {
+            if (v > 0) {
+                lo = std::min(lo, v);
+                hi = std::max(hi, v);
+            }
+        }
+    }
+    if (!(hi > 0)) {
+        lo = 1e-3;
+        hi = 1;
+    }
+    const double d0 = std::floor(std::log10(lo)), d1 = std::max(d0 + 1, std::ceil(std::log10(hi)));
+    const double pw = W - left - right, ph = H - top - bottom;
+    auto X = [&](double r) { return left + r / 100.0 * pw; };
+    auto Y = [&](double v) {
+        const double l = v > 0 ? std::max(std::log10(v), d0) : d0;
+        return top + ph - (l - d0) / (d1 - d0) * ph;
+    };
+    std::ostringstream o;
+    o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H
+      << "\" font-family=\"sans-serif\" font-size=\"12\">\n"
+      << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
+      << "<text x=\"" << left << "\" y=\"18\" font-size=\"14\">Model error vs retention "
+      << "(aggregated over blocks)</text>\n";
+    for (double d = d0; d <= d1 + 1e-9; d += 1) {
+        const double y = top + ph - (d - d0) / (d1 - d0) * ph;
+        o << "<line x1=\"" << left << "\" y1=\"" << y << "\" x2=\"" << left + pw << "\" y2=\""
+          << y << "\" stroke=\"#ddd\"/>\n"
+          << "<text x=\"" << left - 6 << "\" y=\"" << y + 4 << "\" text-anchor=\"end\">"
+          << fmt("%g", std::pow(10.0, d)) << "</text>\n";
+    }
+    for (int r = 0; r <= 100; r += 20) {
+        o << "<line x1=\"" << X(r) << "\" y1=\"" << top << "\" x2=\"" << X(r) << "\" y2=\""
+          << top + ph << "\" stroke=\"#ddd\"/>\n"
+          << "<text x=\"" << X(r) << "\" y=\"" << top + ph + 16 << "\" text-anchor=\"middle\">"
+          << r << "</text>\n";
+    }
+    o << "<rect x=\"" << left << "\" y=\"" << top << "\" width=\"" << pw << "\" height=\"" << ph
+      << "\" fill=\"none\" stroke=\"black\"/>\n"
+      << "<text x=\"" << left + pw / 2 << "\" y=\"" << H - 20
+      << "\" text-anchor=\"middle\">Retention (% of each block's points)</text>\n"
+      << "<text transform=\"translate(22," << top + ph / 2
+      << ") rotate(-90)\" text-anchor=\"middle\">Model error (m, log scale)</text>\n";
+    struct Series {
+        bool present;
+        double CurvePoint::*field;
+        const char* colour;
+        bool dashed;
+        const char* label;
+    };
+    const Series series[] = {
+        {s.hasMax, &CurvePoint::meanOfMax, "#c0392b", false, "max metric, mean"},
+        {s.hasMax, &CurvePoint::maxOfMax, "#c0392b", true, "max metric, max"},
+        {s.hasPaper, &CurvePoint::meanOfPaper, "#2155c4", false, "paper metric, mean"},
+        {s.hasPaper, &CurvePoint::maxOfPaper, "#2155c4", true, "paper metric, max"},
+    };
+    int legend = 0;
+    for (const Series& ser : series) {
+        if (!ser.present) continue;
+        o << "<polyline fill=\"none\" stroke=\"" << ser.colour << "\" stroke-width=\"1.5\""
+          << (ser.dashed ? " stroke-dasharray=\"6,4\"" : "") << " points=\"";
+        for (const CurvePoint& p : s.curve)
+            o << fmt("%.2f", X(p.retention)) << "," << fmt("%.2f", Y(p.*ser.field)) << " ";
+        o << "\"/>\n";
+        const double ly = top + 20 + 20 * legend++;
+        o << "<line x1=\"" << left + pw + 15 << "\" y1=\"" << ly << "\" x2=\"" << left + pw + 45
+          << "\" y2=\"" << ly << "\" stroke=\"" << ser.colour << "\" stroke-width=\"1.5\""
+          << (ser.dashed ? " stroke-dasharray=\"6,4\"" : "") << "/>\n"
+          << "<text x=\"" << left + pw + 50 << "\" y=\"" << ly + 4 << "\">" << ser.label
+          << "</text>\n";
+    }
+    o << "</svg>\n";
+    return o.str();
+}
+
+std::string classLabel(const RiverRow& r) {
+    return std::isinf(r.classHigh) ? fmt(">= %g m", r.classLow)
+                                   : fmt("%g", r.classLow) + fmt("-%g m", r.classHigh);
+}
+
+std::string riversCsv(const std::vector<RiverRow>& rows) {
+    std::string s =
+        "class,altitude_low_m,altitude_high_m,budget_percent,rivers,original_points,kept_points,"
+        "mean_hausdorff_bai_m,mean_hausdorff_plain_m,max_hausdorff_bai_m,max_hausdorff_plain_m,"
+        "rivers_bai_better,rivers_plain_better\n";
+    for (const RiverRow& r : rows) {
+        s += std::to_string(r.landformClass) + fmt(",%g", r.classLow) +
+             (std::isinf(r.classHigh) ? std::string(",inf") : fmt(",%g", r.classHigh)) +
+             fmt(",%g", r.budget * 100) + "," + fmtU(r.rivers) + "," + fmtU(r.originalPoints) +
+             "," + fmtU(r.keptPoints) + fmt(",%.6f", r.meanBai) + fmt(",%.6f", r.meanPlain) +
+             fmt(",%.6f", r.maxBai) + fmt(",%.6f", r.maxPlain) + "," + fmtU(r.baiBetter) + "," +
+             fmtU(r.plainBetter) + "\n";
+    }
+    return s;
+}
+
+std::string riversMd(const std::vector<RiverRow>& rows) {
+    std::ostringstream s;
+    s << "# BAI vs plain 3D_DP: river shapes at equal point budgets\n\n"
+      << "Symmetric 2D Hausdorff distance (m) between each simplified river and the original "
+         "polyline. Budget = share of a river's unlocked points kept (ends and junctions always "
+         "kept), the highest-ranked of each importance order. Landform class by the river's "
+         "mean vertex altitude (Table 1 classes). Definitions: tools/report/report.h.\n\n"
+      << "| Landform class | Budget (%) | Rivers | Points kept / original | Mean BAI (m) | Mean "
+         "plain (m) | Max BAI (m) | Max plain (m) | BAI better | Plain better |\n"
+      << "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+    for (const RiverRow& r : rows) {
+        if (r.rivers == 0) continue;
+        s << "| " << classLabel(r) << " | " << fmt("%g", r.budget * 100) << " | " << r.rivers
+          << " | " << r.keptPoints << " / " << r.originalPoints << " | " << fmt("%.2f", r.meanBai)
+          << " | " << fmt("%.2f", r.meanPlain) << " | " << fmt("%.2f", r.maxBai) << " | "
+          << fmt("%.2f", r.maxPlain) << " | " << r.baiBetter << " | " << r.plainBetter << " |\n";
+    }
+    bool any = false;
+    for (const RiverRow& r : rows)
+        any = any || r.rivers > 0;
+    if (!any) s << "\n(no river with points to simplify)\n";
+    return s.str();
+}
+
+std::string gridName(double distance) {
+    return "grid_" + fmt("%g", distance / 1000) + "km.png";
+}
+
+}  // namespace
+
+bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& error) {
+    summary = {};
+    const auto say = [&](const std::string& s) {
+        if (o.progress) o.progress(s);
+    };
+    std::error_code ec;
+    const fs::path out(o.outDir);
+    if (fs::exists(out, ec) && (!fs::is_directory(out, ec) || !fs::is_empty(out, ec))) {
+        error = "output '" + o.outDir + "': exists and is not an empty folder";
+        return false;
+    }
+    if (o.imageSize < 16 || o.imageSize > 16384) {
+        error = "image size must be in 16..16384";
+        return false;
+    }
+    for (std::size_t i = 0; i < o.stats.distances.size(); ++i) {
+        for (std::size_t k = 0; k < i; ++k) {
+            if (gridName(o.stats.distances[i]) == gridName(o.stats.distances[k])) {
+                error = "view distance " + fmt("%g m", o.stats.distances[i]) + " listed twice";
+                return false;
+            }
+        }
+    }
+    format::Reader reader;
+    if (!reader.open(o.path, error)) return false;
+    const std::string buildInfo = reader.header().buildInfo;
+
+    say("tables 2/3");
+    if (!computeStats(o.path, o.stats, summary.table, error)) return false;
+    say("error vs retention curves");
+    if (!computeCurve(o.path, summary.curve, summary.hasMax, summary.hasPaper, error)) return false;
+    if (o.rivers) {
+        say("rivers: BAI vs plain 3D_DP");
+        if (!compareRivers(o, buildInfo, summary.rivers, error)) return false;
+    }
+
+    // Everything computed: write into a temporary folder, rename at the end.
+    const fs::path parent = out.has_parent_path() ? out.parent_path() : fs::path(".");
+    const fs::path temp =
+        parent / (out.filename().string() + ".tmp-" + std::to_string(getpid()));
+    fs::remove_all(temp, ec);
+    if (!fs::create_directories(temp, ec) || ec) {
+        error = "output '" + o.outDir + "': cannot create '" + temp.string() + "'";
+        return false;
+    }
+    struct Cleanup {
+        fs::path dir;
+        ~Cleanup() {
+            if (!dir.empty()) {
+                std::error_code e;
+                fs::remove_all(dir, e);
+            }
+        }
+    } cleanup{temp};
+
+    std::vector<std::uint8_t> rgba;
+    for (double d : o.stats.distances) {
+        say("grid diagram at " + fmt("%g km", d / 1000));
+        GridDiagram g;
+        if (!renderGrid(o.path, o.stats, d, o.imageSize, rgba, g, error)) return false;
+        g.file = gridName(d);
+        if (!engine::writePng((temp / g.file).string(), o.imageSize, o.imageSize, rgba, error))
+            return false;
+        summary.files.push_back(g.file);
+        summary.grids.push_back(g);
+    }
+
+    if (!writeText(temp, "tables.csv", tablesCsv(summary.table), summary, error) ||
+        !writeText(temp, "tables.md", tablesMd(summary.table, o.path), summary, error) ||
+        !writeText(temp, "curves.csv", curvesCsv(summary), summary, error) ||
+        !writeText(temp, "curves.svg", curvesSvg(summary), summary, error)) {
+        return false;
+    }
+    if (o.rivers && (!writeText(temp, "rivers.csv", riversCsv(summary.rivers), summary, error) ||
+                     !writeText(temp, "rivers.md", riversMd(summary.rivers), summary, error))) {
+        return false;
+    }
+    std::string grid = "view_distance_m,file,blocks,triangles,triangle_edges,river_edges\n";
+    for (const GridDiagram& g : summary.grids) {
+        grid += fmt("%.17g", g.distance) + "," + g.file + "," + fmtU(g.blocks) + "," +
+                fmtU(g.triangles) + "," + fmtU(g.triangleEdges) + "," + fmtU(g.riverEdges) + "\n";
+    }
+    if (!writeText(temp, "grid.csv", grid, summary, error)) return false;
+
+    nlohmann::json j;
+    j["source"] = o.path;
+    j["metric"] = summary.table.metric == format::kMetricPaper ? "paper" : "max";
+    j["grids"] = nlohmann::json::array();
+    for (const GridDiagram& g : summary.grids) {
+        j["grids"].push_back({{"distance_m", g.distance},
+                              {"file", g.file},
+                              {"blocks", g.blocks},
+                              {"triangles", g.triangles},
+                              {"triangle_edges", g.triangleEdges},
+                              {"river_edges", g.riverEdges}});
+    }
+    j["rivers"] = nlohmann::json::array();
+    for (const RiverRow& r : summary.rivers) {
+        j["rivers"].push_back({{"class", r.landformClass},
+                               {"altitude_low_m", r.classLow},
+                               {"budget", r.budget},
+                               {"rivers", r.rivers},
+                               {"mean_hausdorff_bai_m", r.meanBai},
+                               {"mean_hausdorff_plain_m", r.meanPlain},
+                               {"max_hausdorff_bai_m", r.maxBai},
+                               {"max_hausdorff_plain_m", r.maxPlain}});
+    }
+    j["files"] = summary.files;  // the files above; report.json and report.md come last
+    if (!writeText(temp, "report.json", j.dump(2) + "\n", summary, error)) return false;
+
+    std::ostringstream md;
+    md << "# unilod report: " << o.path << "\n\n"
+       << "- [tables.md](tables.md), [tables.csv](tables.csv): the paper's Tables 2 / 3 "
+          "(`unilod stats`)\n"
+       << "- [curves.svg](curves.svg), [curves.csv](curves.csv): model error vs retention, both "
+          "metrics\n";
+    if (o.rivers) {
+        md << "- [rivers.md](rivers.md), [rivers.csv](rivers.csv): BAI vs plain 3D_DP, 2D "
+              "Hausdorff distance at equal point budgets by landform class\n";
+    }
+    md << "- [grid.csv](grid.csv), [report.json](report.json): the numbers\n\n"
+       << "## Grid diagrams (top-down, levels drawn at view distance D)\n\n"
+       << "| D (km) | Image | Blocks | Triangles | Triangle edges | River edges |\n"
+       << "|---:|---|---:|---:|---:|---:|\n";
+    for (const GridDiagram& g : summary.grids) {
+        md << "| " << fmt("%g", g.distance / 1000) << " | [" << g.file << "](" << g.file << ") | "
+           << g.blocks << " | " << g.triangles << " | " << g.triangleEdges << " | "
+           << g.riverEdges << " |\n";
+    }
+    md << "\n";
+    for (const GridDiagram& g : summary.grids)
+        md << "![D = " << fmt("%g km", g.distance / 1000) << "](" << g.file << ")\n";
+    md << "\n![error vs retention](curves.svg)\n";
+    if (!writeText(temp, "report.md", md.str(), summary, error)) return false;
+
+    if (fs::exists(out, ec)) fs::remove(out, ec);  // an empty folder (checked above)
+    fs::rename(temp, out, ec);
+    if (ec) {
+        error = "output '" + o.outDir + "': cannot move '" + temp.string() +
+                "' into place: " + ec.message();
+        return false;
+    }
+    cleanup.dir.clear();
+    return true;
+}
+
+}  // namespace unilod::report

@@ -1,0 +1,119 @@
+// `unilod report FILE -o DIR` (issue 6, item 3): the paper's evaluation for one .ulod file.
+//
+//   DIR/report.md        index: what each file is, with the main numbers inline
+//   DIR/tables.md, .csv  Tables 2 / 3 (preprocess/stats.h; the CSV is `unilod stats --csv`)
+//   DIR/curves.svg, .csv model error vs retention for both metrics, aggregated over blocks
+//   DIR/rivers.md, .csv  BAI vs plain 3D_DP: 2D Hausdorff distance of simplified rivers to the
+//                        originals at equal point budgets, by landform (Table 1 altitude) class
+//   DIR/grid_<D>.png     top-down wireframe of the levels drawn at view distance D (Figs. 7-12)
+//   DIR/grid.csv         what each diagram drew (blocks, triangles, river edges)
+//   DIR/report.json      the numbers above, machine-readable
+//
+// Definitions (also in the README):
+// - Curves: for retention r (1 %, 2 %, ..., 100 %) every block is taken at step
+//   k_b = min(steps_b, floor((1 - r) · vertexCount_b)) (a block cannot drop its locked points: it
+//   stays at its coarsest state), error_b = errors[k_b]; the curve shows the maximum and the mean
+//   of error_b over blocks, per metric.
+// - Rivers: the importance order is computed twice on the model's inputs (DEM + rivers from the
+//   file's build info or --dem / --rivers, cleaned like `unilod build`, the whole DEM at the
+//   build's stride as one point set, as `unilod order` does): improved 3D_DP with BAI, and plain
+//   3D_DP (--no-bai). For a budget f, each river polyline keeps its locked points (ends,
+//   junctions) and the round(f · n) highest-ranked of its n unlocked points (rank = position in
+//   the deletion order: deleted later = more important); the simplified polyline joins the kept
+//   points in their original order. Its symmetric 2D Hausdorff distance to the original polyline
+//   is measured (hausdorff2D). Rivers without unlocked points are not counted. Landform class:
+//   the mean altitude of the river's vertices (z sampled from the DEM), classes by Table 1's
+//   lower bounds 0 / 500 / 1000 m.
+// - Grid diagrams: the stats viewpoint (above the centre of the data, D above its maximum z,
+//   S = distance to the block centre, h_lim = 2·P·S·tan(α/2)/H); each block draws its stored
+//   level chooseLevel(levels, errors, h_lim) (engine/lod.h), the level the engine would draw.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "rivers.h"
+#include "stats.h"
+
+namespace unilod::report {
+
+struct ReportOptions {
+    std::string path;    // the .ulod file
+    std::string outDir;  // created; must not exist or be empty
+    StatsOptions stats;  // distances, pixels, fov, height, metric: tables and grid diagrams
+    std::string demPath, riversPath;  // override the build info's inputs
+    bool rivers = true;               // false: no BAI comparison (no DEM / rivers needed)
+    std::vector<double> budgets = {0.05, 0.10, 0.20, 0.40};  // river point budgets (fractions)
+    std::uint32_t imageSize = 1024;                           // grid diagrams: square, pixels
+    std::function<void(const std::string&)> progress;         // one line per stage
+};
+
+struct GridDiagram {
+    double distance = 0;
+    std::string file;  // name inside outDir
+    std::uint64_t blocks = 0, triangles = 0, triangleEdges = 0, riverEdges = 0;
+};
+
+struct RiverRow {
+    int landformClass = 0;
+    double classLow = 0, classHigh = 0;  // altitude range (m); classHigh = +inf for the last
+    double budget = 0;                   // fraction of unlocked points kept
+    std::uint64_t rivers = 0, originalPoints = 0, keptPoints = 0;
+    double meanBai = 0, meanPlain = 0, maxBai = 0, maxPlain = 0;  // Hausdorff (m)
+    std::uint64_t baiBetter = 0, plainBetter = 0;  // rivers where one is strictly smaller
+};
+
+struct CurvePoint {
+    double retention = 0;                            // percent
+    double maxOfMax = 0, meanOfMax = 0;              // metric "max" over blocks
+    double maxOfPaper = 0, meanOfPaper = 0;          // metric "paper" over blocks
+};
+
+struct ReportSummary {
+    StatsTable table;
+    std::vector<CurvePoint> curve;
+    bool hasMax = false, hasPaper = false;
+    std::vector<RiverRow> rivers;
+    std::vector<GridDiagram> grids;
+    std::vector<std::string> files;  // written, relative to outDir
+};
+
+// Writes everything into a temporary folder beside outDir and renames it into place at the end:
+// on failure nothing is left (outDir untouched). False with a message naming the file.
+bool runReport(const ReportOptions& options, ReportSummary& summary, std::string& error);
+
+// --- Building blocks (tested on their own) ---------------------------------------------------
+
+// Distance from p to the segment ab (a == b: to the point).
+double pointSegmentDistance(const XY& p, const XY& a, const XY& b);
+
+// Directed 2D Hausdorff distance sup_{p in A} d(p, B) of polylines (a single point is a
+// polyline too). d(p, B) is exact (point-to-segment); the supremum over A is taken over A's
+// vertices and `samples` - 1 evenly spaced interior points of each of its segments, so the result
+// is at most (longest segment of A) / (2 · samples) below the true value (d(·, B) is 1-Lipschitz).
+double directedHausdorff(const std::vector<XY>& a, const std::vector<XY>& b, int samples = 64);
+
+// Symmetric: max of both directions.
+double hausdorff2D(const std::vector<XY>& a, const std::vector<XY>& b, int samples = 64);
+
+// Error-vs-retention curve of one file (definitions above), 100 points.
+bool computeCurve(const std::string& path, std::vector<CurvePoint>& curve, bool& hasMax,
+                  bool& hasPaper, std::string& error);
+
+// Renders one grid diagram (RGBA8, size x size) and counts what it drew.
+bool renderGrid(const std::string& path, const StatsOptions& stats, double distance,
+                std::uint32_t size, std::vector<std::uint8_t>& rgba, GridDiagram& counts,
+                std::string& error);
+
+}  // namespace unilod::report
+
+namespace unilod::report {
+
+// The BAI vs plain 3D_DP comparison (definitions above) on the inputs named by the file's build
+// info `buildInfo` (JSON) or the options' overrides. `progress` may be empty.
+bool compareRivers(const ReportOptions& options, const std::string& buildInfo,
+                   std::vector<RiverRow>& rows, std::string& error);
+
+}  // namespace unilod::report

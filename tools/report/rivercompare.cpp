@@ -1,0 +1,173 @@
+// BAI vs plain 3D_DP river shapes at equal point budgets (report.h; paper §2.2, Table 1).
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <nlohmann/json.hpp>
+
+#include "bai.h"
+#include "dem.h"
+#include "importance.h"
+#include "pointset.h"
+#include "rivercleaning.h"
+#include "report.h"
+
+namespace unilod::report {
+
+namespace {
+
+// Same as `unilod order` / `unilod build`: DEM points closer than 1 % of a cell to a river go.
+constexpr double kRiverClearanceCells = 0.01;
+// Samples per segment for the Hausdorff supremum (error bound: segment length / 32).
+constexpr int kHausdorffSamples = 16;
+
+template <typename T>
+T infoValue(const nlohmann::json& info, const char* key, T fallback) {
+    if (!info.is_object() || !info.contains(key)) return fallback;
+    try {
+        return info.at(key).get<T>();
+    } catch (const nlohmann::json::exception&) {
+        return fallback;
+    }
+}
+
+// Deletion position per point id (higher = deleted later = more important); locked: max.
+std::vector<std::size_t> positions(const PointSet& set, const ImportanceResult& r) {
+    std::vector<std::size_t> pos(set.points.size(), std::numeric_limits<std::size_t>::max());
+    for (std::size_t i = 0; i < r.order.size(); ++i)
+        pos[r.order[i]] = i;
+    return pos;
+}
+
+std::vector<XY> simplified(const PointSet& set, const Polyline& line,
+                           const std::vector<std::size_t>& pos, std::size_t keep) {
+    std::vector<std::size_t> ranks;
+    for (PointId id : line) {
+        if (!set.points[id].locked) ranks.push_back(pos[id]);
+    }
+    std::sort(ranks.begin(), ranks.end(), std::greater<>());
+    const std::size_t threshold = keep == 0 ? std::numeric_limits<std::size_t>::max()
+                                            : ranks[std::min(keep, ranks.size()) - 1];
+    std::vector<XY> out;
+    for (PointId id : line) {
+        const Point& p = set.points[id];
+        if (p.locked || (keep > 0 && pos[id] >= threshold)) out.push_back({p.x, p.y});
+    }
+    return out;
+}
+
+}  // namespace
+
+bool compareRivers(const ReportOptions& options, const std::string& buildInfo,
+                   std::vector<RiverRow>& rows, std::string& error) {
+    const auto say = [&](const std::string& s) {
+        if (options.progress) options.progress(s);
+    };
+    const nlohmann::json info = nlohmann::json::parse(buildInfo, nullptr, false);
+    const std::string demPath =
+        options.demPath.empty() ? infoValue<std::string>(info, "dem", "") : options.demPath;
+    const std::string riversPath = options.riversPath.empty()
+                                       ? infoValue<std::string>(info, "rivers", "")
+                                       : options.riversPath;
+    if (demPath.empty() || riversPath.empty()) {
+        error = options.path +
+                ": its build info names no DEM / rivers; give --dem and --rivers (or --no-rivers)";
+        return false;
+    }
+    DemLoadOptions dlo;
+    dlo.band = infoValue<int>(info, "band", 0);
+    dlo.targetSrs = infoValue<std::string>(info, "t_srs", "");
+    DemGrid dem;
+    if (!loadDem(demPath, dlo, dem, error)) {
+        error += " (the DEM named by the build info of " + options.path + "; override with --dem)";
+        return false;
+    }
+    RiverLoadOptions rlo;
+    rlo.layer = infoValue<std::string>(info, "layer", "");
+    rlo.where = infoValue<std::string>(info, "where", "");
+    rlo.assumeSrs = infoValue<std::string>(info, "assume_crs", "");
+    RiverLines lines;
+    if (!loadRivers(riversPath, rlo, dem.wkt, lines, error)) {
+        error += " (the rivers named by the build info of " + options.path +
+                 "; override with --rivers)";
+        return false;
+    }
+    RiverCleaningOptions cleaning;
+    cleaning.minRiverLength = infoValue<double>(info, "min_river_length", 0.0);
+    RiverCleaningStats cleaningStats;
+    lines = cleanRivers(lines, dem, cleaning, cleaningStats);
+    PointSetOptions pso;
+    pso.stride = std::max(1, infoValue<int>(info, "stride", 1));
+    pso.riverClearance = kRiverClearanceCells * std::min(std::abs(dem.cellX), std::abs(dem.cellY));
+    const PointSet set = buildPointSet(dem, lines, pso);
+    say("rivers: " + std::to_string(set.rivers.size()) + " polylines, " +
+        std::to_string(set.points.size()) + " points; importance with and without BAI");
+
+    ImportanceOptions withBai;
+    const std::string tablePath = infoValue<std::string>(info, "bai_table", "");
+    if (!tablePath.empty() && !BaiTable::load(tablePath, withBai.baiTable, error)) return false;
+    withBai.baiRow = infoValue<double>(info, "bai_row", kDefaultBaiRow);
+    ImportanceOptions plain = withBai;
+    plain.useBai = false;
+    ImportanceResult rBai, rPlain;
+    if (!computeImportance(set, withBai, rBai, error)) return false;
+    if (!computeImportance(set, plain, rPlain, error)) return false;
+    const std::vector<std::size_t> posBai = positions(set, rBai), posPlain = positions(set, rPlain);
+
+    const std::vector<double> bounds = withBai.baiTable.classLowerBounds.empty()
+                                           ? std::vector<double>{0, 500, 1000}
+                                           : withBai.baiTable.classLowerBounds;
+    const int classes = int(bounds.size());
+    rows.clear();
+    for (int c = 0; c < classes; ++c) {
+        for (double f : options.budgets) {
+            RiverRow r;
+            r.landformClass = c;
+            r.classLow = bounds[std::size_t(c)];
+            r.classHigh = c + 1 < classes ? bounds[std::size_t(c) + 1]
+                                          : std::numeric_limits<double>::infinity();
+            r.budget = f;
+            rows.push_back(r);
+        }
+    }
+    for (const Polyline& line : set.rivers) {
+        std::size_t unlocked = 0;
+        double meanZ = 0;
+        std::vector<XY> original;
+        for (PointId id : line) {
+            const Point& p = set.points[id];
+            unlocked += !p.locked;
+            meanZ += p.z / double(line.size());
+            original.push_back({p.x, p.y});
+        }
+        if (unlocked == 0) continue;
+        int c = 0;
+        while (c + 1 < classes && meanZ >= bounds[std::size_t(c) + 1])
+            ++c;
+        for (std::size_t b = 0; b < options.budgets.size(); ++b) {
+            RiverRow& r = rows[std::size_t(c) * options.budgets.size() + b];
+            const std::size_t keep = std::size_t(std::lround(r.budget * double(unlocked)));
+            const std::vector<XY> a = simplified(set, line, posBai, keep);
+            const std::vector<XY> p = simplified(set, line, posPlain, keep);
+            const double hb = hausdorff2D(original, a, kHausdorffSamples);
+            const double hp = hausdorff2D(original, p, kHausdorffSamples);
+            r.rivers += 1;
+            r.originalPoints += line.size();
+            r.keptPoints += a.size();
+            r.meanBai += hb;
+            r.meanPlain += hp;
+            r.maxBai = std::max(r.maxBai, hb);
+            r.maxPlain = std::max(r.maxPlain, hp);
+            r.baiBetter += hb < hp;
+            r.plainBetter += hp < hb;
+        }
+    }
+    for (RiverRow& r : rows) {
+        if (r.rivers > 0) {
+            r.meanBai /= double(r.rivers);
+            r.meanPlain /= double(r.rivers);
+        }
+    }
+    return true;
+}
+
+}  // namespace unilod::report
