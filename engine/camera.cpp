@@ -10,6 +10,15 @@ constexpr double kDegree = 3.14159265358979323846 / 180.0;
 double dot(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 }  // namespace
 
+double boxMinDepth(const Camera& camera, const double boxMin[3], const double boxMax[3]) {
+    const CameraBasis b = cameraBasis(camera);
+    // Per axis the corner coordinate that minimises the dot product with the forward vector.
+    double depth = 0;
+    for (int k = 0; k < 3; ++k)
+        depth += b.forward[k] * ((b.forward[k] >= 0 ? boxMin[k] : boxMax[k]) - camera.eye[k]);
+    return depth;
+}
+
 CameraBasis cameraBasis(const Camera& camera) {
     const double yaw = camera.yawDegrees * kDegree, pitch = camera.pitchDegrees * kDegree;
     CameraBasis b{};

@@ -31,6 +31,11 @@ shader::mat4 perspectiveViewProjection(const Camera& camera, double aspect);
 // like the perspective; depth is constant (every line is visible).
 shader::mat4 gridViewProjection(double halfHeight, double aspect);
 
+// The smallest depth along the view axis (eye-relative, metres) of the box's 8 corners: the
+// smallest depth of any point of the box (depth is linear). Negative when part of the box is
+// behind the eye.
+double boxMinDepth(const Camera& camera, const double boxMin[3], const double boxMax[3]);
+
 // False when the axis-aligned box lies entirely outside the perspective frustum (conservative:
 // a box is kept unless one frustum plane has all 8 corners outside).
 bool boxInFrustum(const Camera& camera, double aspect, const double boxMin[3],

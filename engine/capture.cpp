@@ -52,6 +52,7 @@ nlohmann::json frameJson(const CaptureOptions& options, const Camera& c, const C
              {"fallback", b.fallback},
              {"step", b.wanted.step},
              {"S", b.distance},
+             {"min_depth", b.minDepth},
              {"h_lim", b.hLim},
              {"h_s", b.wanted.error},
              {"next_level_error",

@@ -38,11 +38,15 @@ double frustumEdgeFactor(double fovRadians, double aspect) {
     return 1.0 / (1.0 + tan2);                              // cos^2 = 1 / (1 + tan^2)
 }
 
-double blockTolerance(const ViewTolerance& view, double distance) {
-    double s = distance;
-    if (view.mode == DistanceMode::Nearest)
-        s *= frustumEdgeFactor(view.fovRadians, view.width / view.height);
-    return toleranceFor(view.pixels, s, view.fovRadians, view.height);
+double effectiveDistance(const ViewTolerance& view, double distance, double minDepth) {
+    if (view.mode == DistanceMode::Centre) return distance;
+    const double edge = frustumEdgeFactor(view.fovRadians, view.width / view.height);
+    return std::max(distance * edge, minDepth * std::sqrt(edge));
+}
+
+double blockTolerance(const ViewTolerance& view, double distance, double minDepth) {
+    return toleranceFor(view.pixels, effectiveDistance(view, distance, minDepth), view.fovRadians,
+                        view.height);
 }
 
 LevelChoice chooseLevel(const std::vector<format::Level>& levels, const std::vector<float>& errors,

@@ -25,23 +25,36 @@ double blockDistance(DistanceMode mode, const double eye[3], const double boxMin
                      const double boxMax[3]);
 
 // cos^2 of the angle between the view axis and a corner ray of the frustum, for a vertical
-// field of view `fovRadians` and width / height `aspect`. A world segment of length h whose end
-// points are inside the frustum at Euclidean distances >= S projects to at most
-// f * h / (S * cos^2(theta_c)) pixels (f = H / (2 tan(fov / 2))): the depth of a point is at
-// least its distance times cos(theta_c), and the projection's magnification is d / (z1 * z2)
-// (Cauchy-Schwarz on the perspective division). So in `Nearest` mode the level is chosen with
-// S * frustumEdgeFactor: the P-pixel bound then holds anywhere on screen, not only at the centre.
+// field of view `fovRadians` and width / height `aspect`.
 double frustumEdgeFactor(double fovRadians, double aspect);
 
-// The tolerance a block's level is chosen with: Eq. 11 with S in `Centre` mode (the paper),
-// with S * frustumEdgeFactor in `Nearest` mode (a guarantee: see above).
+// The tolerance a block's level is chosen with (DESIGN.md "Screen-space error").
+//
+// `Centre` mode: Eq. 11 with S = the distance to the block's centre, as in the paper (no
+// guarantee for points nearer than the centre).
+//
+// `Nearest` mode: Eq. 11 with an effective distance S' chosen so that, with the `max` metric,
+// the drawn surface is within P pixels of every original point on screen. Let f = H / (2
+// tan(fov / 2)) be the focal length in pixels, theta_c the angle of the frustum's corner ray,
+// and a world segment d from a point p on screen (angle to the view axis <= theta_c) to a point
+// q (eye-relative, depths p_z, q_z > 0). Its projection has length
+//   f |d_xy p_z - p_xy d_z| / (p_z q_z) <= f |d| |p| / (p_z q_z) = f |d| / (q_z cos(theta_p))
+// (the numerator is two components of d x p). Hence, for both points in the block's box:
+//   (a) q_z >= |q| cos(theta_c) >= S cos(theta_c) when q is on screen too: S' = S cos^2(theta_c);
+//   (b) q_z >= zMin, the smallest depth of the box's corners: S' = zMin cos(theta_c).
+// Both bound the error, so S' = max(S cos^2(theta_c), zMin cos(theta_c)) (zMin <= 0: (a) only).
+// S' <= S always (zMin <= the depth of the nearest point <= S): never coarser than Eq. 11 with
+// the nearest distance. (b) is the larger for blocks ahead of the eye, (a) near the image edges.
 struct ViewTolerance {
     double pixels = 1;        // P
     double fovRadians = 0;    // vertical field of view
     double width = 0, height = 0;  // viewport in pixels
     DistanceMode mode = DistanceMode::Nearest;
 };
-double blockTolerance(const ViewTolerance& view, double distance);
+// `distance` = S of the mode; `minDepth` = the smallest view-axis depth of the block's box
+// corners (Nearest mode only; 0 or less when unknown or behind the eye).
+double effectiveDistance(const ViewTolerance& view, double distance, double minDepth = 0);
+double blockTolerance(const ViewTolerance& view, double distance, double minDepth = 0);
 
 struct LevelChoice {
     std::size_t level = 0;  // index into Block::levels

@@ -9,6 +9,7 @@
 #include <png.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -149,12 +150,32 @@ TEST_F(Capture, NearAndFarViews) {
                 EXPECT_GT(block.errorMax[block.levels[level + 1].step], hLim) << b.dump();
             }
             EXPECT_EQ(b["triangles"].get<std::uint32_t>(), block.levels[level].triangleCount);
-            // h_lim from S by Eq. 11 with P = 1, 60 degrees, 480 px, S scaled by cos^2 of the
-            // frustum's corner angle (tan^2 = tan^2(30 deg) * (1 + (4/3)^2)).
+            // h_lim by Eq. 11 with P = 1, 60 degrees, 480 px and S' = max(S cos^2, zMin cos)
+            // (engine/lod.h), cos^2 of the frustum's corner angle from tan^2 = tan^2(30 deg) *
+            // (1 + (4/3)^2), zMin the smallest view depth of the box's corners.
             const double t = std::tan(3.14159265358979 / 6);
             const double edge = 1.0 / (1.0 + t * t * (1.0 + 16.0 / 9.0));
             EXPECT_NEAR((*view)["edge_factor"].get<double>(), edge, 1e-12);
-            EXPECT_NEAR(hLim, 2.0 * b["S"].get<double>() * edge * t / 480, 1e-6 * (1 + hLim));
+            const nlohmann::json& cam = (*view)["camera"];
+            const double yaw = cam["yaw"].get<double>() * M_PI / 180;
+            const double pitch = cam["pitch"].get<double>() * M_PI / 180;
+            const double fwd[3] = {std::sin(yaw) * std::cos(pitch), std::cos(yaw) * std::cos(pitch),
+                                   std::sin(pitch)};
+            const format::BlockInfo& info = reader.blocks()[index];
+            const double lo[3] = {info.minX, info.minY, info.minZ};
+            const double hi[3] = {info.maxX, info.maxY, info.maxZ};
+            double zMin = 1e300;
+            for (int corner = 0; corner < 8; ++corner) {
+                double z = 0;
+                for (int k = 0; k < 3; ++k)
+                    z += fwd[k] * ((corner >> k & 1 ? hi[k] : lo[k]) - cam["eye"][k].get<double>());
+                zMin = std::min(zMin, z);
+            }
+            EXPECT_NEAR(b["min_depth"].get<double>(), zMin, 1e-6 * (1 + std::abs(zMin)));
+            const double s = b["S"].get<double>();
+            const double sEff = std::max(s * edge, zMin * std::sqrt(edge));
+            EXPECT_LE(sEff, s);
+            EXPECT_NEAR(hLim, 2.0 * sEff * t / 480, 1e-6 * (1 + hLim));
         }
     }
 

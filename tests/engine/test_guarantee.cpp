@@ -290,11 +290,10 @@ protected:
     };
 
     // Every original point of every block against the surface drawn below it: the segment from
-    // the DEM point to the surface point, projected, when both ends are inside the frustum (in
-    // front of the 1 m near plane and inside the image rectangle; engine/lod.h
-    // frustumEdgeFactor bounds exactly such segments). The deviation measured is the full
-    // on-screen length of the projected segment, not only its vertical component: the bound
-    // holds for it as well (the Cauchy-Schwarz step there bounds |fwd x (d x p)| <= |d| |p|),
+    // the DEM point to the surface point, projected, when one end is on screen and both are in
+    // front of the 1 m near plane (engine/lod.h effectiveDistance bounds exactly such
+    // segments). The deviation measured is the full on-screen length of the projected segment,
+    // not only its vertical component: the bound there is for that length (|d x p| <= |d| |p|),
     // so this is the stronger check. Border points are checked in every block that holds them.
     static Deviation deviation(const Drawn& d, double pixels) {
         const Projector cam(d.json);
@@ -331,7 +330,9 @@ protected:
                 const double wx = block.originX + double(v.x), wy = block.originY + double(v.y);
                 const auto a = cam.project(wx, wy, v.z);
                 const auto b = cam.project(wx, wy, s);
-                if (!a.inside || !b.inside) continue;
+                // One end on screen suffices (engine/lod.h: the bound needs one end within the
+                // frustum's corner angle and the other in front of the eye).
+                if (!(a.inside || b.inside) || !(a.depth >= 1.0 && b.depth >= 1.0)) continue;
                 ++out.checked;
                 const double dev = std::hypot(a.x - b.x, a.y - b.y);
                 // Slack for float storage only: vertex z (and the surface z interpolated from

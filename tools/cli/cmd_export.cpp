@@ -53,8 +53,9 @@ int run(ExportCli& c) {
         }
         for (int i = 0; i < 3; ++i)
             s.eye[i] = c.camera[std::size_t(i)];
-        if (c.camera.size() == 5 && !c.noCull) {
-            s.cull = true;
+        if (c.camera.size() == 5) {
+            s.hasDirection = true;
+            s.cull = !c.noCull;
             s.yawDegrees = c.camera[3];
             s.pitchDegrees = c.camera[4];
         }

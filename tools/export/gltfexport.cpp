@@ -161,6 +161,7 @@ void addBlock(tinygltf::Model& model, const format::Header& header, const format
     extras["h_lim"] = Value(sel.hLim);
     extras["error"] = Value(sel.choice.error);
     extras["distance"] = Value(sel.distance);
+    extras["min_depth"] = Value(sel.minDepth);
     node.extras = Value(extras);
     model.nodes.push_back(node);
     model.scenes[0].nodes.push_back(int(model.nodes.size() - 1));
@@ -200,8 +201,8 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
         sel["distance"] = Value(std::string(so.distance == engine::DistanceMode::Centre
                                                 ? "centre of the block's bounding box"
                                                 : "nearest point of the block's bounding box"));
-        sel["culled"] = Value(so.cull);
-        if (so.cull) {
+        sel["culled"] = Value(so.hasDirection && so.cull);
+        if (so.hasDirection) {
             sel["yaw_degrees"] = Value(so.yawDegrees);
             sel["pitch_degrees"] = Value(so.pitchDegrees);
         }

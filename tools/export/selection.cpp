@@ -9,30 +9,37 @@ namespace unilod::exporter {
 
 namespace {
 constexpr double kDegree = 3.14159265358979323846 / 180.0;
-}
 
-double blockTolerance(const format::BlockInfo& info, const SelectionOptions& options,
-                      double* distance) {
-    if (!options.useCamera) {
-        if (distance != nullptr) *distance = 0;
-        return options.hLim;
-    }
-    const double boxMin[3] = {info.minX, info.minY, info.minZ};
-    const double boxMax[3] = {info.maxX, info.maxY, info.maxZ};
-    const double s = engine::blockDistance(options.distance, options.eye, boxMin, boxMax);
-    if (distance != nullptr) *distance = s;
-    const engine::ViewTolerance view{options.pixels, options.fovDegrees * kDegree,
-                                     options.widthPixels, options.heightPixels, options.distance};
-    return engine::blockTolerance(view, s);
-}
-
-bool blockVisible(const format::BlockInfo& info, const SelectionOptions& options) {
-    if (!options.useCamera || !options.cull) return true;
+engine::Camera cameraOf(const SelectionOptions& options) {
     engine::Camera camera;
     for (int k = 0; k < 3; ++k) camera.eye[k] = options.eye[k];
     camera.yawDegrees = options.yawDegrees;
     camera.pitchDegrees = options.pitchDegrees;
     camera.fovDegrees = options.fovDegrees;
+    return camera;
+}
+}  // namespace
+
+double blockTolerance(const format::BlockInfo& info, const SelectionOptions& options,
+                      double* distance, double* minDepth) {
+    if (distance != nullptr) *distance = 0;
+    if (minDepth != nullptr) *minDepth = 0;
+    if (!options.useCamera) return options.hLim;
+    const double boxMin[3] = {info.minX, info.minY, info.minZ};
+    const double boxMax[3] = {info.maxX, info.maxY, info.maxZ};
+    const double s = engine::blockDistance(options.distance, options.eye, boxMin, boxMax);
+    const double depth =
+        options.hasDirection ? engine::boxMinDepth(cameraOf(options), boxMin, boxMax) : 0.0;
+    if (distance != nullptr) *distance = s;
+    if (minDepth != nullptr) *minDepth = depth;
+    const engine::ViewTolerance view{options.pixels, options.fovDegrees * kDegree,
+                                     options.widthPixels, options.heightPixels, options.distance};
+    return engine::blockTolerance(view, s, depth);
+}
+
+bool blockVisible(const format::BlockInfo& info, const SelectionOptions& options) {
+    if (!options.useCamera || !options.hasDirection || !options.cull) return true;
+    const engine::Camera camera = cameraOf(options);
     const double boxMin[3] = {info.minX, info.minY, info.minZ};
     const double boxMax[3] = {info.maxX, info.maxY, info.maxZ};
     return engine::boxInFrustum(camera, options.widthPixels / options.heightPixels, boxMin, boxMax);
@@ -52,7 +59,7 @@ BlockSelection selectLevel(const format::Block& block, std::size_t index,
     s.index = index;
     s.col = block.col;
     s.row = block.row;
-    s.hLim = blockTolerance(info, options, &s.distance);
+    s.hLim = blockTolerance(info, options, &s.distance, &s.minDepth);
     s.choice = engine::chooseStoredLevel(block.levels, metric, s.hLim);
     const format::Level& level = block.levels[s.choice.level];
     s.vertexCount = level.vertexCount;

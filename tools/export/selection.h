@@ -23,8 +23,9 @@ struct SelectionOptions {
     double fovDegrees = 60.0;  // vertical field of view
     double widthPixels = 1920.0, heightPixels = 1080.0;
     engine::DistanceMode distance = engine::DistanceMode::Nearest;
-    // With a view direction: frustum culling as in the engine (off: every block).
-    bool cull = false;
+    // With a view direction: the engine's depth-based tolerance (engine/lod.h) and, unless
+    // `cull` is off, its frustum culling. Without one: distance only, every block.
+    bool hasDirection = false, cull = true;
     double yawDegrees = 0, pitchDegrees = 0;
     double pixels = 1.0;  // P
     // ... or one h_lim (metres) for every block.
@@ -36,6 +37,7 @@ struct BlockSelection {
     std::size_t index = 0;  // block index in the file (Reader::blocks())
     std::uint32_t col = 0, row = 0;
     double distance = 0;  // S (camera mode; 0 otherwise)
+    double minDepth = 0;  // smallest view depth of the box (camera with a direction; 0 otherwise)
     double hLim = 0;
     engine::LevelChoice choice;
     std::uint32_t vertexCount = 0, triangles = 0, riverEdges = 0;  // of the chosen level
@@ -43,7 +45,7 @@ struct BlockSelection {
 
 // The h_lim of a block for the options (camera: the engine's S and Eq. 11; else options.hLim).
 double blockTolerance(const format::BlockInfo& info, const SelectionOptions& options,
-                      double* distance = nullptr);
+                      double* distance = nullptr, double* minDepth = nullptr);
 
 // Camera mode with culling: false when the block's box is outside the view frustum.
 bool blockVisible(const format::BlockInfo& info, const SelectionOptions& options);
