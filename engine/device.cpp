@@ -3,6 +3,7 @@
 #include "device.h"
 
 #include <cassert>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 
@@ -122,7 +123,13 @@ bool graphicsFamily(VkPhysicalDevice physical, VkSurfaceKHR surface, std::uint32
 
 }  // namespace
 
-bool createDevice(const DeviceOptions& options, Device& device, std::string& error) {
+bool createDevice(const DeviceOptions& requested, Device& device, std::string& error) {
+    DeviceOptions options = requested;
+    if (options.validation && options.validationOptional && !hasLayer(kValidationLayer)) {
+        std::fprintf(stderr, "unilod: %s not installed: running without validation\n",
+                     kValidationLayer);
+        options.validation = false;
+    }
     if (options.validation && !hasLayer(kValidationLayer)) {
         error = std::string("validation requested but ") + kValidationLayer +
                 " is not installed (Debian: vulkan-validationlayers)";

@@ -14,6 +14,9 @@ namespace unilod::engine {
 
 struct DeviceOptions {
     bool validation = false;  // VK_LAYER_KHRONOS_validation + debug messenger
+    // When the layer is not installed: false = an error, true = run without it (a debug
+    // build's default, as opposed to an explicit --validation).
+    bool validationOptional = false;
     int deviceIndex = -1;     // physical device index; -1: $UNILOD_DEVICE, else automatic
     // Presentation (engine/window.h); empty for the headless target. The instance gets these
     // extensions; `createSurface` runs right after the instance exists, so that device selection

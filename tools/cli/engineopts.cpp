@@ -4,6 +4,15 @@
 
 namespace unilod::cli {
 
+namespace {
+// Debug builds validate by default (when the layer is installed); optimised builds on request.
+#ifdef NDEBUG
+constexpr bool kValidateByDefault = false;
+#else
+constexpr bool kValidateByDefault = true;
+#endif
+}  // namespace
+
 bool parseSize(const std::string& s, std::uint32_t& w, std::uint32_t& h) {
     unsigned long a = 0, b = 0;
     char tail = 0;
@@ -22,8 +31,8 @@ void EngineCli::add(CLI::App& sub, const std::string& defaultSize) {
     sub.add_option("--metric", metric, "error metric: max (a bound, default) or paper")
         ->check(CLI::IsMember({"max", "paper"}));
     sub.add_option("--distance", distance,
-                   "S for h_lim: nearest (nearest point of the block's box, scaled so the "
-                   "P-pixel bound holds over the whole view; default) or centre (the paper's "
+                   "S for h_lim: nearest (nearest point of the block's box, made safe for the "
+                   "whole view so that the P-pixel bound holds; default) or centre (the paper's "
                    "block centre)")
         ->check(CLI::IsMember({"nearest", "centre"}));
     sub.add_option("--gpu-budget", gpuBudgetMiB,
@@ -31,8 +40,15 @@ void EngineCli::add(CLI::App& sub, const std::string& defaultSize) {
                        std::to_string(engine::kDefaultGpuBudget >> 20) +
                        "); must hold every block's coarsest level")
         ->check(CLI::PositiveNumber);
-    sub.add_flag("--validation", validation,
-                 "enable the Vulkan validation layer; any warning or error fails the command");
+    CLI::Option* on = sub.add_flag(
+        "--validation", validation,
+        std::string("enable the Vulkan validation layer; any warning or error fails the command "
+                    "(default: ") +
+            (kValidateByDefault ? "on in this debug build when the layer is installed)"
+                                : "off in this optimised build)"));
+    CLI::Option* off = sub.add_flag("--no-validation", noValidation, "disable validation");
+    on->excludes(off);
+    off->excludes(on);
     sub.add_option("--device", device,
                    "Vulkan physical device index (default: $UNILOD_DEVICE, else the best)")
         ->check(CLI::NonNegativeNumber);
@@ -50,7 +66,8 @@ bool EngineCli::apply(engine::SceneOptions& scene, engine::DeviceOptions& dev, s
     scene.distance =
         distance == "centre" ? engine::DistanceMode::Centre : engine::DistanceMode::Nearest;
     scene.gpuBudget = std::uint64_t(gpuBudgetMiB * 1048576.0);
-    dev.validation = validation;
+    dev.validation = validation || (kValidateByDefault && !noValidation);
+    dev.validationOptional = !validation;
     dev.deviceIndex = device;
     return true;
 }

@@ -18,7 +18,7 @@ struct EngineCli {
     double gpuBudgetMiB = double(engine::kDefaultGpuBudget >> 20);
     double pixels = 1.0;
     std::string metric;
-    bool validation = false;
+    bool validation = false, noValidation = false;
     int device = -1;
 
     void add(CLI::App& sub, const std::string& defaultSize);
