@@ -40,6 +40,7 @@ fi
 dem=assets/jacksboro_dem.tif
 rivers=assets/jacksboro_rivers_grass.geojson
 path=assets/jacksboro_path.json
+orbit=assets/jacksboro_orbit.json
 mkdir -p "$out"
 model=$out/jacksboro.ulod
 
@@ -60,8 +61,10 @@ $unilod capture "$model" --validation --size 1024x1024 --camera 746400,4052900,3
     --grid --out "$out/capture/grid"
 $unilod capture "$model" --validation --size 640x360 --path "$path" --frames 5 \
     --out "$out/capture/path"
-echo "== 6. unilod bench: $frames frames at $size along $path =="
+echo "== 6. unilod bench: $frames frames at $size along $path (low fly-over) and $orbit =="
 $unilod bench "$model" --path "$path" --frames "$frames" --size "$size" --json "$out/bench.json"
+$unilod bench "$model" --path "$orbit" --frames "$frames" --size "$size" \
+    --json "$out/bench_orbit.json"
 echo "== 7. unilod export: the oblique capture's LOD as glTF 2.0 (Blender, three.js) =="
 $unilod export "$model" -q --camera 735000,4034000,3500,30,-20 --size 1280x720 \
     -o "$out/jacksboro_oblique.glb"
@@ -73,7 +76,7 @@ $unilod order "$dem" "$rivers" --out "$out/jacksboro_order.csv" -q
 echo "== outputs =="
 echo "  unified LOD model:  $out/jacksboro.ulod"
 echo "  captures (PNG+JSON): $out/capture/{oblique,topdown,grid,path}/"
-echo "  benchmark JSON:     $out/bench.json"
+echo "  benchmark JSON:     $out/bench.json (fly-over), $out/bench_orbit.json (orbit)"
 echo "  glTF export:        $out/jacksboro_oblique.glb"
 echo "  report:             $out/report/report.md (tables, curves, rivers, grid diagrams)"
 echo "  importance order:   $out/jacksboro_order.csv"
