@@ -67,6 +67,8 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
     in.originX = block.originX;
     in.originY = block.originY;
     in.ratio = options.lodRatio;
+    in.maxError = options.maxError;
+    in.paperError = options.paperError;
     if (!buildLodIndex(in, block, error)) return false;
 
     stats.vertices = block.vertices.size();

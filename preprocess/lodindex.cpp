@@ -219,14 +219,19 @@ bool buildLodIndex(const LodIndexInput& in, format::Block& block, std::string& e
         block.removedEdges.push_back(edge(e));
     for (const auto& e : rec.addedEdges)
         block.addedEdges.push_back(edge(e));
+    if ((in.maxError && rec.errorMax.size() != steps) ||
+        (in.paperError && rec.errorPaper.size() != steps)) {
+        error = "error tables do not match the deletion steps";
+        return false;
+    }
     block.errorMax.clear();
     block.errorPaper.clear();
-    if (!rec.errorMax.empty()) {
+    if (in.maxError) {
         block.errorMax.push_back(roundUp(rec.initialErrorMax));
         for (double e : rec.errorMax)
             block.errorMax.push_back(roundUp(e));
     }
-    if (!rec.errorPaper.empty()) {
+    if (in.paperError) {
         block.errorPaper.push_back(roundUp(rec.initialErrorPaper));
         for (double e : rec.errorPaper)
             block.errorPaper.push_back(roundUp(e));

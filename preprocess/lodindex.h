@@ -36,6 +36,9 @@ struct LodIndexInput {
     const DeletionRecords* records = nullptr;
     double originX = 0, originY = 0;  // block origin for vertex coordinates (the CDT grid origin)
     double ratio = kLodTriangleRatio;
+    // Which metrics the deletion computed (a block without any deletion step still has its
+    // step-0 error for each of them).
+    bool maxError = true, paperError = true;
 };
 
 // Fills vertices (retention order), the records (renumbered to vertex indices), errors, levels

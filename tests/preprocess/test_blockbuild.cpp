@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <set>
@@ -11,6 +12,7 @@
 #include "blockbuild.h"
 #include "blocks.h"
 #include "synthetic.h"
+#include "ulod.h"
 
 using namespace unilod;
 
@@ -186,4 +188,38 @@ TEST(LodIndex, Deterministic) {
     EXPECT_EQ(bytes(a.riverIndices), bytes(b.riverIndices));
     EXPECT_EQ(bytes(a.levels), bytes(b.levels));
     EXPECT_EQ(bytes(a.errorPaper), bytes(b.errorPaper));
+}
+
+// A block in which every point is locked (a sliver at the edge of a raster: only border points)
+// has no deletion step. It still has one level and, per metric, the error of step 0, and the
+// file format accepts it (found with --block-size 32 on the bundled data).
+TEST(LodIndex, BlockWithoutDeletionSteps) {
+    PointSet set;
+    for (const auto& [x, y, z] : std::vector<std::array<double, 3>>{
+             {0, 0, 10}, {30, 0, 12}, {60, 0, 11}, {0, 30, 14}, {60, 30, 9}, {30, 30, 13}}) {
+        Point p;
+        p.x = x;
+        p.y = y;
+        p.z = z;
+        p.locked = true;
+        set.points.push_back(p);
+    }
+    for (const bool paper : {true, false}) {
+        SCOPED_TRACE(paper ? "both metrics" : "max only");
+        BlockBuildOptions opt;
+        opt.paperError = paper;
+        format::Block b;
+        BlockBuildStats stats;
+        std::string err;
+        ASSERT_TRUE(buildBlock(set, 0, 0, opt, b, stats, err)) << err;
+        EXPECT_EQ(b.steps.size(), 0u);
+        ASSERT_EQ(b.levels.size(), 1u);
+        EXPECT_EQ(b.levels[0].vertexCount, 6u);
+        EXPECT_EQ(b.levels[0].triangleCount, 4u);
+        ASSERT_EQ(b.errorMax.size(), 1u);
+        EXPECT_EQ(b.errorMax[0], 0.0f);
+        EXPECT_EQ(b.errorPaper.size(), paper ? 1u : 0u);
+        const std::uint32_t metrics = format::kMetricMax | (paper ? format::kMetricPaper : 0u);
+        EXPECT_TRUE(format::validateBlock(b, metrics, err)) << err;
+    }
 }
