@@ -126,7 +126,7 @@ int run(BenchCli& c) {
 void addBenchCommand(CLI::App& app, int& exitCode) {
     auto c = std::make_shared<BenchCli>();
     CLI::App* sub = app.add_subcommand(
-        "bench", "frame-time benchmark along a camera path (paper §4.2.3): streamed LOD vs "
+        "bench", "Frame-time benchmark along a camera path (paper §4.2.3): streamed LOD vs "
                  "everything resident, a bare pipeline and full resolution; prints JSON");
     sub->add_option("FILE", c->o.path, ".ulod file")->required();
     sub->add_option("--path", c->cameraPath,

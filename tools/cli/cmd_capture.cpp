@@ -72,7 +72,7 @@ int run(CaptureCli& c) {
 void addCaptureCommand(CLI::App& app, int& exitCode) {
     auto c = std::make_shared<CaptureCli>();
     CLI::App* sub = app.add_subcommand(
-        "capture", "render frames of a .ulod file headless (Vulkan) to PNG + JSON");
+        "capture", "Render frames of a .ulod file headless (Vulkan) to PNG + JSON");
     sub->add_option("FILE", c->o.path, ".ulod file")->required();
     sub->add_option("--camera", c->camera,
                     "eye x,y,z (file CRS, metres), yaw (0 = north, 90 = east), pitch (< 0 down) "

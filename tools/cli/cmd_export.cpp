@@ -94,7 +94,7 @@ void addExportCommand(CLI::App& app, int& exitCode) {
     auto c = std::make_shared<ExportCli>();
     CLI::App* sub = app.add_subcommand(
         "export",
-        "the LOD selected for a camera or an h_lim as glTF 2.0 binary (.glb): terrain mesh, "
+        "The LOD selected for a camera or an h_lim as glTF 2.0 binary (.glb): terrain mesh, "
         "rivers as lines, georeference in asset.extras");
     sub->add_option("FILE", c->o.path, ".ulod file")->required();
     CLI::Option* camera =

@@ -60,7 +60,7 @@ void addReportCommand(CLI::App& app, int& exitCode) {
     auto c = std::make_shared<ReportCli>();
     CLI::App* sub = app.add_subcommand(
         "report",
-        "the paper's evaluation of a .ulod file in a folder: Tables 2/3 (Markdown + CSV), error "
+        "The paper's evaluation of a .ulod file in a folder: Tables 2/3 (Markdown + CSV), error "
         "vs retention curves (SVG), BAI vs plain 3D_DP river shapes, grid diagrams (PNG)");
     sub->add_option("FILE", c->o.path, ".ulod file")->required();
     sub->add_option("-o,--out", c->o.outDir, "output folder (must not exist or be empty)")

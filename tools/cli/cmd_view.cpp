@@ -59,7 +59,7 @@ void addViewCommand(CLI::App& app, int& exitCode) {
     auto c = std::make_shared<ViewCli>();
     CLI::App* sub = app.add_subcommand(
         "view",
-        "roam a .ulod file in a window: WASD + drag to look, wheel/Shift speed, +/- pixel "
+        "Roam a .ulod file in a window: WASD + drag to look, wheel/Shift speed, +/- pixel "
         "tolerance, G grid, L rivers, P/F12 screenshot, Esc quit");
     sub->add_option("FILE", c->o.path, ".ulod file")->required();
     sub->add_option("--camera", c->camera,
