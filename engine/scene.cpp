@@ -23,6 +23,16 @@ constexpr std::uint64_t kAlignment = 16;  // vertex stride, and a multiple of th
 
 std::uint64_t alignUp(std::uint64_t n) { return (n + kAlignment - 1) / kAlignment * kAlignment; }
 
+// Makes the geometry copied into the arena visible to the vertex input of later draws.
+void recordUploadBarrier(VkCommandBuffer cmd) {
+    VkMemoryBarrier barrier{};
+    barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+    barrier.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    barrier.dstAccessMask = VK_ACCESS_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_INDEX_READ_BIT;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_VERTEX_INPUT_BIT, 0,
+                         1, &barrier, 0, nullptr, 0, nullptr);
+}
+
 // First fit over [0, size) with coalescing on release.
 class RangeAllocator {
 public:
@@ -331,13 +341,7 @@ bool StreamingScene::open(const Device& device, const std::string& path,
     submitAndWait(device, [&](VkCommandBuffer cmd) {
         vkCmdCopyBuffer(cmd, s.staging[0].buffer.buffer, s.arena.buffer,
                         std::uint32_t(copies.size()), copies.data());
-        VkMemoryBarrier barrier{};
-        barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-        barrier.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-        barrier.dstAccessMask = VK_ACCESS_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_INDEX_READ_BIT;
-        vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                             VK_PIPELINE_STAGE_VERTEX_INPUT_BIT, 0, 1, &barrier, 0, nullptr, 0,
-                             nullptr);
+        recordUploadBarrier(cmd);
     });
     if (options.preloadAll) {
         // Block by block through the first staging buffer (it holds the largest block).
@@ -487,13 +491,7 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
     if (!copies.empty()) {
         vkCmdCopyBuffer(cmd, s.staging[frame % kFramesInFlight].buffer.buffer, s.arena.buffer,
                         std::uint32_t(copies.size()), copies.data());
-        VkMemoryBarrier barrier{};
-        barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-        barrier.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-        barrier.dstAccessMask = VK_ACCESS_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_INDEX_READ_BIT;
-        vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                             VK_PIPELINE_STAGE_VERTEX_INPUT_BIT, 0, 1, &barrier, 0, nullptr, 0,
-                             nullptr);
+        recordUploadBarrier(cmd);
     }
 
     // 3. What is drawn: the wanted level where resident, else the coarse one.

@@ -6,7 +6,6 @@
 // (e) a bad file or camera exits != 0 and leaves no frame behind. There is no skip when no
 // Vulkan device exists: CI installs lavapipe, so a missing device is a failure.
 #include <gtest/gtest.h>
-#include <png.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -19,34 +18,21 @@
 
 #include "lod.h"
 #include "shared.h"
+#include "pngread.h"
 #include "tools/cliutil.h"
 #include "ulod.h"
 
 namespace fs = std::filesystem;
 using namespace unilod;
+using unilod::test::Image;
 using unilod::test::q;
+using unilod::test::readPng;
 using unilod::test::runCli;
 using unilod::test::slurp;
 
 namespace {
 
 const std::string kAssets = UNILOD_ASSETS_DIR;
-
-struct Image {
-    std::uint32_t width = 0, height = 0;
-    std::vector<std::uint8_t> rgba;
-};
-
-bool readPng(const std::string& path, Image& image) {
-    png_image png{};
-    png.version = PNG_IMAGE_VERSION;
-    if (!png_image_begin_read_from_file(&png, path.c_str())) return false;
-    png.format = PNG_FORMAT_RGBA;
-    image.width = png.width;
-    image.height = png.height;
-    image.rgba.resize(PNG_IMAGE_SIZE(png));
-    return png_image_finish_read(&png, nullptr, image.rgba.data(), 0, nullptr) != 0;
-}
 
 class Capture : public ::testing::Test {
 protected:

@@ -9,7 +9,6 @@
 //     drawn terrain land on river-coloured pixels of the PNG.
 // The bundled data set is built once into a temporary folder with `unilod build` (small blocks).
 #include <gtest/gtest.h>
-#include <png.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -23,12 +22,15 @@
 #include <vector>
 
 #include "shared.h"
+#include "pngread.h"
 #include "tools/cliutil.h"
 #include "ulod.h"
 
 namespace fs = std::filesystem;
 using namespace unilod;
+using unilod::test::Image;
 using unilod::test::q;
+using unilod::test::readPng;
 using unilod::test::runCli;
 using unilod::test::slurp;
 
@@ -37,22 +39,6 @@ namespace {
 const std::string kAssets = UNILOD_ASSETS_DIR;
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDegree = kPi / 180.0;
-
-struct Image {
-    std::uint32_t width = 0, height = 0;
-    std::vector<std::uint8_t> rgba;
-};
-
-bool readPng(const std::string& path, Image& image) {
-    png_image png{};
-    png.version = PNG_IMAGE_VERSION;
-    if (!png_image_begin_read_from_file(&png, path.c_str())) return false;
-    png.format = PNG_FORMAT_RGBA;
-    image.width = png.width;
-    image.height = png.height;
-    image.rgba.resize(PNG_IMAGE_SIZE(png));
-    return png_image_finish_read(&png, nullptr, image.rgba.data(), 0, nullptr) != 0;
-}
 
 // The capture's camera, re-implemented from the documented convention (world x east, y north,
 // z up; yaw 0 looks north, 90 east; pitch < 0 looks down; vertical fov; Vulkan y down).

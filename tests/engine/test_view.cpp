@@ -6,7 +6,6 @@
 // command exits 1 with a clear message. CI installs Xvfb, so these tests only skip (and say so)
 // where `xvfb-run` is absent.
 #include <gtest/gtest.h>
-#include <png.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -17,34 +16,21 @@
 
 #include "shared.h"
 #include "testutil.h"
+#include "pngread.h"
 #include "tools/cliutil.h"
 
 namespace fs = std::filesystem;
 using namespace unilod;
 using unilod::test::CliResult;
+using unilod::test::Image;
 using unilod::test::q;
+using unilod::test::readPng;
 using unilod::test::runCli;
 using unilod::test::slurp;
 
 namespace {
 
 const std::string kAssets = UNILOD_ASSETS_DIR;
-
-struct Image {
-    std::uint32_t width = 0, height = 0;
-    std::vector<std::uint8_t> rgba;
-};
-
-bool readPng(const std::string& path, Image& image) {
-    png_image png{};
-    png.version = PNG_IMAGE_VERSION;
-    if (!png_image_begin_read_from_file(&png, path.c_str())) return false;
-    png.format = PNG_FORMAT_RGBA;
-    image.width = png.width;
-    image.height = png.height;
-    image.rgba.resize(PNG_IMAGE_SIZE(png));
-    return png_image_finish_read(&png, nullptr, image.rgba.data(), 0, nullptr) != 0;
-}
 
 bool haveXvfb() {
     return std::system("command -v xvfb-run >/dev/null 2>&1") == 0;

@@ -5,7 +5,6 @@
 // river comparison has rows for the landform classes present and is exact at a 100 % budget;
 // failures leave no folder behind.
 #include <gtest/gtest.h>
-#include <png.h>
 
 #include <cmath>
 #include <filesystem>
@@ -13,6 +12,7 @@
 #include <sstream>
 
 #include "lod.h"
+#include "pngread.h"
 #include "testutil.h"
 #include "tools/cliutil.h"
 #include "ulod.h"
@@ -43,21 +43,8 @@ std::vector<std::vector<std::string>> readCsv(const std::string& path) {
     return rows;
 }
 
-struct Image {
-    std::uint32_t width = 0, height = 0;
-    std::vector<std::uint8_t> rgba;
-};
-
-bool readPng(const std::string& path, Image& img) {
-    png_image image{};
-    image.version = PNG_IMAGE_VERSION;
-    if (!png_image_begin_read_from_file(&image, path.c_str())) return false;
-    image.format = PNG_FORMAT_RGBA;
-    img.width = image.width;
-    img.height = image.height;
-    img.rgba.resize(PNG_IMAGE_SIZE(image));
-    return png_image_finish_read(&image, nullptr, img.rgba.data(), 0, nullptr) != 0;
-}
+using unilod::test::Image;
+using unilod::test::readPng;
 
 class ReportTest : public ::testing::Test {
 protected:
