@@ -10,6 +10,9 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
+
+#include "ulod.h"
 
 namespace unilod::test {
 
@@ -48,6 +51,23 @@ inline CliResult runCli(const std::string& args) {
 // Single-quotes a path for the shell.
 inline std::string q(const std::string& s) {
     return "'" + s + "'";
+}
+
+// Reads a whole .ulod file: header, directory and every block. False with `error` on failure.
+struct Model {
+    format::Header header;
+    std::vector<format::BlockInfo> infos;
+    std::vector<format::Block> blocks;
+};
+inline bool readModel(const std::string& path, Model& model, std::string& error) {
+    format::Reader reader;
+    if (!reader.open(path, error)) return false;
+    model.header = reader.header();
+    model.infos = reader.blocks();
+    model.blocks.resize(model.infos.size());
+    for (std::size_t i = 0; i < model.blocks.size(); ++i)
+        if (!reader.readBlock(i, model.blocks[i], error)) return false;
+    return true;
 }
 
 }  // namespace unilod::test

@@ -54,13 +54,11 @@ protected:
         model = dir->file("j.ulod");
         const auto r = runCli("build -q " + q(kDem) + " " + q(kRivers) + " -o " + q(model));
         ASSERT_EQ(r.code, 0) << r.err;
-        format::Reader reader;
+        test::Model m;
         std::string error;
-        ASSERT_TRUE(reader.open(model, error)) << error;
-        header = reader.header();
-        blocks.resize(reader.blocks().size());
-        for (std::size_t i = 0; i < blocks.size(); ++i)
-            ASSERT_TRUE(reader.readBlock(i, blocks[i], error)) << error;
+        ASSERT_TRUE(test::readModel(model, m, error)) << error;
+        header = m.header;
+        blocks = std::move(m.blocks);
     }
     static void TearDownTestSuite() {
         delete dir;

@@ -65,19 +65,11 @@ void addReportCommand(CLI::App& app, int& exitCode) {
     sub->add_option("FILE", c->o.path, ".ulod file")->required();
     sub->add_option("-o,--out", c->o.outDir, "output folder (must not exist or be empty)")
         ->required();
-    const CLI::Validator positiveDistance(
-        [](std::string& s) -> std::string {
-            double m = 0;
-            if (!parseDistance(s, m)) return "not a distance (e.g. 100km, 500m): " + s;
-            if (!(m > 0)) return "distance must be positive: " + s;
-            return {};
-        },
-        "DISTANCE");
     sub->add_option("--distance", c->distances,
                     "view distances for the tables and the grid diagrams, comma-separated, with m "
                     "or km (default 100km,200km,500km,1000km,1500km, as `unilod stats`)")
         ->delimiter(',')
-        ->check(positiveDistance);
+        ->check(positiveDistance());
     sub->add_option("--pixels", c->o.stats.pixels,
                     "pixel tolerances P, comma-separated (default 1; diagrams use the first)")
         ->delimiter(',')

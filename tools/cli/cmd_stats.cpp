@@ -127,14 +127,8 @@ int run(const StatsCli& c) {
 
 }  // namespace
 
-void addStatsCommand(CLI::App& app, int& exitCode) {
-    auto c = std::make_shared<StatsCli>();
-    CLI::App* sub = app.add_subcommand(
-        "stats",
-        "The paper's Tables 2 and 3: per view distance and pixel tolerance, h_lim of the "
-        "edge / corner / middle blocks and the size of the selected network");
-    sub->add_option("FILE", c->path, ".ulod file")->required();
-    const CLI::Validator positiveDistance(
+CLI::Validator positiveDistance() {
+    return CLI::Validator(
         [](std::string& s) -> std::string {
             double m = 0;
             if (!parseDistance(s, m)) return "not a distance (e.g. 100km, 500m): " + s;
@@ -142,11 +136,20 @@ void addStatsCommand(CLI::App& app, int& exitCode) {
             return {};
         },
         "DISTANCE");
+}
+
+void addStatsCommand(CLI::App& app, int& exitCode) {
+    auto c = std::make_shared<StatsCli>();
+    CLI::App* sub = app.add_subcommand(
+        "stats",
+        "The paper's Tables 2 and 3: per view distance and pixel tolerance, h_lim of the "
+        "edge / corner / middle blocks and the size of the selected network");
+    sub->add_option("FILE", c->path, ".ulod file")->required();
     sub->add_option("--distance", c->distances,
                     "view distances, comma-separated, with m or km (default "
                     "100km,200km,500km,1000km,1500km; a bare number is metres)")
         ->delimiter(',')
-        ->check(positiveDistance);
+        ->check(positiveDistance());
     sub->add_option("--pixels", c->pixels,
                     "screen projection error tolerances P in pixels, comma-separated (default 1)")
         ->delimiter(',')

@@ -121,31 +121,23 @@ void addBlock(tinygltf::Model& model, const format::Header& header, const format
 
     tinygltf::Mesh mesh;
     mesh.name = "block_" + std::to_string(block.col) + "_" + std::to_string(block.row);
-    if (!triIndices.empty()) {
-        const int view =
-            appendView(model, triIndices.data(), triIndices.size() * sizeof(std::uint32_t),
-                       TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+    // One indexed primitive over the block's POSITION accessor (NORMAL only for the terrain).
+    auto addPrimitive = [&](const std::vector<std::uint32_t>& indices, int mode, int material,
+                            int normalAccessor) {
+        if (indices.empty()) return;
+        const int view = appendView(model, indices.data(), indices.size() * sizeof(std::uint32_t),
+                                    TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
         tinygltf::Primitive p;
         p.attributes["POSITION"] = posAcc;
-        p.attributes["NORMAL"] = normAcc;
+        if (normalAccessor >= 0) p.attributes["NORMAL"] = normalAccessor;
         p.indices = addAccessor(model, view, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT,
-                                TINYGLTF_TYPE_SCALAR, triIndices.size());
-        p.mode = TINYGLTF_MODE_TRIANGLES;
-        p.material = terrainMaterial;
+                                TINYGLTF_TYPE_SCALAR, indices.size());
+        p.mode = mode;
+        p.material = material;
         mesh.primitives.push_back(p);
-    }
-    if (!lineIndices.empty()) {
-        const int view =
-            appendView(model, lineIndices.data(), lineIndices.size() * sizeof(std::uint32_t),
-                       TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
-        tinygltf::Primitive p;
-        p.attributes["POSITION"] = posAcc;
-        p.indices = addAccessor(model, view, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT,
-                                TINYGLTF_TYPE_SCALAR, lineIndices.size());
-        p.mode = TINYGLTF_MODE_LINE;
-        p.material = riverMaterial;
-        mesh.primitives.push_back(p);
-    }
+    };
+    addPrimitive(triIndices, TINYGLTF_MODE_TRIANGLES, terrainMaterial, normAcc);
+    addPrimitive(lineIndices, TINYGLTF_MODE_LINE, riverMaterial, -1);
     tinygltf::Node node;
     node.name = mesh.name;
     node.translation = {dx0, 0.0, -dy0};
