@@ -207,6 +207,10 @@ TEST_F(Capture, BadInputExitsNonZeroWithoutOutput) {
                " --camera 0,0,1000,0,-45 --out " + q(out.string()));
     EXPECT_EQ(r.code, 1);
     EXPECT_FALSE(fs::exists(frame));
+    // The message names the file once: "unilod capture: error: PATH: cannot open: ...".
+    const std::string missing = (dir_ / "missing.ulod").string();
+    ASSERT_NE(r.err.find(missing + ": cannot open"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find(missing), r.err.rfind(missing)) << r.err;
     // Pitch out of range: a data error.
     r = runCli("capture " + q(file_) + " --camera 0,0,1000,0,-120 --out " + q(out.string()));
     EXPECT_EQ(r.code, 1);

@@ -75,7 +75,8 @@ int run(BenchCli& c) {
     c.o.cameras = engine::sampleCameraPath(path, c.frames);
     nlohmann::json out;
     if (!engine::runBench(c.o, out, error, true)) {
-        std::fprintf(stderr, "unilod bench: error: %s: %s\n", c.o.path.c_str(), error.c_str());
+        std::fprintf(stderr, "unilod bench: error: %s\n",
+                     errorForFile(c.o.path, error).c_str());
         return 1;
     }
     out["path"] = c.cameraPath.empty() ? "default fly-over" : c.cameraPath;

@@ -51,7 +51,8 @@ int run(CaptureCli& c) {
     c.o.settle = !c.noSettle;
     engine::CaptureResult result;
     if (!engine::runCapture(c.o, result, error)) {
-        std::fprintf(stderr, "unilod capture: error: %s: %s\n", c.o.path.c_str(), error.c_str());
+        std::fprintf(stderr, "unilod capture: error: %s\n",
+                     errorForFile(c.o.path, error).c_str());
         return 1;
     }
     for (const engine::CaptureFrame& f : result.frames) {

@@ -45,7 +45,8 @@ int run(ViewCli& c) {
     engine::ViewResult result;
     std::string error;
     if (!engine::runView(c.o, result, error)) {
-        std::fprintf(stderr, "unilod view: error: %s: %s\n", c.o.path.c_str(), error.c_str());
+        std::fprintf(stderr, "unilod view: error: %s\n",
+                     errorForFile(c.o.path, error).c_str());
         return 1;
     }
     std::printf("%s: %llu frames on %s\n", c.o.path.c_str(),

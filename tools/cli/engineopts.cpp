@@ -23,6 +23,11 @@ bool parseSize(const std::string& s, std::uint32_t& w, std::uint32_t& h) {
     return true;
 }
 
+std::string errorForFile(const std::string& path, const std::string& error) {
+    if (error.compare(0, path.size() + 1, path + ":") == 0) return error;
+    return path + ": " + error;
+}
+
 void EngineCli::add(CLI::App& sub, const std::string& defaultSize) {
     size = defaultSize;
     sub.add_option("--size", size, "image size WxH (default " + defaultSize + ")");

@@ -30,4 +30,8 @@ struct EngineCli {
 
 bool parseSize(const std::string& s, std::uint32_t& w, std::uint32_t& h);
 
+// "PATH: ERROR" for an engine error, unless the message already names the file first (the
+// reader's and the scene's do; the device's do not).
+std::string errorForFile(const std::string& path, const std::string& error);
+
 }  // namespace unilod::cli
