@@ -19,6 +19,26 @@ double boxMinDepth(const Camera& camera, const double boxMin[3], const double bo
     return depth;
 }
 
+BoxView boxView(const Camera& camera, const double boxMin[3], const double boxMax[3]) {
+    const CameraBasis b = cameraBasis(camera);
+    BoxView v;
+    v.minDepth = boxMinDepth(camera, boxMin, boxMax);
+    const bool beside = camera.eye[2] >= boxMin[2] && camera.eye[2] <= boxMax[2];
+    double axisCos = 1, verticalSin = beside ? 1.0 : 0.0;
+    for (int c = 0; c < 8; ++c) {
+        double p[3];
+        for (int j = 0; j < 3; ++j) p[j] = ((c >> j) & 1 ? boxMax[j] : boxMin[j]) - camera.eye[j];
+        const double horizontal = std::hypot(p[0], p[1]);
+        const double length = std::hypot(horizontal, p[2]);
+        if (!(length > 0)) return BoxView{v.minDepth, 0.0, 1.0};  // the eye is a corner
+        axisCos = std::min(axisCos, dot(b.forward, p) / length);
+        if (!beside) verticalSin = std::max(verticalSin, horizontal / length);
+    }
+    v.axisCos = std::max(axisCos, 0.0);
+    v.verticalSin = verticalSin;
+    return v;
+}
+
 CameraBasis cameraBasis(const Camera& camera) {
     const double yaw = camera.yawDegrees * kDegree, pitch = camera.pitchDegrees * kDegree;
     CameraBasis b{};

@@ -36,6 +36,26 @@ shader::mat4 gridViewProjection(double halfHeight, double aspect);
 // behind the eye.
 double boxMinDepth(const Camera& camera, const double boxMin[3], const double boxMax[3]);
 
+// How a box lies in the view: what the nearest-distance tolerance needs (lod.h
+// effectiveDistance). Every value is exact for the box (not only its corners): each is an
+// extreme of a function over the box that a convex set decides, so the 8 corners decide it.
+struct BoxView {
+    // boxMinDepth (depth is linear).
+    double minDepth = 0;
+    // cos of the largest angle between the view axis and a ray from the eye to a point of the
+    // box; 0 (no information) unless every corner makes an angle < 90 degrees with the axis
+    // ({x : angle(x, axis) <= t} is a convex cone for t < 90 degrees, so the box is inside it
+    // exactly when its corners are).
+    double axisCos = 0;
+    // The largest sin of the angle between world up (+z) and a ray from the eye to a point of
+    // the box: the factor by which a vertical segment at that point shortens in projection. 1
+    // when the eye's height is within the box's z range; otherwise the largest over the corners
+    // (the box is then entirely below or above the eye, and {x : angle(x, down) <= t} is a
+    // convex cone).
+    double verticalSin = 1;
+};
+BoxView boxView(const Camera& camera, const double boxMin[3], const double boxMax[3]);
+
 // False when the axis-aligned box lies entirely outside the perspective frustum (conservative:
 // a box is kept unless one frustum plane has all 8 corners outside).
 bool boxInFrustum(const Camera& camera, double aspect, const double boxMin[3],

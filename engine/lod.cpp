@@ -38,14 +38,19 @@ double frustumEdgeFactor(double fovRadians, double aspect) {
     return 1.0 / (1.0 + tan2);                              // cos^2 = 1 / (1 + tan^2)
 }
 
-double effectiveDistance(const ViewTolerance& view, double distance, double minDepth) {
+double effectiveDistance(const ViewTolerance& view, double distance, const BoxView& box) {
     if (view.mode == DistanceMode::Centre) return distance;
-    const double edge = frustumEdgeFactor(view.fovRadians, view.width / view.height);
-    return std::max(distance * edge, minDepth * std::sqrt(edge));
+    const double cornerCos =
+        std::sqrt(frustumEdgeFactor(view.fovRadians, view.width / view.height));
+    const double axisCos = std::max(cornerCos, box.axisCos);
+    // A box seen straight along world up (verticalSin 0) hides every vertical error; the floor
+    // keeps S' finite (h_lim then allows any level).
+    const double verticalSin = std::max(box.verticalSin, 1e-9);
+    return axisCos * std::max(box.minDepth, distance * cornerCos) / verticalSin;
 }
 
-double blockTolerance(const ViewTolerance& view, double distance, double minDepth) {
-    return toleranceFor(view.pixels, effectiveDistance(view, distance, minDepth), view.fovRadians,
+double blockTolerance(const ViewTolerance& view, double distance, const BoxView& box) {
+    return toleranceFor(view.pixels, effectiveDistance(view, distance, box), view.fovRadians,
                         view.height);
 }
 

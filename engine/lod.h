@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "camera.h"
 #include "ulod.h"
 
 namespace unilod::engine {
@@ -35,26 +36,31 @@ double frustumEdgeFactor(double fovRadians, double aspect);
 //
 // `Nearest` mode: Eq. 11 with an effective distance S' chosen so that, with the `max` metric,
 // the drawn surface is within P pixels of every original point on screen. Let f = H / (2
-// tan(fov / 2)) be the focal length in pixels, theta_c the angle of the frustum's corner ray,
-// and a world segment d from a point p on screen (angle to the view axis <= theta_c) to a point
-// q (eye-relative, depths p_z, q_z > 0). Its projection has length
-//   f |d_xy p_z - p_xy d_z| / (p_z q_z) <= f |d| |p| / (p_z q_z) = f |d| / (q_z cos(theta_p))
-// (the numerator is two components of d x p). Hence, for both points in the block's box:
-//   (a) q_z >= |q| cos(theta_c) >= S cos(theta_c) when q is on screen too: S' = S cos^2(theta_c);
-//   (b) q_z >= zMin, the smallest depth of the box's corners: S' = zMin cos(theta_c).
-// Both bound the error, so S' = max(S cos^2(theta_c), zMin cos(theta_c)) (zMin <= 0: (a) only).
-// S' <= S always (zMin <= the depth of the nearest point <= S): never coarser than Eq. 11 with
-// the nearest distance. (b) is the larger for blocks ahead of the eye, (a) near the image edges.
+// tan(fov / 2)) be the focal length in pixels and d = q - p a vertical world segment (|d| <=
+// h_s) from an original point p on screen to the surface point q below or above it, both in the
+// block's box, eye-relative with depths p_z, q_z > 0. Its projection has length
+//   f |d_xy p_z - p_xy d_z| / (p_z q_z) <= f |d x p| / (p_z q_z) = f |d| sin(phi_p) / (q_z cos(theta_p))
+// (the numerator is two components of d x p; phi_p = the angle between p and world up, theta_p
+// = the angle between p and the view axis). For the block's box (camera.h BoxView):
+//   cos(theta_p) >= c = max(cos(theta_c), axisCos)   (p is on screen and in the box; theta_c =
+//                                                     the angle of the frustum's corner ray)
+//   sin(phi_p)  <= verticalSin
+//   q_z         >= max(zMin, S cos(theta_c))         (zMin: q is in the box; S cos(theta_c):
+//                                                     q on screen too, at distance >= S)
+// so S' = c max(zMin, S cos(theta_c)) / verticalSin bounds the error by P pixels. With no
+// box information (BoxView{}: zMin 0, axisCos 0, verticalSin 1) S' = S cos^2(theta_c) <= S.
+// The box terms only make S' larger where the bound allows it: blocks near the view axis (c up
+// to 1 instead of cos(theta_c), about 0.65 at 60 degrees and 16:9) and blocks seen steeply from
+// above (a vertical error shrinks on screen by sin(phi)). S' may exceed S.
 struct ViewTolerance {
     double pixels = 1;        // P
     double fovRadians = 0;    // vertical field of view
     double width = 0, height = 0;  // viewport in pixels
     DistanceMode mode = DistanceMode::Nearest;
 };
-// `distance` = S of the mode; `minDepth` = the smallest view-axis depth of the block's box
-// corners (Nearest mode only; 0 or less when unknown or behind the eye).
-double effectiveDistance(const ViewTolerance& view, double distance, double minDepth = 0);
-double blockTolerance(const ViewTolerance& view, double distance, double minDepth = 0);
+// `distance` = S of the mode; `box` = how the block's box lies in the view (Nearest mode only).
+double effectiveDistance(const ViewTolerance& view, double distance, const BoxView& box = {});
+double blockTolerance(const ViewTolerance& view, double distance, const BoxView& box = {});
 
 struct LevelChoice {
     std::size_t level = 0;  // index into Block::levels

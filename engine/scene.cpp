@@ -432,8 +432,8 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
         // The grid mode shows, top-down, the levels the perspective view from the same eye
         // selects (the paper's 2D grid diagrams at a view distance).
         sel.distance = blockDistance(s.options.distance, camera.eye, b.boxMin, b.boxMax);
-        sel.minDepth = boxMinDepth(camera, b.boxMin, b.boxMax);
-        sel.hLim = blockTolerance(tolerance, sel.distance, sel.minDepth);
+        sel.box = boxView(camera, b.boxMin, b.boxMax);
+        sel.hLim = blockTolerance(tolerance, sel.distance, sel.box);
         sel.wanted = s.options.policy == LodPolicy::Finest
                          ? chooseStoredLevel(b.levels, s.metric, -1.0)
                          : chooseStoredLevel(b.levels, s.metric, sel.hLim);

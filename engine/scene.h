@@ -59,7 +59,7 @@ struct BlockSelection {
     std::uint32_t block = 0;  // index in the file's directory
     std::uint32_t col = 0, row = 0;
     double distance = 0, hLim = 0;  // S, h_lim
-    double minDepth = 0;            // smallest view depth of the box (lod.h effectiveDistance)
+    BoxView box;                    // how the box lies in the view (lod.h effectiveDistance)
     LevelChoice wanted;             // the level h_lim asks for
     std::size_t drawnLevel = 0;     // the level drawn (the coarse one while not resident)
     bool fallback = false;          // drawn coarser than wanted: not resident yet

@@ -136,9 +136,13 @@ TEST_F(Capture, NearAndFarViews) {
                 EXPECT_GT(block.errorMax[block.levels[level + 1].step], hLim) << b.dump();
             }
             EXPECT_EQ(b["triangles"].get<std::uint32_t>(), block.levels[level].triangleCount);
-            // h_lim by Eq. 11 with P = 1, 60 degrees, 480 px and S' = max(S cos^2, zMin cos)
-            // (engine/lod.h), cos^2 of the frustum's corner angle from tan^2 = tan^2(30 deg) *
-            // (1 + (4/3)^2), zMin the smallest view depth of the box's corners.
+            // h_lim by Eq. 11 with P = 1, 60 degrees, 480 px and S' = c max(zMin, S cos) / sin
+            // (engine/lod.h): cos of the frustum's corner angle from tan^2 = tan^2(30 deg) *
+            // (1 + (4/3)^2); zMin the smallest view depth of the box's corners; c = the larger
+            // of that cos and the smallest cos of the angle between a corner ray and the view
+            // axis (0 if a corner is not ahead); sin = the largest sin of the angle between a
+            // corner ray and the vertical, or 1 when the eye is within the box's z range.
+            // Recomputed here by brute force from the documented camera.
             const double t = std::tan(3.14159265358979 / 6);
             const double edge = 1.0 / (1.0 + t * t * (1.0 + 16.0 / 9.0));
             EXPECT_NEAR((*view)["edge_factor"].get<double>(), edge, 1e-12);
@@ -150,17 +154,28 @@ TEST_F(Capture, NearAndFarViews) {
             const format::BlockInfo& info = reader.blocks()[index];
             const double lo[3] = {info.minX, info.minY, info.minZ};
             const double hi[3] = {info.maxX, info.maxY, info.maxZ};
-            double zMin = 1e300;
+            double zMin = 1e300, axisCos = 1, verticalSin = 0;
             for (int corner = 0; corner < 8; ++corner) {
-                double z = 0;
-                for (int k = 0; k < 3; ++k)
-                    z += fwd[k] * ((corner >> k & 1 ? hi[k] : lo[k]) - cam["eye"][k].get<double>());
+                double p[3], z = 0;
+                for (int k = 0; k < 3; ++k) {
+                    p[k] = (corner >> k & 1 ? hi[k] : lo[k]) - cam["eye"][k].get<double>();
+                    z += fwd[k] * p[k];
+                }
+                const double len = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
                 zMin = std::min(zMin, z);
+                axisCos = std::min(axisCos, z / len);
+                verticalSin = std::max(verticalSin, std::sqrt(p[0] * p[0] + p[1] * p[1]) / len);
             }
+            const double eyeZ = cam["eye"][2].get<double>();
+            if (eyeZ >= lo[2] && eyeZ <= hi[2]) verticalSin = 1;
+            axisCos = std::max(axisCos, 0.0);
             EXPECT_NEAR(b["min_depth"].get<double>(), zMin, 1e-6 * (1 + std::abs(zMin)));
+            EXPECT_NEAR(b["axis_cos"].get<double>(), axisCos, 1e-9);
+            EXPECT_NEAR(b["vertical_sin"].get<double>(), verticalSin, 1e-9);
             const double s = b["S"].get<double>();
-            const double sEff = std::max(s * edge, zMin * std::sqrt(edge));
-            EXPECT_LE(sEff, s);
+            const double c = std::max(std::sqrt(edge), axisCos);
+            const double sEff = c * std::max(zMin, s * std::sqrt(edge)) / verticalSin;
+            EXPECT_GE(sEff, s * edge);  // never finer than the box-free bound
             EXPECT_NEAR(hLim, 2.0 * sEff * t / 480, 1e-6 * (1 + hLim));
         }
     }

@@ -350,7 +350,7 @@ protected:
         EXPECT_LE(dev.maxMetresOverHs, 1e-3) << what;
         EXPECT_GT(dev.checked, dev.total / 2) << what;
         EXPECT_GT(dev.coarseBlocks, 0u) << what;
-        EXPECT_GT(dev.maxPixels, 0.1 * pixels) << what;  // observed 0.41..0.57 P
+        EXPECT_GT(dev.maxPixels, 0.6 * pixels) << what;  // observed 0.84..0.89 P (the bound is tight)
     }
 
     // Oblique: 3 km south of the data, 3 km above its top, looking north 25 degrees down; the

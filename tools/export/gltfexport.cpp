@@ -153,7 +153,9 @@ void addBlock(tinygltf::Model& model, const format::Header& header, const format
     extras["h_lim"] = Value(sel.hLim);
     extras["error"] = Value(sel.choice.error);
     extras["distance"] = Value(sel.distance);
-    extras["min_depth"] = Value(sel.minDepth);
+    extras["min_depth"] = Value(sel.box.minDepth);
+    extras["axis_cos"] = Value(sel.box.axisCos);
+    extras["vertical_sin"] = Value(sel.box.verticalSin);
     node.extras = Value(extras);
     model.nodes.push_back(node);
     model.scenes[0].nodes.push_back(int(model.nodes.size() - 1));

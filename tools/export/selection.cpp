@@ -21,20 +21,21 @@ engine::Camera cameraOf(const SelectionOptions& options) {
 }  // namespace
 
 double blockTolerance(const format::BlockInfo& info, const SelectionOptions& options,
-                      double* distance, double* minDepth) {
+                      double* distance, engine::BoxView* box) {
     if (distance != nullptr) *distance = 0;
-    if (minDepth != nullptr) *minDepth = 0;
+    if (box != nullptr) *box = engine::BoxView{};
     if (!options.useCamera) return options.hLim;
     const double boxMin[3] = {info.minX, info.minY, info.minZ};
     const double boxMax[3] = {info.maxX, info.maxY, info.maxZ};
     const double s = engine::blockDistance(options.distance, options.eye, boxMin, boxMax);
-    const double depth =
-        options.hasDirection ? engine::boxMinDepth(cameraOf(options), boxMin, boxMax) : 0.0;
+    const engine::BoxView view =
+        options.hasDirection ? engine::boxView(cameraOf(options), boxMin, boxMax) : engine::BoxView{};
     if (distance != nullptr) *distance = s;
-    if (minDepth != nullptr) *minDepth = depth;
-    const engine::ViewTolerance view{options.pixels, options.fovDegrees * kDegree,
-                                     options.widthPixels, options.heightPixels, options.distance};
-    return engine::blockTolerance(view, s, depth);
+    if (box != nullptr) *box = view;
+    const engine::ViewTolerance tolerance{options.pixels, options.fovDegrees * kDegree,
+                                          options.widthPixels, options.heightPixels,
+                                          options.distance};
+    return engine::blockTolerance(tolerance, s, view);
 }
 
 bool blockVisible(const format::BlockInfo& info, const SelectionOptions& options) {
@@ -59,7 +60,7 @@ BlockSelection selectLevel(const format::Block& block, std::size_t index,
     s.index = index;
     s.col = block.col;
     s.row = block.row;
-    s.hLim = blockTolerance(info, options, &s.distance, &s.minDepth);
+    s.hLim = blockTolerance(info, options, &s.distance, &s.box);
     s.choice = engine::chooseStoredLevel(block.levels, metric, s.hLim);
     const format::Level& level = block.levels[s.choice.level];
     s.vertexCount = level.vertexCount;

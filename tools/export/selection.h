@@ -37,7 +37,7 @@ struct BlockSelection {
     std::size_t index = 0;  // block index in the file (Reader::blocks())
     std::uint32_t col = 0, row = 0;
     double distance = 0;  // S (camera mode; 0 otherwise)
-    double minDepth = 0;  // smallest view depth of the box (camera with a direction; 0 otherwise)
+    engine::BoxView box;  // how the box lies in the view (camera with a direction; else BoxView{})
     double hLim = 0;
     engine::LevelChoice choice;
     std::uint32_t vertexCount = 0, triangles = 0, riverEdges = 0;  // of the chosen level
@@ -45,7 +45,7 @@ struct BlockSelection {
 
 // The h_lim of a block for the options (camera: the engine's S and Eq. 11; else options.hLim).
 double blockTolerance(const format::BlockInfo& info, const SelectionOptions& options,
-                      double* distance = nullptr, double* minDepth = nullptr);
+                      double* distance = nullptr, engine::BoxView* box = nullptr);
 
 // Camera mode with culling: false when the block's box is outside the view frustum.
 bool blockVisible(const format::BlockInfo& info, const SelectionOptions& options);
