@@ -3,11 +3,16 @@
 #include "device.h"
 
 #include <cassert>
+#include <climits>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 
 #include "vkcheck.h"
+
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 namespace unilod::engine {
 
@@ -233,6 +238,7 @@ bool createDevice(const DeviceOptions& requested, Device& device, std::string& e
     }
     device.physical = physicals[std::size_t(best)];
     vkGetPhysicalDeviceProperties(device.physical, &device.properties);
+    if (device.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU) keepFreedHostMemory();
     vkGetPhysicalDeviceMemoryProperties(device.physical, &device.memory);
     graphicsFamily(device.physical, device.surface, device.queueFamily);
 
@@ -268,6 +274,19 @@ bool createDevice(const DeviceOptions& requested, Device& device, std::string& e
     VK_CHECK(vkCreateDevice(device.physical, &deviceInfo, nullptr, &device.device));
     vkGetDeviceQueue(device.device, device.queueFamily, 0, &device.queue);
     return true;
+}
+
+bool keepFreedHostMemory() {
+#if defined(__GLIBC__)
+    // 32 MiB: the largest mmap threshold glibc accepts on 64-bit; larger blocks are still
+    // mmap'ed. The trim threshold keeps the heap top. (Under AddressSanitizer mallopt is a
+    // no-op that returns 0: its own allocator is in charge.)
+    const bool mmap = mallopt(M_MMAP_THRESHOLD, 32 << 20) == 1;
+    const bool trim = mallopt(M_TRIM_THRESHOLD, INT_MAX) == 1;
+    return mmap && trim;
+#else
+    return false;
+#endif
 }
 
 void destroyDevice(Device& device) {
