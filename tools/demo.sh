@@ -65,6 +65,10 @@ echo "== 6. unilod bench: $frames frames at $size along $path (low fly-over) and
 $unilod bench "$model" --path "$path" --frames "$frames" --size "$size" --json "$out/bench.json"
 $unilod bench "$model" --path "$orbit" --frames "$frames" --size "$size" \
     --json "$out/bench_orbit.json"
+echo "-- the orbit in the paper's configuration (S to the block centre, the paper's error; no"
+echo "   P-pixel guarantee): README \"Measured\" --"
+$unilod bench "$model" --path "$orbit" --frames "$frames" --size "$size" \
+    --metric paper --distance centre --json "$out/bench_orbit_paper.json"
 echo "== 7. unilod export: the oblique capture's LOD as glTF 2.0 (Blender, three.js) =="
 $unilod export "$model" -q --camera 735000,4034000,3500,30,-20 --size 1280x720 \
     -o "$out/jacksboro_oblique.glb"
@@ -76,7 +80,8 @@ $unilod order "$dem" "$rivers" --out "$out/jacksboro_order.csv" -q
 echo "== outputs =="
 echo "  unified LOD model:  $out/jacksboro.ulod"
 echo "  captures (PNG+JSON): $out/capture/{oblique,topdown,grid,path}/"
-echo "  benchmark JSON:     $out/bench.json (fly-over), $out/bench_orbit.json (orbit)"
+echo "  benchmark JSON:     $out/bench.json (fly-over), $out/bench_orbit.json (orbit),"
+echo "                      $out/bench_orbit_paper.json (orbit, the paper's configuration)"
 echo "  glTF export:        $out/jacksboro_oblique.glb"
 echo "  report:             $out/report/report.md (tables, curves, rivers, grid diagrams)"
 echo "  importance order:   $out/jacksboro_order.csv"

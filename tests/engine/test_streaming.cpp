@@ -296,6 +296,15 @@ TEST_F(Streaming, BenchEmitsEveryField) {
     EXPECT_GE(j["runs"]["full"]["triangles"]["mean"].get<double>(),
               j["runs"]["resident"]["triangles"]["mean"].get<double>());
     EXPECT_GT(j["ratios_of_median_frame_ms"]["full_over_lod"].get<double>(), 0.0);
+    // Goals: met exactly when the ratio is on the right side of the stated bound.
+    const nlohmann::json& ratios = j["ratios_of_median_frame_ms"];
+    EXPECT_EQ(j["goals_met"]["lod_over_bare_at_most"].get<bool>(),
+              ratios["lod_over_bare"].get<double>() <= j["goals"]["lod_over_bare_at_most"].get<double>());
+    EXPECT_EQ(j["goals_met"]["full_over_lod_at_least"].get<bool>(),
+              ratios["full_over_lod"].get<double>() >= j["goals"]["full_over_lod_at_least"].get<double>());
+    EXPECT_EQ(j["goals"]["full_over_lod_at_least"].get<double>(), 3.0);
+    EXPECT_EQ(j["goals"]["lod_over_bare_at_most"].get<double>(), 1.2);
+    EXPECT_NE(r.out.find("(goal >= 3.0: "), std::string::npos) << r.out;
 }
 
 }  // namespace

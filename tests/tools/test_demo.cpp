@@ -77,10 +77,14 @@ TEST(Demo, MainJobCompletesHeadless) {
         EXPECT_TRUE(isPng(out + name)) << name;
     }
 
-    // The benches (fly-over and orbit): the requested frames, four runs each.
-    for (const char* name : {"/bench.json", "/bench_orbit.json"}) {
+    // The benches (fly-over, orbit, orbit in the paper's configuration): the requested frames,
+    // four runs each.
+    for (const char* name : {"/bench.json", "/bench_orbit.json", "/bench_orbit_paper.json"}) {
         const nlohmann::json bench = nlohmann::json::parse(slurp(out + name));
         EXPECT_EQ(bench.at("frames").get<int>(), 3) << name;
+        const bool paper = std::string(name) == "/bench_orbit_paper.json";
+        EXPECT_EQ(bench.at("metric"), paper ? "paper" : "file default") << name;
+        EXPECT_EQ(bench.at("distance"), paper ? "centre" : "nearest") << name;
         for (const char* run : {"lod", "resident", "bare", "full"})
             EXPECT_EQ(bench.at("runs").at(run).at("frames").get<int>(), 3) << name << " " << run;
     }

@@ -93,8 +93,14 @@ int run(BenchCli& c) {
                     num(r["triangles"]["mean"]), num(r["resident_blocks"]["mean"]),
                     double(r["bytes_uploaded"].get<std::uint64_t>()) / 1e6);
     }
-    for (auto& [k, v] : out["ratios_of_median_frame_ms"].items())
-        std::printf("%s = %.3f\n", k.c_str(), v.get<double>());
+    for (auto& [k, v] : out["ratios_of_median_frame_ms"].items()) {
+        std::printf("%s = %.3f", k.c_str(), v.get<double>());
+        for (auto& [goal, met] : out["goals_met"].items())
+            if (goal.rfind(k, 0) == 0)
+                std::printf(" (goal %s %.1f: %s)", goal.find("at_most") != std::string::npos ? "<=" : ">=",
+                            out["goals"][goal].get<double>(), met.get<bool>() ? "met" : "not met");
+        std::printf("\n");
+    }
     std::printf("device: %s, %ux%u, %zu frames\n", out["device"].get<std::string>().c_str(),
                 c.o.width, c.o.height, c.o.cameras.size());
     if (!c.jsonOut.empty()) {
