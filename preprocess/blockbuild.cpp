@@ -11,6 +11,10 @@
 
 namespace unilod {
 
+const char* deletionOrderName(DeletionOrderKind kind) {
+    return kind == DeletionOrderKind::ThreeDdp ? "3ddp" : "greedy";
+}
+
 bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
                 const BlockBuildOptions& options, format::Block& block, BlockBuildStats& stats,
                 std::string& error) {
@@ -23,7 +27,9 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
     }
 
     ImportanceResult importance;
-    if (!computeImportance(set, options.importance, importance, error)) return false;
+    if (options.order == DeletionOrderKind::ThreeDdp &&
+        !computeImportance(set, options.importance, importance, error))
+        return false;
 
     Cdt cdt;
     if (!buildCdt(set, {}, cdt, error)) return false;
@@ -35,7 +41,23 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
     del.maxError = options.maxError;
     del.paperError = options.paperError;
     DeletionRecords records;
-    if (!runDeletion(set, cdt, importance.order, del, records, error)) return false;
+    if (options.order == DeletionOrderKind::ThreeDdp) {
+        if (!runDeletion(set, cdt, importance.order, del, records, error)) return false;
+    } else {
+        // The greedy key needs the max metric; its BAI factors are the 3ddp order's (Eq. 2).
+        del.maxError = true;
+        std::vector<float> weight;
+        if (options.importance.useBai) {
+            const int baiRow = options.importance.baiTable.findRow(options.importance.baiRow);
+            if (baiRow < 0) {
+                error = "the BAI table has no row for threshold " +
+                        std::to_string(options.importance.baiRow) + " m";
+                return false;
+            }
+            weight = baiFactors(set, options.importance.baiTable, baiRow);
+        }
+        if (!runGreedyDeletion(set, cdt, weight, del, records, error)) return false;
+    }
 
     block = format::Block{};
     block.col = col;

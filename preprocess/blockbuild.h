@@ -12,8 +12,15 @@
 
 namespace unilod {
 
+// The deletion order (issue 15): `Greedy` (default) deletes, at every step, the vertex whose
+// deletion causes the smallest model error (deletion.h runGreedyDeletion); `ThreeDdp` is the
+// paper's improved 3D_DP importance order (importance.h), kept to reproduce the paper.
+enum class DeletionOrderKind : std::uint8_t { Greedy = 0, ThreeDdp = 1 };
+const char* deletionOrderName(DeletionOrderKind kind);  // "greedy" / "3ddp"
+
 struct BlockBuildOptions {
-    ImportanceOptions importance;
+    DeletionOrderKind order = DeletionOrderKind::Greedy;
+    ImportanceOptions importance;  // BAI options (both orders); the 3D_DP settings (3ddp)
     bool maxError = true;    // record the `max` metric
     bool paperError = true;  // record the `paper` metric
     double lodRatio = 1.3;   // stored levels: see lodindex.h

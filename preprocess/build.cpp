@@ -73,6 +73,7 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
 
     // BAI table before the long work, so that a typo fails fast.
     BlockBuildOptions blockOptions;
+    blockOptions.order = o.order;
     blockOptions.importance.useBai = o.useBai;
     blockOptions.importance.baiRow = o.baiRow;
     if (!o.baiTablePath.empty() &&
@@ -245,6 +246,7 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
         {"assume_crs", o.assumeSrs},
         {"stride", o.stride},
         {"block_size", o.blockSize},
+        {"order", deletionOrderName(o.order)},
         {"bai", o.useBai},
         {"bai_row", o.baiRow},
         {"bai_table", o.baiTablePath},

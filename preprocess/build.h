@@ -12,6 +12,7 @@
 #include <functional>
 #include <string>
 
+#include "blockbuild.h"
 #include "blocks.h"
 #include "importance.h"
 #include "ulod.h"
@@ -30,6 +31,7 @@ struct BuildOptions {
     int stride = 1;
     int blockSize = kDefaultBlockSize;
     int threads = 0;  // 0: all cores
+    DeletionOrderKind order = DeletionOrderKind::Greedy;  // --order greedy|3ddp
     bool useBai = true;
     std::string baiTablePath;  // empty: the paper's Table 1
     double baiRow = kDefaultBaiRow;

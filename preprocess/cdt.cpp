@@ -61,12 +61,80 @@ void Cdt::beginJournal(std::uint32_t step) {
     journalCreated.clear();
 }
 
+// --- Trial (undo log) ------------------------------------------------------------------------
+
+void Cdt::beginTrial() {
+    assert(!trial_);
+    trial_ = true;
+    if (++trialId_ == 0) {  // wrapped: forget every old mark
+        std::fill(triangleMark_.begin(), triangleMark_.end(), 0);
+        std::fill(vertexMark_.begin(), vertexMark_.end(), 0);
+        trialId_ = 1;
+    }
+    trialSlots_ = triangleSlots();
+    if (triangleMark_.size() < trialSlots_) triangleMark_.resize(trialSlots_ + trialSlots_ / 4, 0);
+    if (vertexMark_.size() < vertexTriangle.size()) vertexMark_.resize(vertexTriangle.size(), 0);
+    trialFreeLow_ = std::uint32_t(freeSlots.size());
+    savedTriangles_.clear();
+    savedVertices_.clear();
+    savedFreePopped_.clear();
+    savedCounts_[0] = vertexCount;
+    savedCounts_[1] = realTriangleCount;
+    savedCounts_[2] = constraintEdgeCount;
+    savedCounts_[3] = mergedPoints;
+    savedLastTriangle_ = lastTriangle_;
+}
+
+void Cdt::saveTriangleSlow(std::uint32_t t) {
+    triangleMark_[t] = trialId_;
+    SavedTriangle s;
+    s.t = t;
+    for (int i = 0; i < 3; ++i) {
+        s.v[i] = tv[3 * t + i];
+        s.n[i] = tn[3 * t + i];
+    }
+    s.stamp = stamp[t];
+    s.c = tc[t];
+    savedTriangles_.push_back(s);
+}
+
+void Cdt::rollbackTrial() {
+    assert(trial_);
+    trial_ = false;
+    for (auto it = savedTriangles_.rbegin(); it != savedTriangles_.rend(); ++it) {
+        const std::uint32_t t = it->t;
+        for (int i = 0; i < 3; ++i) {
+            tv[3 * t + i] = it->v[i];
+            tn[3 * t + i] = it->n[i];
+        }
+        stamp[t] = it->stamp;
+        tc[t] = it->c;
+    }
+    for (auto it = savedVertices_.rbegin(); it != savedVertices_.rend(); ++it)
+        vertexTriangle[it->first] = it->second;
+    tv.resize(3 * std::size_t(trialSlots_));
+    tn.resize(3 * std::size_t(trialSlots_));
+    tc.resize(trialSlots_);
+    stamp.resize(trialSlots_);
+    freeSlots.resize(trialFreeLow_);
+    freeSlots.insert(freeSlots.end(), savedFreePopped_.rbegin(), savedFreePopped_.rend());
+    vertexCount = savedCounts_[0];
+    realTriangleCount = savedCounts_[1];
+    constraintEdgeCount = savedCounts_[2];
+    mergedPoints = savedCounts_[3];
+    lastTriangle_ = savedLastTriangle_;
+}
+
 // --- Elementary operations -------------------------------------------------------------------
 
 std::uint32_t Cdt::createTriangle(PointId a, PointId b, PointId c) {
     std::uint32_t t;
     if (!freeSlots.empty()) {
         t = freeSlots.back();
+        if (trial_ && freeSlots.size() <= trialFreeLow_) {
+            savedFreePopped_.push_back(t);
+            trialFreeLow_ = std::uint32_t(freeSlots.size() - 1);
+        }
         freeSlots.pop_back();
     } else {
         t = triangleSlots();
@@ -75,6 +143,7 @@ std::uint32_t Cdt::createTriangle(PointId a, PointId b, PointId c) {
         tc.push_back(0);
         stamp.push_back(0);
     }
+    if (trial_) saveTriangle(t);
     tv[3 * t] = a;
     tv[3 * t + 1] = b;
     tv[3 * t + 2] = c;
@@ -86,7 +155,7 @@ std::uint32_t Cdt::createTriangle(PointId a, PointId b, PointId c) {
         if (v == kGhost) {
             ghost = true;
         } else {
-            vertexTriangle[v] = t;
+            setVertexTriangle(v, t);
         }
     }
     if (!ghost) {
@@ -105,12 +174,17 @@ void Cdt::destroyTriangle(std::uint32_t t) {
         journalRemoved.push_back(canonicalTriangle(tv[3 * t], tv[3 * t + 1], tv[3 * t + 2]));
     }
     if (!ghost) --realTriangleCount;
+    if (trial_) saveTriangle(t);
     tv[3 * t] = tv[3 * t + 1] = tv[3 * t + 2] = kNone;
     freeSlots.push_back(t);
 }
 
 void Cdt::setConstrained(std::uint32_t h, bool on) {
     const std::uint32_t g = tn[h];
+    if (trial_) {
+        saveTriangle(h / 3);
+        saveTriangle(g / 3);
+    }
     if (on) {
         tc[h / 3] |= std::uint8_t(1u << (h % 3));
         tc[g / 3] |= std::uint8_t(1u << (g % 3));
@@ -154,6 +228,10 @@ void Cdt::flip(std::uint32_t h) {
             journalCreated.push_back(s);
         }
     }
+    if (trial_) {
+        saveTriangle(t);
+        saveTriangle(n);
+    }
     stamp[t] = stamp[n] = step_;
     // t becomes (a, b, d), n becomes (d, c, a).
     tv[3 * t] = a, tv[3 * t + 1] = b, tv[3 * t + 2] = d;
@@ -165,10 +243,10 @@ void Cdt::flip(std::uint32_t h) {
     link(3 * n, hca);
     link(3 * n + 2, hdc);
     link(3 * t + 1, 3 * n + 1);
-    vertexTriangle[a] = t;
-    vertexTriangle[b] = t;
-    vertexTriangle[d] = t;
-    vertexTriangle[c] = n;
+    setVertexTriangle(a, t);
+    setVertexTriangle(b, t);
+    setVertexTriangle(d, t);
+    setVertexTriangle(c, n);
 }
 
 void Cdt::legalize(std::vector<std::uint32_t>& stack) {
@@ -428,7 +506,7 @@ void Cdt::removeVertex(PointId v, const std::vector<PointId>& link,
     }
     for (std::uint32_t h : triangles)
         destroyTriangle(h / 3);
-    vertexTriangle[v] = kNone;
+    setVertexTriangle(v, kNone);
     --vertexCount;
     created_.clear();
     std::uint32_t open = kNone;

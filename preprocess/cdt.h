@@ -111,10 +111,24 @@ public:
     std::vector<TriangleTriple> journalRemoved;
     std::vector<std::uint32_t> journalCreated;  // may hold a slot twice, or dead slots
 
+    // --- Trial (undo log; deletion.h's greedy order): after beginTrial() every mesh operation
+    // saves what it overwrites (a triangle slot's vertices, neighbours, flags and stamp once per
+    // slot, a vertex's triangle once per vertex, the free-slot list's tail, the counters), so
+    // that rollbackTrial() restores the mesh exactly, bit for bit (later operations then reuse
+    // the same slots: determinism), and commitTrial() keeps the changes.
+    void beginTrial();
+    void rollbackTrial();
+    void commitTrial() { trial_ = false; }
+    bool inTrial() const { return trial_; }
+
     // --- Mesh operations.
     std::uint32_t createTriangle(PointId a, PointId b, PointId c);
     void destroyTriangle(std::uint32_t t);
     void link(std::uint32_t h, std::uint32_t g) {
+        if (trial_) {
+            saveTriangle(h / 3);
+            saveTriangle(g / 3);
+        }
         tn[h] = g;
         tn[g] = h;
     }
@@ -163,6 +177,34 @@ public:
 
 private:
     std::uint32_t locate(PointId p) const;
+    void saveTriangle(std::uint32_t t) {
+        if (t < trialSlots_ && triangleMark_[t] != trialId_) saveTriangleSlow(t);
+    }
+    void saveTriangleSlow(std::uint32_t t);
+    void setVertexTriangle(PointId v, std::uint32_t t) {
+        if (trial_ && vertexMark_[v] != trialId_) {
+            vertexMark_[v] = trialId_;
+            savedVertices_.push_back({v, vertexTriangle[v]});
+        }
+        vertexTriangle[v] = t;
+    }
+
+    // Trial state (beginTrial).
+    bool trial_ = false;
+    std::uint32_t trialId_ = 0, trialSlots_ = 0, trialFreeLow_ = 0;
+    std::vector<std::uint32_t> triangleMark_, vertexMark_;
+    struct SavedTriangle {
+        std::uint32_t t;
+        PointId v[3];
+        std::uint32_t n[3];
+        std::uint32_t stamp;
+        std::uint8_t c;
+    };
+    std::vector<SavedTriangle> savedTriangles_;
+    std::vector<std::pair<PointId, std::uint32_t>> savedVertices_;
+    std::vector<std::uint32_t> savedFreePopped_;
+    std::uint32_t savedCounts_[4] = {0, 0, 0, 0};
+    std::uint32_t savedLastTriangle_ = 0;
 
     bool journaling_ = false;
     std::uint32_t step_ = 0;

@@ -3,6 +3,7 @@
 #include "deletion.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cassert>
 #include <queue>
 #include <set>
@@ -30,20 +31,35 @@ public:
     Sequence(const PointSet& set, Cdt& cdt, const DeletionOptions& options, DeletionRecords& rec)
         : set_(set), cdt_(cdt), options_(options), rec_(rec) {}
 
+    // The given order (3ddp).
     bool run(const std::vector<PointId>& order, std::string& error);
+    // The greedy order.
+    bool runGreedy(const std::vector<float>& weight, std::string& error);
 
 private:
-    Outcome attempt(PointId x, KeptReason& reason);
-    void perform(PointId x, PointId a, PointId c);
+    void start(std::size_t expectedSteps);
+    // Whether x may be deleted now: Deleted = yes (a, c: its river neighbours or kNil; link_
+    // and tris_ hold its star), Deferred (blockers registered) or Refused (reason).
+    Outcome classify(PointId x, KeptReason& reason, PointId& a, PointId& c);
+    // The mesh change of deleting x, journaled as step step_ + 1; fills added_.
+    void apply(PointId x, PointId a, PointId c);
+    // Records and errors of the change apply() made (step_ becomes step_ + 1).
+    void record(PointId x, PointId a, PointId c);
+    double riverDeviation(PointId x) const;
     void block(PointId x, std::initializer_list<PointId> blockers);
     void handle(PointId x);
     void drain();
+    void wake(PointId x, std::vector<PointId>& woken);
+    // Greedy: evaluates x's key and queues it (or defers / refuses it).
+    void evaluate(PointId x);
+    double trialError(PointId x, PointId a, PointId c);
 
     const PointSet& set_;
     Cdt& cdt_;
     const DeletionOptions& options_;
     DeletionRecords& rec_;
     ModelError error_;
+    double runningMax_ = 0;
     std::vector<State> state_;
     std::vector<std::uint32_t> orderPos_;
     std::vector<std::uint32_t> waitHead_;
@@ -56,13 +72,73 @@ private:
                         std::vector<std::pair<std::uint32_t, PointId>>, std::greater<>>
         retry_;
     std::uint32_t step_ = 0;
+    // Rivers as built: every river vertex of degree 2 has a position in the flattened polylines;
+    // riverPrev_ / riverNext_ link each position to the previous / next alive vertex's position.
+    std::vector<std::uint32_t> riverPos_;  // per vertex id; kNil: none
+    std::vector<PointId> riverVertex_;     // per position
+    std::vector<std::uint32_t> riverPrev_, riverNext_;
+    // Greedy.
+    const std::vector<float>* weight_ = nullptr;
+    struct Entry {
+        double key;
+        PointId v;
+        std::uint32_t version;
+        bool operator>(const Entry& o) const { return key != o.key ? key > o.key : v > o.v; }
+    };
+    std::priority_queue<Entry, std::vector<Entry>, std::greater<>> heap_;
+    std::vector<std::uint32_t> version_;
+    std::vector<double> key_;
     // Scratch.
     std::vector<PointId> link_;
     std::vector<std::uint32_t> tris_, added_;
-    std::vector<PointId> path_;
+    std::vector<PointId> path_, touched_, woken_;
     Cdt::Trace trace_;
     std::vector<TriangleTriple> removedT_, addedT_;
 };
+
+void Sequence::start(std::size_t expectedSteps) {
+    const std::size_t n = set_.points.size();
+    state_.assign(n, State::Pending);
+    waitHead_.assign(n, kNil);
+    rec_ = DeletionRecords();
+    rec_.removedTriangleOffset = rec_.addedTriangleOffset = {0};
+    rec_.removedEdgeOffset = rec_.addedEdgeOffset = {0};
+    // Records: about 6.1 removed and 4.1 added triangles per step (net -2); reserved up front and
+    // grown by a quarter when exceeded, so that the slack stays small at 10^6 steps.
+    rec_.steps.reserve(expectedSteps);
+    for (auto* v : {&rec_.removedTriangleOffset, &rec_.addedTriangleOffset, &rec_.removedEdgeOffset,
+                    &rec_.addedEdgeOffset})
+        v->reserve(expectedSteps + 1);
+    rec_.removedTriangles.reserve(expectedSteps * 25 / 4);
+    rec_.addedTriangles.reserve(expectedSteps * 17 / 4);
+    if (options_.maxError || options_.paperError) {
+        error_.init(set_, cdt_, options_.maxError, options_.paperError);
+        rec_.initialErrorMax = error_.runningMax();
+        rec_.initialErrorPaper = error_.runningPaper();
+        runningMax_ = rec_.initialErrorMax;
+        if (options_.maxError) {
+            rec_.errorMax.reserve(expectedSteps);
+            rec_.stepErrorMax.reserve(expectedSteps);
+        }
+        if (options_.paperError) rec_.errorPaper.reserve(expectedSteps);
+    }
+    // River positions (the CDT's polylines: split at vertices on segments, representatives).
+    riverPos_.assign(n, kNil);
+    riverVertex_.clear();
+    riverPrev_.clear();
+    riverNext_.clear();
+    for (const Polyline& line : cdt_.rivers) {
+        const std::uint32_t base = std::uint32_t(riverVertex_.size());
+        for (std::size_t i = 0; i < line.size(); ++i) {
+            const std::uint32_t p = base + std::uint32_t(i);
+            riverVertex_.push_back(line[i]);
+            riverPrev_.push_back(i == 0 ? kNil : p - 1);
+            riverNext_.push_back(i + 1 == line.size() ? kNil : p + 1);
+            if (i > 0 && i + 1 < line.size() && riverPos_[line[i]] == kNil)
+                riverPos_[line[i]] = p;
+        }
+    }
+}
 
 bool Sequence::run(const std::vector<PointId>& order, std::string& error) {
     const std::size_t n = set_.points.size();
@@ -82,26 +158,7 @@ bool Sequence::run(const std::vector<PointId>& order, std::string& error) {
         }
         orderPos_[v] = i;
     }
-    state_.assign(n, State::Pending);
-    waitHead_.assign(n, kNil);
-    rec_ = DeletionRecords();
-    rec_.removedTriangleOffset = rec_.addedTriangleOffset = {0};
-    rec_.removedEdgeOffset = rec_.addedEdgeOffset = {0};
-    // Records: about 6.1 removed and 4.1 added triangles per step (net -2); reserved up front and
-    // grown by a quarter when exceeded, so that the slack stays small at 10^6 steps.
-    rec_.steps.reserve(order.size());
-    for (auto* v : {&rec_.removedTriangleOffset, &rec_.addedTriangleOffset, &rec_.removedEdgeOffset,
-                    &rec_.addedEdgeOffset})
-        v->reserve(order.size() + 1);
-    rec_.removedTriangles.reserve(order.size() * 25 / 4);
-    rec_.addedTriangles.reserve(order.size() * 17 / 4);
-    if (options_.maxError || options_.paperError) {
-        error_.init(set_, cdt_, options_.maxError, options_.paperError);
-        rec_.initialErrorMax = error_.runningMax();
-        rec_.initialErrorPaper = error_.runningPaper();
-        if (options_.maxError) rec_.errorMax.reserve(order.size());
-        if (options_.paperError) rec_.errorPaper.reserve(order.size());
-    }
+    start(order.size());
     for (PointId v : order) {
         if (step_ >= options_.maxSteps) break;
         if (cdt_.representative[v] != v) {
@@ -122,16 +179,26 @@ bool Sequence::run(const std::vector<PointId>& order, std::string& error) {
     return true;
 }
 
+void Sequence::wake(PointId x, std::vector<PointId>& woken) {
+    for (std::uint32_t w = waitHead_[x]; w != kNil; w = waits_[w].next) {
+        const PointId v = waits_[w].vertex;
+        if (state_[v] == State::Deferred) woken.push_back(v);
+    }
+    waitHead_[x] = kNil;
+}
+
 void Sequence::handle(PointId x) {
     KeptReason reason = KeptReason::Locked;
-    const Outcome o = attempt(x, reason);
+    PointId a = kNil, c = kNil;
+    const Outcome o = classify(x, reason, a, c);
     if (o == Outcome::Deleted) {
+        apply(x, a, c);
+        record(x, a, c);
         state_[x] = State::Deleted;
-        for (std::uint32_t w = waitHead_[x]; w != kNil; w = waits_[w].next) {
-            const PointId v = waits_[w].vertex;
-            if (state_[v] == State::Deferred) retry_.push({orderPos_[v], v});
-        }
-        waitHead_[x] = kNil;
+        woken_.clear();
+        wake(x, woken_);
+        for (PointId v : woken_)
+            retry_.push({orderPos_[v], v});
     } else if (o == Outcome::Deferred) {
         if (state_[x] != State::Deferred) ++rec_.deferredVertices;
         state_[x] = State::Deferred;
@@ -157,7 +224,8 @@ void Sequence::block(PointId x, std::initializer_list<PointId> blockers) {
     }
 }
 
-Outcome Sequence::attempt(PointId x, KeptReason& reason) {
+Outcome Sequence::classify(PointId x, KeptReason& reason, PointId& a, PointId& c) {
+    a = c = kNil;
     if (cdt_.locked[x]) {
         reason = KeptReason::Locked;
         return Outcome::Refused;
@@ -177,15 +245,12 @@ Outcome Sequence::attempt(PointId x, KeptReason& reason) {
             ++degree;
         }
     }
-    if (degree == 0) {
-        perform(x, kNil, kNil);
-        return Outcome::Deleted;
-    }
+    if (degree == 0) return Outcome::Deleted;
     if (degree != 2) {
         reason = KeptReason::RiverEnd;
         return Outcome::Refused;
     }
-    const PointId a = river[0], c = river[1];
+    a = river[0], c = river[1];
     const std::uint32_t existing = cdt_.findEdge(a, c);
     if (existing != Cdt::kNone && cdt_.isConstrained(existing)) {
         block(x, {a, c});
@@ -202,13 +267,11 @@ Outcome Sequence::attempt(PointId x, KeptReason& reason) {
         block(x, {a, c, cdt_.origin(trace_.edge), cdt_.destination(trace_.edge)});
         return Outcome::Deferred;
     }
-    perform(x, a, c);
     return Outcome::Deleted;
 }
 
-void Sequence::perform(PointId x, PointId a, PointId c) {
-    ++step_;
-    cdt_.beginJournal(step_);
+void Sequence::apply(PointId x, PointId a, PointId c) {
+    cdt_.beginJournal(step_ + 1);
     cdt_.removeVertex(x, link_, tris_);
     if (a != kNil) {
         cdt_.constraintEdgeCount -= 2;
@@ -216,9 +279,6 @@ void Sequence::perform(PointId x, PointId a, PointId c) {
         const bool ok = cdt_.insertSegment(a, c, path_, why);
         assert(ok && path_.size() == 2);
         (void)ok;
-        rec_.removedEdges.push_back(makeRiverEdge(a, x));
-        rec_.removedEdges.push_back(makeRiverEdge(x, c));
-        rec_.addedEdges.push_back(makeRiverEdge(a, c));
     }
     cdt_.endJournal();
     // Created slots still alive, once each.
@@ -227,8 +287,41 @@ void Sequence::perform(PointId x, PointId a, PointId c) {
     std::sort(created.begin(), created.end());
     created.erase(std::unique(created.begin(), created.end()), created.end());
     for (std::uint32_t t : created) {
-        if (cdt_.triangleAlive(t) && cdt_.stamp[t] == step_ && !cdt_.isGhost(t))
+        if (cdt_.triangleAlive(t) && cdt_.stamp[t] == step_ + 1 && !cdt_.isGhost(t))
             added_.push_back(t);
+    }
+}
+
+double Sequence::riverDeviation(PointId x) const {
+    const std::uint32_t p = riverPos_[x];
+    if (p == kNil) return 0;
+    const std::uint32_t pa = riverPrev_[p], pc = riverNext_[p];
+    assert(pa != kNil && pc != kNil);
+    const PointId a = riverVertex_[pa], c = riverVertex_[pc];
+    const double u = cdt_.gridUnit;
+    const double ax = double(cdt_.gx[a]) * u, ay = double(cdt_.gy[a]) * u, az = set_.points[a].z;
+    const double dx = double(cdt_.gx[c]) * u - ax, dy = double(cdt_.gy[c]) * u - ay,
+                 dz = set_.points[c].z - az;
+    const double len2 = dx * dx + dy * dy + dz * dz;
+    double worst = 0;
+    for (std::uint32_t q = pa + 1; q < pc; ++q) {
+        const PointId m = riverVertex_[q];
+        const double mx = double(cdt_.gx[m]) * u - ax, my = double(cdt_.gy[m]) * u - ay,
+                     mz = set_.points[m].z - az;
+        double t = len2 > 0 ? (mx * dx + my * dy + mz * dz) / len2 : 0.0;
+        t = std::clamp(t, 0.0, 1.0);
+        const double ex = mx - t * dx, ey = my - t * dy, ez = mz - t * dz;
+        worst = std::max(worst, std::sqrt(ex * ex + ey * ey + ez * ez));
+    }
+    return worst;
+}
+
+void Sequence::record(PointId x, PointId a, PointId c) {
+    ++step_;
+    if (a != kNil) {
+        rec_.removedEdges.push_back(makeRiverEdge(a, x));
+        rec_.removedEdges.push_back(makeRiverEdge(x, c));
+        rec_.addedEdges.push_back(makeRiverEdge(a, c));
     }
     // Records: removed minus re-created identical triangles.
     removedT_ = cdt_.journalRemoved;
@@ -257,14 +350,143 @@ void Sequence::perform(PointId x, PointId a, PointId c) {
     rec_.removedEdgeOffset.push_back(std::uint32_t(rec_.removedEdges.size()));
     rec_.addedEdgeOffset.push_back(std::uint32_t(rec_.addedEdges.size()));
     if (options_.maxError) {
-        error_.updateMax(cdt_, cdt_.journalRemovedSlots, added_);
-        rec_.errorMax.push_back(error_.runningMax());
+        const double vertical = error_.updateMax(cdt_, cdt_.journalRemovedSlots, added_);
+        const double stepError = std::max(vertical, riverDeviation(x));
+        runningMax_ = std::max(runningMax_, stepError);
+        rec_.stepErrorMax.push_back(stepError);
+        rec_.errorMax.push_back(runningMax_);
     }
     if (options_.paperError) {
         error_.removeVertex(x);
         rec_.errorPaper.push_back(error_.runningPaper());
     }
+    // Unlink x from its river (after the deviation, which reads its neighbours).
+    if (const std::uint32_t p = riverPos_[x]; p != kNil) {
+        riverNext_[riverPrev_[p]] = riverNext_[p];
+        riverPrev_[riverNext_[p]] = riverPrev_[p];
+    }
     if (options_.afterStep) options_.afterStep(step_);
+}
+
+// --- Greedy order -----------------------------------------------------------------------------
+
+double Sequence::trialError(PointId x, PointId a, PointId c) {
+    cdt_.beginTrial();
+    apply(x, a, c);
+    const double vertical = error_.evaluateMax(cdt_, cdt_.journalRemovedSlots, added_);
+    cdt_.rollbackTrial();
+    return std::max(vertical, riverDeviation(x));
+}
+
+void Sequence::evaluate(PointId x) {
+    KeptReason reason = KeptReason::Locked;
+    PointId a = kNil, c = kNil;
+    const Outcome o = classify(x, reason, a, c);
+    ++version_[x];
+    if (o == Outcome::Refused) {
+        state_[x] = State::Kept;
+        rec_.kept.push_back({x, reason});
+        return;
+    }
+    if (o == Outcome::Deferred) {
+        if (state_[x] != State::Deferred) ++rec_.deferredVertices;
+        state_[x] = State::Deferred;
+        ++rec_.deferrals;
+        return;
+    }
+    state_[x] = State::Pending;
+    const double w = weight_ && !weight_->empty() ? double((*weight_)[x]) : 1.0;
+    key_[x] = trialError(x, a, c) * (a != kNil ? w : 1.0);
+    heap_.push({key_[x], x, version_[x]});
+}
+
+bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
+    const std::size_t n = set_.points.size();
+    assert(cdt_.vertexTriangle.size() == n);
+    if (!options_.maxError) {
+        error = "the greedy order needs the max metric";
+        return false;
+    }
+    if (!weight.empty() && weight.size() != n) {
+        error = "greedy order: " + std::to_string(weight.size()) + " weights for " +
+                std::to_string(n) + " points";
+        return false;
+    }
+    weight_ = &weight;
+    start(cdt_.vertexCount);
+    version_.assign(n, 0);
+    key_.assign(n, 0);
+    for (PointId v = 0; v < n; ++v) {
+        // Locked points take no part (as in the 3ddp order); a vertex that merged a locked
+        // point is refused as Locked by evaluate().
+        if (cdt_.representative[v] != v || set_.points[v].locked) continue;
+        evaluate(v);
+    }
+    while (!heap_.empty() && step_ < options_.maxSteps) {
+        const Entry top = heap_.top();
+        heap_.pop();
+        const PointId x = top.v;
+        if (top.version != version_[x] || state_[x] != State::Pending) continue;
+        KeptReason reason = KeptReason::Locked;
+        PointId a = kNil, c = kNil;
+        const Outcome o = classify(x, reason, a, c);
+        if (o != Outcome::Deleted) {  // newly blocked by a river edge inserted elsewhere
+            ++version_[x];
+            if (o == Outcome::Deferred) {
+                if (state_[x] != State::Deferred) ++rec_.deferredVertices;
+                state_[x] = State::Deferred;
+                ++rec_.deferrals;
+            } else {
+                state_[x] = State::Kept;
+                rec_.kept.push_back({x, reason});
+            }
+            continue;
+        }
+        // Delete for real on a trial; keep it only when it causes exactly the key.
+        cdt_.beginTrial();
+        apply(x, a, c);
+        const double w = a != kNil && !weight.empty() ? double(weight[x]) : 1.0;
+        const double now =
+            std::max(error_.evaluateMax(cdt_, cdt_.journalRemovedSlots, added_),
+                     riverDeviation(x)) *
+            w;
+        if (now != top.key) {
+            cdt_.rollbackTrial();
+            ++version_[x];
+            key_[x] = now;
+            heap_.push({now, x, version_[x]});
+            continue;
+        }
+        cdt_.commitTrial();
+        // The vertices whose star changed: every corner of a created triangle.
+        touched_.clear();
+        for (std::uint32_t t : added_) {
+            for (int i = 0; i < 3; ++i)
+                touched_.push_back(cdt_.tv[3 * t + i]);
+        }
+        record(x, a, c);
+        state_[x] = State::Deleted;
+        woken_.clear();
+        wake(x, woken_);
+        std::sort(woken_.begin(), woken_.end());
+        touched_.insert(touched_.end(), woken_.begin(), woken_.end());
+        std::sort(touched_.begin(), touched_.end());
+        touched_.erase(std::unique(touched_.begin(), touched_.end()), touched_.end());
+        for (PointId v : touched_) {
+            if (v == x || state_[v] == State::Deleted || state_[v] == State::Kept) continue;
+            // A deferred vertex stays blocked until one of its blockers goes (then it is woken).
+            if (state_[v] == State::Deferred &&
+                !std::binary_search(woken_.begin(), woken_.end(), v))
+                continue;
+            evaluate(v);
+        }
+    }
+    if (step_ < options_.maxSteps) {
+        for (PointId v = 0; v < n; ++v) {
+            if (state_[v] == State::Deferred) rec_.kept.push_back({v, KeptReason::Deferred});
+        }
+    }
+    return true;
 }
 
 }  // namespace
@@ -283,6 +505,13 @@ bool runDeletion(const PointSet& set, Cdt& cdt, const std::vector<PointId>& orde
                  const DeletionOptions& options, DeletionRecords& records, std::string& error) {
     Sequence sequence(set, cdt, options, records);
     return sequence.run(order, error);
+}
+
+bool runGreedyDeletion(const PointSet& set, Cdt& cdt, const std::vector<float>& weight,
+                       const DeletionOptions& options, DeletionRecords& records,
+                       std::string& error) {
+    Sequence sequence(set, cdt, options, records);
+    return sequence.runGreedy(weight, error);
 }
 
 namespace {

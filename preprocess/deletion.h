@@ -25,6 +25,28 @@
 // order is exhausted are kept (reason Deferred). Order entries that are merged duplicates
 // (Cdt::representative[id] != id) are skipped: their vertex is the representative.
 //
+// Greedy order (runGreedyDeletion, issue 15; the default of `unilod build`): instead of a given
+// order, every step deletes the candidate whose deletion causes the smallest model error. The key
+// of a vertex X is evaluated by deleting X for real on a trial (cdt.h beginTrial) and rolling
+// back: the largest vertical distance between the original points under the changed triangles
+// and the re-triangulated surface (the `max` metric's own quantity), and for a river vertex
+// between A and C the larger of that and the river deviation of A-C (below), multiplied by the
+// BAI factor (C * BAI + 1, paper Eq. 2) so that bends go later. Ties: lower vertex id first.
+// After a step the keys of every vertex of a created triangle are evaluated again (their stars
+// changed); a vertex at the top of the queue is deleted only when its deletion, done for real,
+// causes exactly its key (otherwise it goes back with the new key: the key of a river vertex
+// whose A-C leaves its star also depends on triangles outside the star). Locked, hull and
+// river-end vertices are refused as above; a river vertex whose A-C is blocked waits, as above,
+// for the deletion of one of its blockers and is then evaluated again.
+//
+// River deviation: the largest 3D distance from the original river vertices between A and C
+// (along the river as built, X included) to the segment A-C. A 3D distance bounds the
+// horizontal one and makes the on-screen bound of the drawn river provable (engine/lod.h).
+//
+// `max` error of a step (both orders): max(vertical error of the re-evaluated points, the river
+// deviation of the new edge A-C), stored as a running maximum over the steps, so one h_lim bounds
+// the terrain and the rivers.
+//
 // Records: one DeletionStep per successful deletion; the triangles (canonical vertex triples)
 // and river edges removed and added by step s are the ranges [offset[s], offset[s+1]) of the
 // flat arrays, so a file writer can store every array as it is. A triangle that is destroyed and
@@ -63,6 +85,9 @@ struct DeletionRecords {
     std::vector<RiverEdge> removedEdges, addedEdges;
     // Model error after each step, running maxima (non-decreasing). Empty when not computed.
     std::vector<double> errorMax, errorPaper;
+    // The `max` error each step causes itself (before the running maximum): for the greedy order
+    // the deleted vertex's key without the BAI factor. Empty when `max` is not computed.
+    std::vector<double> stepErrorMax;
     double initialErrorMax = 0, initialErrorPaper = 0;  // before the first step
     std::vector<KeptVertex> kept;        // refused or never-deletable vertices of the order
     std::uint32_t deferrals = 0;         // deferred attempts (a vertex may be deferred often)
@@ -86,6 +111,13 @@ struct DeletionOptions {
 // Returns false with `error` for an invalid order (id out of range or repeated).
 bool runDeletion(const PointSet& set, Cdt& cdt, const std::vector<PointId>& order,
                  const DeletionOptions& options, DeletionRecords& records, std::string& error);
+
+// Runs the greedy deletion sequence (above) on `cdt`: the order is the records' step vertices.
+// `weight`: per point id, the key factor of a river vertex (C * BAI + 1; empty: 1 for all).
+// Needs the `max` metric (options.maxError). Returns false with `error` on bad input.
+bool runGreedyDeletion(const PointSet& set, Cdt& cdt, const std::vector<float>& weight,
+                       const DeletionOptions& options, DeletionRecords& records,
+                       std::string& error);
 
 // Applies steps 1..k of the records to the triangles / river edges of the full triangulation
 // (collectTriangles / collectRiverEdges before the deletion) and returns the sorted result.

@@ -151,9 +151,64 @@ void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool 
     }
 }
 
-void ModelError::updateMax(const Cdt& cdt, const std::vector<std::uint32_t>& removedSlots,
-                           const std::vector<std::uint32_t>& addedSlots) {
-    if (!maxMetric_) return;
+void ModelError::loadAddedTriangles(const Cdt& cdt, const std::vector<std::uint32_t>& addedSlots) {
+    // The created triangles' corners and heights, once per step; the point-in-triangle
+    // orientations are the barycentric weights of the height (same arithmetic as heightGrid).
+    addedTris_.clear();
+    for (std::uint32_t t : addedSlots) {
+        const PointId a = cdt.tv[3 * t], b = cdt.tv[3 * t + 1], c = cdt.tv[3 * t + 2];
+        addedTris_.push_back({{cdt.gx[a], cdt.gx[b], cdt.gx[c]},
+                              {cdt.gy[a], cdt.gy[b], cdt.gy[c]},
+                              {set_->points[a].z, set_->points[b].z, set_->points[c].z},
+                              double(cdt.orient(a, b, c)),
+                              t});
+    }
+}
+
+double ModelError::locateError(const PoolPoint& p, std::size_t& last, std::uint32_t& slot) const {
+    // Points arrive grouped by the removed triangle that held them, so consecutive points
+    // usually fall in the same created triangle: try the previous hit first. Points on a shared
+    // edge may be claimed by either triangle; the height there is the same (exact weights).
+    const std::size_t count = addedTris_.size();
+    for (std::size_t k = 0; k < count; ++k) {
+        const std::size_t j = k == 0 ? last : (k <= last ? k - 1 : k);
+        const AddedTri& q = addedTris_[j];
+        const std::int64_t wc = orient2d(q.x[0], q.y[0], q.x[1], q.y[1], p.gx, p.gy);
+        if (wc < 0) continue;
+        const std::int64_t wa = orient2d(q.x[1], q.y[1], q.x[2], q.y[2], p.gx, p.gy);
+        if (wa < 0) continue;
+        const std::int64_t wb = orient2d(q.x[2], q.y[2], q.x[0], q.y[0], p.gx, p.gy);
+        if (wb < 0) continue;
+        slot = q.slot;
+        last = j;
+        const double height =
+            (double(wa) * q.z[0] + double(wb) * q.z[1] + double(wc) * q.z[2]) / q.den;
+        return std::fabs(p.z - height);
+    }
+    slot = kNil;
+    assert(false && "a point of the changed region lies in no created triangle");
+    return INFINITY;
+}
+
+double ModelError::evaluateMax(const Cdt& cdt, const std::vector<std::uint32_t>& removedSlots,
+                               const std::vector<std::uint32_t>& addedSlots) {
+    if (!maxMetric_) return 0;
+    loadAddedTriangles(cdt, addedSlots);
+    double stepMax = 0;
+    std::size_t last = 0;
+    std::uint32_t slot = kNil;
+    for (std::uint32_t t : removedSlots) {
+        if (t >= rangeStart_.size()) continue;
+        const PoolPoint* begin = pool_.data() + rangeStart_[t];
+        for (std::uint32_t i = 0; i < rangeCount_[t]; ++i)
+            stepMax = std::max(stepMax, locateError(begin[i], last, slot));
+    }
+    return stepMax;
+}
+
+double ModelError::updateMax(const Cdt& cdt, const std::vector<std::uint32_t>& removedSlots,
+                             const std::vector<std::uint32_t>& addedSlots) {
+    if (!maxMetric_) return 0;
     if (rangeStart_.size() < cdt.triangleSlots()) {
         rangeStart_.resize(cdt.triangleSlots(), 0);
         rangeCount_.resize(cdt.triangleSlots(), 0);
@@ -169,45 +224,14 @@ void ModelError::updateMax(const Cdt& cdt, const std::vector<std::uint32_t>& rem
     destination_.resize(pending_.size());
     for (std::uint32_t t : addedSlots)
         rangeCount_[t] = 0;
-    // The created triangles' corners and heights, once per step; the point-in-triangle
-    // orientations are the barycentric weights of the height (same arithmetic as heightGrid).
-    addedTris_.clear();
-    for (std::uint32_t t : addedSlots) {
-        const PointId a = cdt.tv[3 * t], b = cdt.tv[3 * t + 1], c = cdt.tv[3 * t + 2];
-        addedTris_.push_back({{cdt.gx[a], cdt.gx[b], cdt.gx[c]},
-                              {cdt.gy[a], cdt.gy[b], cdt.gy[c]},
-                              {set_->points[a].z, set_->points[b].z, set_->points[c].z},
-                              double(cdt.orient(a, b, c)),
-                              t});
-    }
+    loadAddedTriangles(cdt, addedSlots);
     double stepMax = 0;
-    // Pending points arrive grouped by the removed triangle that held them, so consecutive points
-    // usually fall in the same created triangle: try the previous hit first. Points on a shared
-    // edge may be claimed by either triangle; the height there is the same (exact weights).
     std::size_t last = 0;
-    const std::size_t count = addedTris_.size();
     for (std::size_t i = 0; i < pending_.size(); ++i) {
-        const PoolPoint& p = pending_[i];
         std::uint32_t found = kNil;
-        double height = 0;
-        for (std::size_t k = 0; k < count; ++k) {
-            const std::size_t j = k == 0 ? last : (k <= last ? k - 1 : k);
-            const AddedTri& q = addedTris_[j];
-            const std::int64_t wc = orient2d(q.x[0], q.y[0], q.x[1], q.y[1], p.gx, p.gy);
-            if (wc < 0) continue;
-            const std::int64_t wa = orient2d(q.x[1], q.y[1], q.x[2], q.y[2], p.gx, p.gy);
-            if (wa < 0) continue;
-            const std::int64_t wb = orient2d(q.x[2], q.y[2], q.x[0], q.y[0], p.gx, p.gy);
-            if (wb < 0) continue;
-            found = q.slot;
-            height = (double(wa) * q.z[0] + double(wb) * q.z[1] + double(wc) * q.z[2]) / q.den;
-            last = j;
-            break;
-        }
-        assert(found != kNil);
+        stepMax = std::max(stepMax, locateError(pending_[i], last, found));
         destination_[i] = found;
         ++rangeCount_[found];
-        stepMax = std::max(stepMax, std::fabs(p.z - height));
     }
     runningMax_ = std::max(runningMax_, stepMax);
     // Append the created triangles' ranges at the end of the pool.
@@ -242,6 +266,7 @@ void ModelError::updateMax(const Cdt& cdt, const std::vector<std::uint32_t>& rem
         pool_.resize(w);
         garbage_ = 0;
     }
+    return stepMax;
 }
 
 void ModelError::removeVertex(PointId v) {

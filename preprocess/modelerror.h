@@ -42,8 +42,14 @@ public:
     // `cdt`: the full triangulation of `set` (before any deletion).
     void init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool paperMetric);
     // After a step: the destroyed pre-existing triangle slots and the created alive real slots.
-    void updateMax(const Cdt& cdt, const std::vector<std::uint32_t>& removedSlots,
-                   const std::vector<std::uint32_t>& addedSlots);
+    // Returns the step's own vertical error: the largest re-evaluated value (before the running
+    // maximum).
+    double updateMax(const Cdt& cdt, const std::vector<std::uint32_t>& removedSlots,
+                     const std::vector<std::uint32_t>& addedSlots);
+    // The value updateMax would return for this change, without recording anything (the greedy
+    // order's key, evaluated on a trial step: cdt.h beginTrial).
+    double evaluateMax(const Cdt& cdt, const std::vector<std::uint32_t>& removedSlots,
+                       const std::vector<std::uint32_t>& addedSlots);
     // After vertex v left the triangulation.
     void removeVertex(PointId v);
 
@@ -78,6 +84,10 @@ private:
     };
     static_assert(sizeof(Entry) == 24);
     void buildGrid();
+    void loadAddedTriangles(const Cdt& cdt, const std::vector<std::uint32_t>& addedSlots);
+    // Locates p among the added triangles (exact, closed; `last`: the previous hit, tried first)
+    // and returns its vertical error; `slot` receives the triangle.
+    double locateError(const PoolPoint& p, std::size_t& last, std::uint32_t& slot) const;
     PointId nearest(std::int32_t gx, std::int32_t gy, double z) const;
 
     const PointSet* set_ = nullptr;

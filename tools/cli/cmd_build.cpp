@@ -16,6 +16,7 @@ namespace {
 struct BuildCli {
     BuildOptions o;
     std::string metric = "max";
+    std::string order = "greedy";
     bool noBai = false;
     bool quiet = false;
 };
@@ -37,6 +38,7 @@ std::string megabytes(std::uint64_t bytes) {
 
 int run(BuildCli& c) {
     c.o.useBai = !c.noBai;
+    c.o.order = c.order == "3ddp" ? DeletionOrderKind::ThreeDdp : DeletionOrderKind::Greedy;
     c.o.defaultMetric = c.metric == "paper" ? format::kMetricPaper : format::kMetricMax;
     const bool tty = isatty(STDERR_FILENO) != 0;
     if (!c.quiet) {
@@ -79,7 +81,8 @@ int run(BuildCli& c) {
     std::printf("  triangles        %zu full resolution, %zu coarsest; index data %.2fx full\n",
                 s.fullTriangles, s.coarsestTriangles,
                 s.fullTriangles ? double(s.indexTriangles) / double(s.fullTriangles) : 0.0);
-    std::printf("  BAI              %s\n", c.o.useBai ? "on" : "off (plain 3D_DP)");
+    std::printf("  order            %s\n", deletionOrderName(c.o.order));
+    std::printf("  BAI              %s\n", c.o.useBai ? "on" : "off");
     std::printf("  default metric   %s\n", c.metric.c_str());
     std::printf("  output           %s (%s)\n", c.o.outPath.c_str(),
                 megabytes(s.outputBytes).c_str());
@@ -112,7 +115,11 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
         ->check(CLI::Range(1, 1 << 24));
     sub->add_option("--threads", c->o.threads, "worker threads (default: all cores)")
         ->check(CLI::Range(0, 1024));
-    sub->add_flag("--no-bai", c->noBai, "plain 3D_DP (no Bending Adjustment Index)");
+    sub->add_option("--order", c->order,
+                    "deletion order: greedy (default; smallest model error first) or 3ddp (the "
+                    "paper's improved 3D_DP)")
+        ->check(CLI::IsMember({"greedy", "3ddp"}));
+    sub->add_flag("--no-bai", c->noBai, "no Bending Adjustment Index (3ddp: plain 3D_DP)");
     sub->add_option("--bai-table", c->o.baiTablePath, "BAI constants table file (see README)");
     sub->add_option("--bai-row", c->o.baiRow, "simplification-threshold row of the BAI table (m)");
     sub->add_option("--metric", c->metric, "default error metric recorded in the file")
