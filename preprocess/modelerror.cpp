@@ -445,6 +445,40 @@ double bruteForceMaxError(const PointSet& set, const Cdt& cdt) {
     return worst;
 }
 
+double bruteForceRiverDeviation(const PointSet& set, const Cdt& cdt) {
+    const double u = cdt.gridUnit;
+    auto at = [&](PointId v, int axis) {
+        return axis == 0 ? double(cdt.gx[v]) * u
+                         : (axis == 1 ? double(cdt.gy[v]) * u : set.points[v].z);
+    };
+    double worst = 0;
+    for (const Polyline& line : cdt.rivers) {
+        std::size_t prev = 0;
+        for (std::size_t i = 1; i < line.size(); ++i) {
+            if (!cdt.isVertex(line[i])) continue;
+            const PointId a = line[prev], c = line[i];
+            for (std::size_t j = prev + 1; j < i; ++j) {
+                const PointId m = line[j];
+                double d[3], w[3];
+                double len2 = 0, dot = 0;
+                for (int k = 0; k < 3; ++k) {
+                    d[k] = at(c, k) - at(a, k);
+                    w[k] = at(m, k) - at(a, k);
+                    len2 += d[k] * d[k];
+                    dot += w[k] * d[k];
+                }
+                const double t = len2 > 0 ? std::clamp(dot / len2, 0.0, 1.0) : 0.0;
+                double e2 = 0;
+                for (int k = 0; k < 3; ++k)
+                    e2 += (w[k] - t * d[k]) * (w[k] - t * d[k]);
+                worst = std::max(worst, std::sqrt(e2));
+            }
+            prev = i;
+        }
+    }
+    return worst;
+}
+
 double bruteForcePaperError(const PointSet& set, const Cdt& cdt) {
     long double sum = 0;
     for (PointId m = 0; m < set.points.size(); ++m) {

@@ -122,6 +122,10 @@ private:
 // original point located by scanning all triangles; the current `paper` value: nearest vertex by
 // scanning all vertices (same distance formula: grid horizontal, metres vertical).
 double bruteForceMaxError(const PointSet& set, const Cdt& cdt);
+// The river part of the `max` error (deletion.h): along every river as built (Cdt::rivers), the
+// largest 3D distance from an original vertex to the segment between the alive vertices before
+// and after it; 0 when every river vertex is alive.
+double bruteForceRiverDeviation(const PointSet& set, const Cdt& cdt);
 double bruteForcePaperError(const PointSet& set, const Cdt& cdt);
 
 // Height of the surface of triangle t at original point m's grid position (shared formula).

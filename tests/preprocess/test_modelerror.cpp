@@ -45,7 +45,8 @@ TEST(ModelError, EveryStepEqualsBruteForce) {
     std::uint32_t mismatches = 0;
     DeletionOptions options;
     options.afterStep = [&](std::uint32_t step) {
-        bruteMax = std::max(bruteMax, bruteForceMaxError(set, cdt));
+        bruteMax = std::max(
+            {bruteMax, bruteForceMaxError(set, cdt), bruteForceRiverDeviation(set, cdt)});
         brutePaper = std::max(brutePaper, bruteForcePaperError(set, cdt));
         const double m = rec.errorMax[step - 1], p = rec.errorPaper[step - 1];
         if (std::fabs(m - bruteMax) > tolerance(bruteMax) ||

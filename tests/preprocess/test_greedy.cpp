@@ -1,0 +1,269 @@
+// The greedy deletion order (deletion.h runGreedyDeletion, issue 15): every step deletes the
+// candidate whose deletion causes the smallest model error; the key is that error, evaluated on a
+// trial deletion that is rolled back (cdt.h beginTrial). Checked against an independent oracle
+// (a copy of the mesh, the vertex removed, every original point located by brute force), plus
+// the invariants, the errors and determinism.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+#include "bai.h"
+#include "cdt.h"
+#include "cdt_fixtures.h"
+#include "checker.h"
+#include "deletion.h"
+#include "modelerror.h"
+
+namespace unilod {
+namespace {
+
+using testing::BlockSpec;
+using testing::makeBlock;
+
+double tolerance(double v) {
+    return 1e-9 * std::max(1.0, std::fabs(v));
+}
+
+bool inClosedTriangle(const Cdt& cdt, std::uint32_t t, PointId m) {
+    const PointId a = cdt.tv[3 * t], b = cdt.tv[3 * t + 1], c = cdt.tv[3 * t + 2];
+    return cdt.orient(a, b, m) >= 0 && cdt.orient(b, c, m) >= 0 && cdt.orient(c, a, m) >= 0;
+}
+
+// Surface height at m's position by scanning every alive real triangle.
+double surfaceAt(const PointSet& set, const Cdt& cdt, PointId m) {
+    for (std::uint32_t t = 0; t < cdt.triangleSlots(); ++t) {
+        if (cdt.triangleAlive(t) && !cdt.isGhost(t) && inClosedTriangle(cdt, t, m))
+            return surfaceHeight(set, cdt, t, m);
+    }
+    return NAN;
+}
+
+// Oracle key of an interior vertex v without river edges: remove v from a copy of the mesh; the
+// largest vertical distance of the original points in v's closed star to the new surface.
+// NaN when v is not a candidate (locked, on the hull, a river vertex).
+double oracleKey(const PointSet& set, const Cdt& before, PointId v) {
+    if (!before.isVertex(v) || before.locked[v]) return NAN;
+    std::vector<PointId> link;
+    std::vector<std::uint32_t> tris;
+    if (!before.star(v, link, tris)) return NAN;
+    for (std::uint32_t h : tris) {
+        const std::uint32_t t = h / 3;
+        for (int i = 0; i < 3; ++i) {
+            if (before.isConstrained(3 * t + std::uint32_t(i))) return NAN;
+        }
+    }
+    Cdt after = before;
+    after.removeVertex(v);
+    double worst = 0;
+    for (PointId m = 0; m < set.points.size(); ++m) {
+        bool inStar = false;
+        for (std::uint32_t h : tris)
+            inStar = inStar || inClosedTriangle(before, h / 3, m);
+        if (!inStar) continue;
+        worst = std::max(worst, std::fabs(set.points[m].z - surfaceAt(set, after, m)));
+    }
+    return worst;
+}
+
+// Without rivers every key is local to the star: each step's own error equals the oracle key of
+// the deleted vertex, and no other candidate had a smaller one.
+void expectGreedyAgainstOracle(const PointSet& set) {
+    Cdt cdt;
+    std::string error;
+    ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+    Cdt before = cdt;
+    DeletionRecords rec;
+    DeletionOptions options;
+    options.paperError = false;
+    std::uint32_t failures = 0, candidatesSeen = 0;
+    options.afterStep = [&](std::uint32_t step) {
+        const PointId x = rec.steps[step - 1].vertex;
+        const double key = oracleKey(set, before, x);
+        if (!(std::fabs(key - rec.stepErrorMax[step - 1]) <= tolerance(key)) && failures++ < 3) {
+            ADD_FAILURE() << "step " << step << " vertex " << x << ": realised error "
+                          << rec.stepErrorMax[step - 1] << ", oracle key " << key;
+        }
+        for (PointId v = 0; v < set.points.size(); ++v) {
+            if (v == x) continue;
+            const double other = oracleKey(set, before, v);
+            if (std::isnan(other)) continue;
+            ++candidatesSeen;
+            // (Exact ties cannot be told apart from rounding here: the oracle sums the plane
+            // equation in another vertex order.)
+            if (other < key - tolerance(key) && failures++ < 3) {
+                ADD_FAILURE() << "step " << step << ": deleted " << x << " with key " << key
+                              << " while " << v << " had " << other;
+            }
+        }
+        before = cdt;
+    };
+    ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, error)) << error;
+    EXPECT_EQ(failures, 0u);
+    EXPECT_GT(candidatesSeen, 1000u);
+    EXPECT_GT(rec.steps.size(), 20u);
+}
+
+TEST(GreedyOrder, KeyIsTheRealisedErrorAndTheSmallestRandomPoints) {
+    BlockSpec spec;
+    spec.seed = 7;
+    spec.points = 90;
+    spec.rivers = 0;
+    expectGreedyAgainstOracle(makeBlock(spec));
+}
+
+TEST(GreedyOrder, KeyIsTheRealisedErrorAndTheSmallestGrid) {
+    // An exact grid: every square is cocircular, so ties in the re-triangulation are everywhere.
+    BlockSpec spec;
+    spec.points = 81;
+    spec.rivers = 0;
+    spec.grid = true;
+    expectGreedyAgainstOracle(makeBlock(spec));
+}
+
+// With rivers: invariants after every step, errors equal to the brute force (vertical and river
+// deviation) at every step, keys non-decreasing where the order is free, BAI weights respected.
+TEST(GreedyOrder, InvariantsAndErrorsWithRivers) {
+    BlockSpec spec;
+    spec.seed = 23;
+    spec.points = 700;
+    spec.rivers = 3;
+    const PointSet set = makeBlock(spec);
+    Cdt cdt;
+    std::string error;
+    ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+    const CheckReference ref = captureCheckReference(cdt);
+    const std::vector<RiverEdge> initialEdges = collectRiverEdges(cdt);
+    std::set<RiverEdge> edges(initialEdges.begin(), initialEdges.end());
+    DeletionRecords rec;
+    DeletionOptions options;
+    double brute = bruteForceMaxError(set, cdt);
+    std::uint32_t failures = 0, riverSteps = 0;
+    options.afterStep = [&](std::uint32_t step) {
+        const std::uint32_t s = step - 1;
+        for (std::uint32_t i = rec.removedEdgeOffset[s]; i < rec.removedEdgeOffset[s + 1]; ++i)
+            edges.erase(rec.removedEdges[i]);
+        for (std::uint32_t i = rec.addedEdgeOffset[s]; i < rec.addedEdgeOffset[s + 1]; ++i)
+            edges.insert(rec.addedEdges[i]);
+        riverSteps += rec.addedEdgeOffset[s + 1] > rec.addedEdgeOffset[s];
+        const std::vector<RiverEdge> list(edges.begin(), edges.end());
+        std::string m;
+        if (!checkCdt(cdt, ref, &list, m) && failures++ < 3)
+            ADD_FAILURE() << "after step " << step << ": " << m;
+        brute = std::max(
+            {brute, bruteForceMaxError(set, cdt), bruteForceRiverDeviation(set, cdt)});
+        if (!(std::fabs(rec.errorMax[s] - brute) <= tolerance(brute)) && failures++ < 3)
+            ADD_FAILURE() << "step " << step << ": max " << rec.errorMax[s] << " vs " << brute;
+    };
+    ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, error)) << error;
+    EXPECT_EQ(failures, 0u);
+    EXPECT_GT(riverSteps, 20u);
+    EXPECT_EQ(rec.stepErrorMax.size(), rec.steps.size());
+    EXPECT_EQ(rec.errorPaper.size(), rec.steps.size());
+    // Everything deletable went: what is left is locked, on the hull or refused.
+    std::uint32_t unlocked = 0;
+    for (PointId v = 0; v < set.points.size(); ++v)
+        unlocked += cdt.representative[v] == v && !set.points[v].locked;
+    std::uint32_t kept = 0;
+    for (const KeptVertex& k : rec.kept)
+        kept += k.reason != KeptReason::Locked;
+    EXPECT_EQ(rec.steps.size() + kept, unlocked);
+}
+
+// The BAI factor delays river vertices: with a huge weight on every river vertex, all DEM
+// deletions whose key is below the smallest weighted river key come first.
+TEST(GreedyOrder, RiverWeightsDelayRiverVertices) {
+    BlockSpec spec;
+    spec.seed = 5;
+    spec.points = 400;
+    spec.rivers = 2;
+    const PointSet set = makeBlock(spec);
+    auto firstRiverStep = [&](const std::vector<float>& weight) {
+        Cdt cdt;
+        std::string error;
+        EXPECT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+        DeletionRecords rec;
+        DeletionOptions options;
+        options.paperError = false;
+        EXPECT_TRUE(runGreedyDeletion(set, cdt, weight, options, rec, error)) << error;
+        for (std::size_t s = 0; s < rec.steps.size(); ++s) {
+            if (set.points[rec.steps[s].vertex].kind == PointKind::River) return s;
+        }
+        return rec.steps.size();
+    };
+    std::vector<float> heavy(set.points.size(), 1.0f);
+    for (PointId v = 0; v < set.points.size(); ++v) {
+        if (set.points[v].kind == PointKind::River) heavy[v] = 1e6f;
+    }
+    const std::size_t plain = firstRiverStep({}), weighted = firstRiverStep(heavy);
+    EXPECT_LT(plain, weighted);
+    EXPECT_EQ(firstRiverStep(std::vector<float>(set.points.size(), 1.0f)), plain);
+}
+
+TEST(GreedyOrder, IdenticalRecordsForIdenticalInput) {
+    BlockSpec spec;
+    spec.seed = 3;
+    spec.points = 1500;
+    spec.rivers = 2;
+    const PointSet set = makeBlock(spec);
+    DeletionRecords first, second;
+    for (DeletionRecords* rec : {&first, &second}) {
+        Cdt cdt;
+        std::string error;
+        ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+        ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, {}, *rec, error)) << error;
+    }
+    ASSERT_EQ(first.steps.size(), second.steps.size());
+    for (std::size_t s = 0; s < first.steps.size(); ++s)
+        ASSERT_EQ(first.steps[s].vertex, second.steps[s].vertex) << "step " << s;
+    EXPECT_EQ(first.removedTriangles, second.removedTriangles);
+    EXPECT_EQ(first.addedTriangles, second.addedTriangles);
+    EXPECT_EQ(first.errorMax, second.errorMax);
+}
+
+// A trial deletion rolled back leaves the mesh exactly as it was, slots and free list included.
+TEST(GreedyOrder, TrialRollbackRestoresTheMeshExactly) {
+    BlockSpec spec;
+    spec.seed = 9;
+    spec.points = 600;
+    spec.rivers = 2;
+    const PointSet set = makeBlock(spec);
+    Cdt cdt;
+    std::string error;
+    ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+    // Some real deletions first, so that the free list is in use.
+    DeletionOptions options;
+    options.maxSteps = 100;
+    DeletionRecords rec;
+    ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, error)) << error;
+    ASSERT_EQ(rec.steps.size(), 100u);
+    std::uint32_t tried = 0;
+    std::vector<PointId> link;
+    std::vector<std::uint32_t> tris;
+    for (PointId v = 0; v < set.points.size(); ++v) {
+        if (!cdt.isVertex(v) || cdt.locked[v] || !cdt.star(v, link, tris)) continue;
+        bool river = false;
+        for (std::uint32_t h : tris)
+            river = river || cdt.isConstrained(h - h % 3 + (h % 3 + 2) % 3);
+        if (river) continue;
+        const Cdt saved = cdt;
+        cdt.beginTrial();
+        cdt.removeVertex(v);
+        EXPECT_NE(cdt.tv, saved.tv);
+        cdt.rollbackTrial();
+        ASSERT_EQ(cdt.tv, saved.tv) << "vertex " << v;
+        ASSERT_EQ(cdt.tn, saved.tn);
+        ASSERT_EQ(cdt.tc, saved.tc);
+        ASSERT_EQ(cdt.stamp, saved.stamp);
+        ASSERT_EQ(cdt.freeSlots, saved.freeSlots);
+        ASSERT_EQ(cdt.vertexTriangle, saved.vertexTriangle);
+        ASSERT_EQ(cdt.vertexCount, saved.vertexCount);
+        ASSERT_EQ(cdt.realTriangleCount, saved.realTriangleCount);
+        ++tried;
+    }
+    EXPECT_GT(tried, 100u);
+}
+
+}  // namespace
+}  // namespace unilod
