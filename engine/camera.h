@@ -53,6 +53,10 @@ struct BoxView {
     // (the box is then entirely below or above the eye, and {x : angle(x, down) <= t} is a
     // convex cone).
     double verticalSin = 1;
+    // The block's `max` error also bounds horizontal displacements: the 3D deviation of its
+    // rivers (preprocess/deletion.h), which a view from above does not shrink. Set by the
+    // caller for a block with river edges; lod.h effectiveDistance then uses 1 for verticalSin.
+    bool horizontal = false;
 };
 BoxView boxView(const Camera& camera, const double boxMin[3], const double boxMax[3]);
 

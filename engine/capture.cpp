@@ -55,6 +55,7 @@ nlohmann::json frameJson(const CaptureOptions& options, const Camera& c, const C
              {"min_depth", b.box.minDepth},
              {"axis_cos", b.box.axisCos},
              {"vertical_sin", b.box.verticalSin},
+             {"rivers", b.box.horizontal},
              {"h_lim", b.hLim},
              {"h_s", b.wanted.error},
              {"next_level_error",

@@ -45,7 +45,7 @@ double effectiveDistance(const ViewTolerance& view, double distance, const BoxVi
     const double axisCos = std::max(cornerCos, box.axisCos);
     // A box seen straight along world up (verticalSin 0) hides every vertical error; the floor
     // keeps S' finite (h_lim then allows any level).
-    const double verticalSin = std::max(box.verticalSin, 1e-9);
+    const double verticalSin = box.horizontal ? 1.0 : std::max(box.verticalSin, 1e-9);
     return axisCos * std::max(box.minDepth, distance * cornerCos) / verticalSin;
 }
 

@@ -47,7 +47,11 @@ double frustumEdgeFactor(double fovRadians, double aspect);
 //   sin(phi_p)  <= verticalSin
 //   q_z         >= max(zMin, S cos(theta_c))         (zMin: q is in the box; S cos(theta_c):
 //                                                     q on screen too, at distance >= S)
-// so S' = c max(zMin, S cos(theta_c)) / verticalSin bounds the error by P pixels. With no
+// so S' = c max(zMin, S cos(theta_c)) / verticalSin bounds the error by P pixels. In a block with
+// rivers (BoxView::horizontal) the `max` error also bounds the 3D distance from every original
+// river vertex to the drawn river edge (preprocess/deletion.h); a displacement d in any
+// direction projects to at most f |d| / (q_z cos(theta_p)) (|d x p| <= |d| |p|), so there
+// verticalSin is replaced by 1 and the drawn rivers are within P pixels of the original ones too. With no
 // box information (BoxView{}: zMin 0, axisCos 0, verticalSin 1) S' = S cos^2(theta_c) <= S.
 // The box terms only make S' larger where the bound allows it: blocks near the view axis (c up
 // to 1 instead of cos(theta_c), about 0.65 at 60 degrees and 16:9) and blocks seen steeply from

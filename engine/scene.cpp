@@ -433,6 +433,7 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
         // selects (the paper's 2D grid diagrams at a view distance).
         sel.distance = blockDistance(s.options.distance, camera.eye, b.boxMin, b.boxMax);
         sel.box = boxView(camera, b.boxMin, b.boxMax);
+        sel.box.horizontal = !b.levels.empty() && b.levels.front().riverCount > 0;
         sel.hLim = blockTolerance(tolerance, sel.distance, sel.box);
         sel.wanted = s.options.policy == LodPolicy::Finest
                          ? chooseStoredLevel(b.levels, s.metric, -1.0)

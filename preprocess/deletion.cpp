@@ -88,6 +88,7 @@ private:
     std::priority_queue<Entry, std::vector<Entry>, std::greater<>> heap_;
     std::vector<std::uint32_t> version_;
     std::vector<double> key_;
+    std::vector<std::uint8_t> local_;  // the key was evaluated on a change confined to the star
     // Scratch.
     std::vector<PointId> link_;
     std::vector<std::uint32_t> tris_, added_;
@@ -374,6 +375,9 @@ double Sequence::trialError(PointId x, PointId a, PointId c) {
     cdt_.beginTrial();
     apply(x, a, c);
     const double vertical = error_.evaluateMax(cdt_, cdt_.journalRemovedSlots, added_);
+    // Only x's star changed (no flip outside it for A-C): the key depends on nothing else, and
+    // every change to the star evaluates x again.
+    local_[x] = cdt_.journalRemovedSlots.size() == tris_.size() ? 1 : 0;
     cdt_.rollbackTrial();
     return std::max(vertical, riverDeviation(x));
 }
@@ -416,6 +420,7 @@ bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
     start(cdt_.vertexCount);
     version_.assign(n, 0);
     key_.assign(n, 0);
+    local_.assign(n, 0);
     for (PointId v = 0; v < n; ++v) {
         // Locked points take no part (as in the 3ddp order); a vertex that merged a locked
         // point is refused as Locked by evaluate().
@@ -442,22 +447,28 @@ bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
             }
             continue;
         }
-        // Delete for real on a trial; keep it only when it causes exactly the key.
-        cdt_.beginTrial();
-        apply(x, a, c);
-        const double w = a != kNil && !weight.empty() ? double(weight[x]) : 1.0;
-        const double now =
-            std::max(error_.evaluateMax(cdt_, cdt_.journalRemovedSlots, added_),
-                     riverDeviation(x)) *
-            w;
-        if (now != top.key) {
-            cdt_.rollbackTrial();
-            ++version_[x];
-            key_[x] = now;
-            heap_.push({now, x, version_[x]});
-            continue;
+        if (local_[x]) {
+            apply(x, a, c);
+        } else {
+            // The key also depended on triangles outside the star, which may have changed since:
+            // delete for real on a trial and keep it only when it causes exactly the key.
+            cdt_.beginTrial();
+            apply(x, a, c);
+            const double w = a != kNil && !weight.empty() ? double(weight[x]) : 1.0;
+            const double now =
+                std::max(error_.evaluateMax(cdt_, cdt_.journalRemovedSlots, added_),
+                         riverDeviation(x)) *
+                w;
+            if (now != top.key) {
+                cdt_.rollbackTrial();
+                ++version_[x];
+                key_[x] = now;
+                local_[x] = cdt_.journalRemovedSlots.size() == tris_.size() ? 1 : 0;
+                heap_.push({now, x, version_[x]});
+                continue;
+            }
+            cdt_.commitTrial();
         }
-        cdt_.commitTrial();
         // The vertices whose star changed: every corner of a created triangle.
         touched_.clear();
         for (std::uint32_t t : added_) {

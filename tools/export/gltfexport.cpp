@@ -156,6 +156,7 @@ void addBlock(tinygltf::Model& model, const format::Header& header, const format
     extras["min_depth"] = Value(sel.box.minDepth);
     extras["axis_cos"] = Value(sel.box.axisCos);
     extras["vertical_sin"] = Value(sel.box.verticalSin);
+    extras["rivers"] = Value(sel.box.horizontal);
     node.extras = Value(extras);
     model.nodes.push_back(node);
     model.scenes[0].nodes.push_back(int(model.nodes.size() - 1));

@@ -21,15 +21,16 @@ engine::Camera cameraOf(const SelectionOptions& options) {
 }  // namespace
 
 double blockTolerance(const format::BlockInfo& info, const SelectionOptions& options,
-                      double* distance, engine::BoxView* box) {
+                      bool rivers, double* distance, engine::BoxView* box) {
     if (distance != nullptr) *distance = 0;
     if (box != nullptr) *box = engine::BoxView{};
     if (!options.useCamera) return options.hLim;
     const double boxMin[3] = {info.minX, info.minY, info.minZ};
     const double boxMax[3] = {info.maxX, info.maxY, info.maxZ};
     const double s = engine::blockDistance(options.distance, options.eye, boxMin, boxMax);
-    const engine::BoxView view =
+    engine::BoxView view =
         options.hasDirection ? engine::boxView(cameraOf(options), boxMin, boxMax) : engine::BoxView{};
+    view.horizontal = rivers;
     if (distance != nullptr) *distance = s;
     if (box != nullptr) *box = view;
     const engine::ViewTolerance tolerance{options.pixels, options.fovDegrees * kDegree,
@@ -60,7 +61,8 @@ BlockSelection selectLevel(const format::Block& block, std::size_t index,
     s.index = index;
     s.col = block.col;
     s.row = block.row;
-    s.hLim = blockTolerance(info, options, &s.distance, &s.box);
+    s.hLim = blockTolerance(info, options, block.levels.front().riverCount > 0, &s.distance,
+                            &s.box);
     s.choice = engine::chooseStoredLevel(block.levels, metric, s.hLim);
     const format::Level& level = block.levels[s.choice.level];
     s.vertexCount = level.vertexCount;

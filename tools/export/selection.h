@@ -44,7 +44,8 @@ struct BlockSelection {
 };
 
 // The h_lim of a block for the options (camera: the engine's S and Eq. 11; else options.hLim).
-double blockTolerance(const format::BlockInfo& info, const SelectionOptions& options,
+// `rivers`: the block has river edges (engine/camera.h BoxView::horizontal).
+double blockTolerance(const format::BlockInfo& info, const SelectionOptions& options, bool rivers,
                       double* distance = nullptr, engine::BoxView* box = nullptr);
 
 // Camera mode with culling: false when the block's box is outside the view frustum.
