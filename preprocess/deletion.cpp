@@ -23,6 +23,83 @@ void pushGrow(std::vector<T>& v, const T& x) {
     v.push_back(x);
 }
 
+// Indexed binary min-heap of vertex keys, ties by lower id (a total order, so the top does not
+// depend on the order of updates): at most one entry per vertex, updated in place.
+class KeyHeap {
+public:
+    void reset(std::size_t n) {
+        pos_.assign(n, kNil);
+        heap_.clear();
+    }
+    bool empty() const { return heap_.empty(); }
+    PointId top() const { return heap_.front().v; }
+    double topKey() const { return heap_.front().key; }
+    void set(PointId v, double key) {
+        std::uint32_t i = pos_[v];
+        if (i == kNil) {
+            i = std::uint32_t(heap_.size());
+            heap_.push_back({key, v});
+            pos_[v] = i;
+        } else {
+            heap_[i].key = key;
+            i = down(i);
+        }
+        up(i);
+    }
+    void erase(PointId v) {
+        const std::uint32_t i = pos_[v];
+        if (i == kNil) return;
+        pos_[v] = kNil;
+        const Item last = heap_.back();
+        heap_.pop_back();
+        if (i == heap_.size()) return;
+        heap_[i] = last;
+        pos_[last.v] = i;
+        up(down(i));
+    }
+    void pop() { erase(top()); }
+
+private:
+    struct Item {
+        double key;
+        PointId v;
+    };
+    static bool less(const Item& a, const Item& b) {
+        return a.key != b.key ? a.key < b.key : a.v < b.v;
+    }
+    std::uint32_t up(std::uint32_t i) {
+        const Item x = heap_[i];
+        while (i > 0) {
+            const std::uint32_t p = (i - 1) / 2;
+            if (!less(x, heap_[p])) break;
+            heap_[i] = heap_[p];
+            pos_[heap_[i].v] = i;
+            i = p;
+        }
+        heap_[i] = x;
+        pos_[x.v] = i;
+        return i;
+    }
+    std::uint32_t down(std::uint32_t i) {
+        const Item x = heap_[i];
+        const std::uint32_t n = std::uint32_t(heap_.size());
+        for (;;) {
+            std::uint32_t c = 2 * i + 1;
+            if (c >= n) break;
+            if (c + 1 < n && less(heap_[c + 1], heap_[c])) ++c;
+            if (!less(heap_[c], x)) break;
+            heap_[i] = heap_[c];
+            pos_[heap_[i].v] = i;
+            i = c;
+        }
+        heap_[i] = x;
+        pos_[x.v] = i;
+        return i;
+    }
+    std::vector<Item> heap_;
+    std::vector<std::uint32_t> pos_;
+};
+
 enum class State : std::uint8_t { Pending = 0, Deleted = 1, Deferred = 2, Kept = 3 };
 enum class Outcome : std::uint8_t { Deleted, Deferred, Refused };
 
@@ -79,15 +156,7 @@ private:
     std::vector<std::uint32_t> riverPrev_, riverNext_;
     // Greedy.
     const std::vector<float>* weight_ = nullptr;
-    struct Entry {
-        double key;
-        PointId v;
-        std::uint32_t version;
-        bool operator>(const Entry& o) const { return key != o.key ? key > o.key : v > o.v; }
-    };
-    std::priority_queue<Entry, std::vector<Entry>, std::greater<>> heap_;
-    std::vector<std::uint32_t> version_;
-    std::vector<double> key_;
+    KeyHeap heap_;
     std::vector<std::uint8_t> local_;  // the key was evaluated on a change confined to the star
     // Scratch.
     std::vector<PointId> link_;
@@ -386,7 +455,7 @@ void Sequence::evaluate(PointId x) {
     KeptReason reason = KeptReason::Locked;
     PointId a = kNil, c = kNil;
     const Outcome o = classify(x, reason, a, c);
-    ++version_[x];
+    if (o != Outcome::Deleted) heap_.erase(x);
     if (o == Outcome::Refused) {
         state_[x] = State::Kept;
         rec_.kept.push_back({x, reason});
@@ -400,8 +469,7 @@ void Sequence::evaluate(PointId x) {
     }
     state_[x] = State::Pending;
     const double w = weight_ && !weight_->empty() ? double((*weight_)[x]) : 1.0;
-    key_[x] = trialError(x, a, c) * (a != kNil ? w : 1.0);
-    heap_.push({key_[x], x, version_[x]});
+    heap_.set(x, trialError(x, a, c) * (a != kNil ? w : 1.0));
 }
 
 bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
@@ -418,8 +486,7 @@ bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
     }
     weight_ = &weight;
     start(cdt_.vertexCount);
-    version_.assign(n, 0);
-    key_.assign(n, 0);
+    heap_.reset(n);
     local_.assign(n, 0);
     for (PointId v = 0; v < n; ++v) {
         // Locked points take no part (as in the 3ddp order); a vertex that merged a locked
@@ -428,15 +495,14 @@ bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
         evaluate(v);
     }
     while (!heap_.empty() && step_ < options_.maxSteps) {
-        const Entry top = heap_.top();
+        const PointId x = heap_.top();
+        const double key = heap_.topKey();
         heap_.pop();
-        const PointId x = top.v;
-        if (top.version != version_[x] || state_[x] != State::Pending) continue;
+        assert(state_[x] == State::Pending);
         KeptReason reason = KeptReason::Locked;
         PointId a = kNil, c = kNil;
         const Outcome o = classify(x, reason, a, c);
         if (o != Outcome::Deleted) {  // newly blocked by a river edge inserted elsewhere
-            ++version_[x];
             if (o == Outcome::Deferred) {
                 if (state_[x] != State::Deferred) ++rec_.deferredVertices;
                 state_[x] = State::Deferred;
@@ -459,12 +525,10 @@ bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
                 std::max(error_.evaluateMax(cdt_, cdt_.journalRemovedSlots, added_),
                          riverDeviation(x)) *
                 w;
-            if (now != top.key) {
+            if (now != key) {
                 cdt_.rollbackTrial();
-                ++version_[x];
-                key_[x] = now;
                 local_[x] = cdt_.journalRemovedSlots.size() == tris_.size() ? 1 : 0;
-                heap_.push({now, x, version_[x]});
+                heap_.set(x, now);
                 continue;
             }
             cdt_.commitTrial();
