@@ -2,8 +2,8 @@
 // in Hilbert-curve order with a visibility walk from the last created triangle, ghost triangles
 // closing the convex hull (the "vertex at infinity" idea of Shewchuk's Triangle and CGAL), then
 // every river segment inserted by flipping away the edges it crosses (Sloan 1993). The hole of a
-// deleted vertex is re-triangulated by ear clipping with exact predicates. Both are then made
-// constrained Delaunay by Lawson flips (a non-locally-Delaunay, non-constraint edge
+// deleted vertex is re-triangulated by ear clipping with exact predicates (planHole). Both are
+// then made constrained Delaunay by Lawson flips (a non-locally-Delaunay, non-constraint edge
 // is always flippable and every flip strictly improves the triangulation, so this terminates in
 // the constrained Delaunay triangulation; Lawson 1977, Chew 1989).
 #include "cdt.h"
@@ -269,28 +269,16 @@ void Cdt::legalize(std::vector<std::uint32_t>& stack) {
     }
 }
 
-bool Cdt::triangulatePolygon(const std::vector<PointId>& poly,
-                             const std::vector<std::uint32_t>& outer,
-                             const std::vector<std::uint8_t>& cons,
-                             std::vector<std::uint32_t>& created, std::uint32_t& openEdge) {
+void Cdt::planHole(const std::vector<PointId>& poly, std::vector<std::uint32_t>& triangles) {
     const std::uint32_t k = static_cast<std::uint32_t>(poly.size());
-    assert(k >= 3 && outer.size() == k && cons.size() == k);
+    assert(k >= 3);
+    triangles.clear();
     earPrev_.resize(k);
     earNext_.resize(k);
-    earEdge_.assign(outer.begin(), outer.end());
-    earCons_.assign(cons.begin(), cons.end());
     for (std::uint32_t i = 0; i < k; ++i) {
         earPrev_[i] = i == 0 ? k - 1 : i - 1;
         earNext_[i] = i + 1 == k ? 0 : i + 1;
     }
-    auto attach = [&](std::uint32_t h, std::uint32_t e) {
-        if (earEdge_[e] == kNone) {
-            openEdge = h;
-        } else {
-            link(h, earEdge_[e]);
-        }
-        if (earCons_[e]) tc[h / 3] |= std::uint8_t(1u << (h % 3));
-    };
     auto isEar = [&](std::uint32_t p, std::uint32_t i, std::uint32_t n) {
         const PointId a = poly[p], b = poly[i], c = poly[n];
         if (orient(a, b, c) <= 0) return false;
@@ -305,29 +293,54 @@ bool Cdt::triangulatePolygon(const std::vector<PointId>& poly,
         const std::uint32_t p = earPrev_[i], n = earNext_[i];
         if (!isEar(p, i, n)) {
             i = n;
-            if (++misses > remaining) return false;
+            ++misses;
+            assert(misses <= remaining && "a star-shaped polygon always has an ear");
             continue;
         }
-        const std::uint32_t t = createTriangle(poly[p], poly[i], poly[n]);
-        created.push_back(t);
-        attach(3 * t, i);
-        attach(3 * t + 2, p);
-        earEdge_[p] = 3 * t + 1;
-        earCons_[p] = 0;
+        triangles.insert(triangles.end(), {p, i, n});
         earNext_[p] = n;
         earPrev_[n] = p;
         --remaining;
         misses = 0;
         i = p;
     }
-    const std::uint32_t p = earPrev_[i], n = earNext_[i];
-    if (orient(poly[p], poly[i], poly[n]) <= 0) return false;
-    const std::uint32_t t = createTriangle(poly[p], poly[i], poly[n]);
-    created.push_back(t);
-    attach(3 * t, i);
-    attach(3 * t + 1, n);
-    attach(3 * t + 2, p);
-    return true;
+    triangles.insert(triangles.end(), {earPrev_[i], i, earNext_[i]});
+    // Lawson flips of the diagonals (an edge u-w with w != u +- 1 mod k) until none is illegal.
+    const std::uint32_t count = std::uint32_t(triangles.size() / 3);
+    auto boundary = [k](std::uint32_t u, std::uint32_t w) {
+        return w == (u + 1) % k || u == (w + 1) % k;
+    };
+    for (bool changed = true; changed;) {
+        changed = false;
+        for (std::uint32_t t = 0; t < count; ++t) {
+            for (std::uint32_t e = 0; e < 3; ++e) {
+                const std::uint32_t a = triangles[3 * t + e], u = triangles[3 * t + nextIndex(e)],
+                                    w = triangles[3 * t + prevIndex(e)];
+                if (boundary(u, w)) continue;
+                // The other triangle of the diagonal holds w -> u.
+                std::uint32_t o = 0, f = 0;
+                for (o = 0; o < count; ++o) {
+                    if (o == t) continue;
+                    for (f = 0; f < 3; ++f) {
+                        if (triangles[3 * o + nextIndex(f)] == w &&
+                            triangles[3 * o + prevIndex(f)] == u)
+                            break;
+                    }
+                    if (f < 3) break;
+                }
+                assert(o < count);
+                const std::uint32_t d = triangles[3 * o + f];
+                const PointId pa = poly[a], pu = poly[u], pw = poly[w], pd = poly[d];
+                if (incircle(gx[pa], gy[pa], gx[pu], gy[pu], gx[pw], gy[pw], gx[pd], gy[pd]) <= 0)
+                    continue;
+                // Quadrilateral a, u, d, w (counter-clockwise): u-w becomes a-d.
+                triangles[3 * t] = a, triangles[3 * t + 1] = u, triangles[3 * t + 2] = d;
+                triangles[3 * o] = a, triangles[3 * o + 1] = d, triangles[3 * o + 2] = w;
+                changed = true;
+                break;
+            }
+        }
+    }
 }
 
 // --- Segment walk and insertion --------------------------------------------------------------
@@ -495,24 +508,56 @@ void Cdt::removeVertex(PointId v) {
     removeVertex(v, poly_, starTris_);
 }
 
-void Cdt::removeVertex(PointId v, const std::vector<PointId>& link,
+void Cdt::removeVertex(PointId v, const std::vector<PointId>& ring,
                        const std::vector<std::uint32_t>& triangles) {
-    const std::size_t k = link.size();
+    const std::uint32_t k = std::uint32_t(ring.size());
     outer_.resize(k);
     cons_.resize(k);
     for (std::size_t i = 0; i < k; ++i) {
         outer_[i] = tn[triangles[i]];
         cons_[i] = isConstrained(triangles[i]) ? 1 : 0;
     }
+    planHole(ring, plan_);
+    bool riverAtV = false;
+    for (std::uint32_t h : triangles)
+        riverAtV = riverAtV || isConstrained(h - h % 3 + nextIndex(h % 3)) ||
+                   isConstrained(h - h % 3 + prevIndex(h % 3));
     for (std::uint32_t h : triangles)
         destroyTriangle(h / 3);
+    created_.clear();
     setVertexTriangle(v, kNone);
     --vertexCount;
-    created_.clear();
-    std::uint32_t open = kNone;
-    const bool ok = triangulatePolygon(link, outer_, cons_, created_, open);
-    assert(ok);
-    (void)ok;
+    // Create the planned triangles; polygon edge i (ring[i] -> ring[i + 1]) takes outer[i] and
+    // its constraint flag, a diagonal its twin in the other triangle.
+    diagonals_.clear();
+    for (std::size_t j = 0; j < plan_.size(); j += 3) {
+        const std::uint32_t t =
+            createTriangle(ring[plan_[j]], ring[plan_[j + 1]], ring[plan_[j + 2]]);
+        created_.push_back(t);
+        for (std::uint32_t e = 0; e < 3; ++e) {
+            const std::uint32_t h = 3 * t + e;
+            const std::uint32_t u = plan_[j + nextIndex(e)], w = plan_[j + prevIndex(e)];
+            if (w == (u + 1) % k) {
+                link(h, outer_[u]);
+                if (cons_[u]) tc[t] |= std::uint8_t(1u << e);
+                continue;
+            }
+            std::size_t d = 0;
+            while (d < diagonals_.size() && !(diagonals_[d].u == w && diagonals_[d].w == u))
+                ++d;
+            if (d < diagonals_.size()) {
+                link(h, diagonals_[d].h);
+                diagonals_[d] = diagonals_.back();
+                diagonals_.pop_back();
+            } else {
+                diagonals_.push_back({u, w, h});
+            }
+        }
+    }
+    assert(diagonals_.empty());
+    // A river edge at v is gone with it: a link vertex it hid may now be visible from a
+    // triangle beyond the hole and inside its circumcircle, so those edges are checked too.
+    if (!riverAtV) return;
     legal_.clear();
     for (std::uint32_t t : created_) {
         legal_.push_back(3 * t);

@@ -137,14 +137,14 @@ public:
     void flip(std::uint32_t h);
     // Flips every edge on the stack (and the edges it uncovers) that is not locally Delaunay.
     void legalize(std::vector<std::uint32_t>& stack);
-    // Re-triangulates the polygon `poly` (vertex ids, counter-clockwise, simple) whose edge
-    // i (poly[i] -> poly[i+1]) borders the half-edge outer[i] (kNone: left open; the half-edge
-    // that takes it is returned in `openEdge`) with constraint flag cons[i]. New triangles are
-    // appended to `created`. Returns false when no ear exists (an invalid polygon).
-    bool triangulatePolygon(const std::vector<PointId>& poly,
-                            const std::vector<std::uint32_t>& outer,
-                            const std::vector<std::uint8_t>& cons,
-                            std::vector<std::uint32_t>& created, std::uint32_t& openEdge);
+    // The constrained Delaunay triangulation of the hole an interior vertex leaves: its link
+    // `poly` (vertex ids, counter-clockwise, star-shaped around the vertex) is ear-clipped, then
+    // the diagonals are flipped until each is locally Delaunay (Lawson). The polygon's own edges
+    // are never flipped and need not be: the circumcircle of the triangle beyond each held no
+    // vertex inside, so no hole triangle's apex is inside it. `triangles` receives 3 indices into
+    // `poly` per triangle, counter-clockwise. Deterministic and read-only on the mesh: the greedy
+    // order's key (deletion.h) and removeVertex both use it, so they make the same triangles.
+    void planHole(const std::vector<PointId>& poly, std::vector<std::uint32_t>& triangles);
 
     // Walk of the segment a -> b from a.
     enum class TraceEnd : std::uint8_t { Reached, Vertex, Constraint };
@@ -216,8 +216,11 @@ private:
     std::vector<PointId> poly_;
     std::vector<std::uint32_t> outer_, starTris_;
     std::vector<std::uint8_t> cons_;
-    std::vector<std::uint32_t> earPrev_, earNext_, earEdge_;
-    std::vector<std::uint8_t> earCons_;
+    std::vector<std::uint32_t> earPrev_, earNext_, plan_;
+    struct Diagonal {
+        std::uint32_t u, w, h;  // polygon indices u -> w, the half-edge taking it
+    };
+    std::vector<Diagonal> diagonals_;
     Trace trace_;
     struct FanEdge {  // Bowyer-Watson cavity boundary edge (u, w)
         PointId u, w;

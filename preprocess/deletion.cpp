@@ -160,7 +160,9 @@ private:
     std::vector<std::uint8_t> local_;  // the key was evaluated on a change confined to the star
     // Scratch.
     std::vector<PointId> link_;
-    std::vector<std::uint32_t> tris_, added_;
+    std::vector<std::uint32_t> tris_, added_, plan_, starSlots_;
+    std::vector<PointId> corners_;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> planOrder_;
     std::vector<PointId> path_, touched_, woken_;
     Cdt::Trace trace_;
     std::vector<TriangleTriple> removedT_, addedT_;
@@ -468,8 +470,33 @@ void Sequence::evaluate(PointId x) {
         return;
     }
     state_[x] = State::Pending;
+    if (a == kNil) {
+        // No river edge: the change is the hole of x's star, planned without touching the mesh
+        // (the same plan removeVertex then carries out).
+        cdt_.planHole(link_, plan_);
+        starSlots_.clear();
+        for (std::uint32_t h : tris_)
+            starSlots_.push_back(h / 3);
+        // In the order the deletion will evaluate them (by slot: removeVertex frees the star's
+        // slots in star order and the plan's triangles take them back last-in first-out), so
+        // that a point on an edge between two new triangles gets the same rounding: the key
+        // is then exactly the realised error.
+        const std::size_t count = plan_.size() / 3, k = starSlots_.size();
+        planOrder_.resize(count);
+        for (std::size_t j = 0; j < count; ++j)
+            planOrder_[j] = {starSlots_[k - 1 - j], std::uint32_t(j)};
+        std::sort(planOrder_.begin(), planOrder_.end());
+        corners_.clear();
+        for (const auto& [slot, j] : planOrder_) {
+            for (int i = 0; i < 3; ++i)
+                corners_.push_back(link_[plan_[3 * j + std::size_t(i)]]);
+        }
+        local_[x] = 1;
+        heap_.set(x, error_.evaluatePlannedMax(cdt_, starSlots_, corners_));
+        return;
+    }
     const double w = weight_ && !weight_->empty() ? double((*weight_)[x]) : 1.0;
-    heap_.set(x, trialError(x, a, c) * (a != kNil ? w : 1.0));
+    heap_.set(x, trialError(x, a, c) * w);
 }
 
 bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {

@@ -155,14 +155,17 @@ void ModelError::loadAddedTriangles(const Cdt& cdt, const std::vector<std::uint3
     // The created triangles' corners and heights, once per step; the point-in-triangle
     // orientations are the barycentric weights of the height (same arithmetic as heightGrid).
     addedTris_.clear();
-    for (std::uint32_t t : addedSlots) {
-        const PointId a = cdt.tv[3 * t], b = cdt.tv[3 * t + 1], c = cdt.tv[3 * t + 2];
-        addedTris_.push_back({{cdt.gx[a], cdt.gx[b], cdt.gx[c]},
-                              {cdt.gy[a], cdt.gy[b], cdt.gy[c]},
-                              {set_->points[a].z, set_->points[b].z, set_->points[c].z},
-                              double(cdt.orient(a, b, c)),
-                              t});
-    }
+    for (std::uint32_t t : addedSlots)
+        loadTriangle(cdt, cdt.tv[3 * t], cdt.tv[3 * t + 1], cdt.tv[3 * t + 2], t);
+}
+
+void ModelError::loadTriangle(const Cdt& cdt, PointId a, PointId b, PointId c,
+                              std::uint32_t slot) {
+    addedTris_.push_back({{cdt.gx[a], cdt.gx[b], cdt.gx[c]},
+                          {cdt.gy[a], cdt.gy[b], cdt.gy[c]},
+                          {set_->points[a].z, set_->points[b].z, set_->points[c].z},
+                          double(cdt.orient(a, b, c)),
+                          slot});
 }
 
 double ModelError::locateError(const PoolPoint& p, std::size_t& last, std::uint32_t& slot) const {
@@ -186,7 +189,7 @@ double ModelError::locateError(const PoolPoint& p, std::size_t& last, std::uint3
         return std::fabs(p.z - height);
     }
     slot = kNil;
-    assert(false && "a point of the changed region lies in no created triangle");
+    assert(false && "a point of the changed region lies in no new triangle");
     return INFINITY;
 }
 
@@ -194,6 +197,19 @@ double ModelError::evaluateMax(const Cdt& cdt, const std::vector<std::uint32_t>&
                                const std::vector<std::uint32_t>& addedSlots) {
     if (!maxMetric_) return 0;
     loadAddedTriangles(cdt, addedSlots);
+    return evaluateLoaded(removedSlots);
+}
+
+double ModelError::evaluatePlannedMax(const Cdt& cdt, const std::vector<std::uint32_t>& removedSlots,
+                                      const std::vector<PointId>& corners) {
+    if (!maxMetric_) return 0;
+    addedTris_.clear();
+    for (std::size_t j = 0; j + 2 < corners.size(); j += 3)
+        loadTriangle(cdt, corners[j], corners[j + 1], corners[j + 2], kNil);
+    return evaluateLoaded(removedSlots);
+}
+
+double ModelError::evaluateLoaded(const std::vector<std::uint32_t>& removedSlots) {
     double stepMax = 0;
     std::size_t last = 0;
     std::uint32_t slot = kNil;

@@ -50,6 +50,10 @@ public:
     // order's key, evaluated on a trial step: cdt.h beginTrial).
     double evaluateMax(const Cdt& cdt, const std::vector<std::uint32_t>& removedSlots,
                        const std::vector<std::uint32_t>& addedSlots);
+    // The same for triangles not in the mesh: `corners` holds 3 vertex ids per triangle
+    // (counter-clockwise), e.g. Cdt::planHole's plan for the hole of `removedSlots`.
+    double evaluatePlannedMax(const Cdt& cdt, const std::vector<std::uint32_t>& removedSlots,
+                              const std::vector<PointId>& corners);
     // After vertex v left the triangulation.
     void removeVertex(PointId v);
 
@@ -85,6 +89,8 @@ private:
     static_assert(sizeof(Entry) == 24);
     void buildGrid();
     void loadAddedTriangles(const Cdt& cdt, const std::vector<std::uint32_t>& addedSlots);
+    void loadTriangle(const Cdt& cdt, PointId a, PointId b, PointId c, std::uint32_t slot);
+    double evaluateLoaded(const std::vector<std::uint32_t>& removedSlots);
     // Locates p among the added triangles (exact, closed; `last`: the previous hit, tried first)
     // and returns its vertical error; `slot` receives the triangle.
     double locateError(const PoolPoint& p, std::size_t& last, std::uint32_t& slot) const;
