@@ -78,8 +78,7 @@ LevelChoice chooseStoredLevel(const std::vector<format::Level>& levels, std::uin
         return double(metric == format::kMetricPaper ? l.errorPaper : l.errorMax);
     };
     LevelChoice c;
-    for (std::size_t i = 0; i < levels.size(); ++i)
-        if (error(levels[i]) <= hLim) c.level = i;  // errors are non-decreasing with the step
+    c.level = format::storedLevelFor(levels, metric, hLim);
     c.step = levels[c.level].step;
     c.error = error(levels[c.level]);
     if (c.level + 1 < levels.size()) c.nextError = error(levels[c.level + 1]);

@@ -569,8 +569,8 @@ void Cdt::removeVertex(PointId v, const std::vector<PointId>& ring,
 
 // --- Point insertion (Bowyer-Watson) ---------------------------------------------------------
 
-std::uint32_t Cdt::locate(PointId p) const {
-    std::uint32_t t = lastTriangle_;
+std::uint32_t Cdt::locateFrom(PointId p, std::uint32_t start) const {
+    std::uint32_t t = start;
     std::uint32_t rot = 0;
     for (;;) {
         if (isGhost(t)) return t;
@@ -589,8 +589,9 @@ std::uint32_t Cdt::locate(PointId p) const {
     }
 }
 
-void Cdt::insertPoint(PointId p) {
-    const std::uint32_t start = locate(p);
+void Cdt::insertPoint(PointId p, std::uint32_t hint) {
+    const std::uint32_t start =
+        hint != kNone && triangleAlive(hint) ? locateFrom(p, hint) : locate(p);
     auto inCircle = [&](std::uint32_t t) {
         const PointId* v = &tv[3 * t];
         if (v[0] == kGhost || v[1] == kGhost || v[2] == kGhost) {
@@ -655,7 +656,12 @@ void Cdt::insertPoint(PointId p) {
 
 // --- Construction ----------------------------------------------------------------------------
 
-bool buildCdt(const PointSet& set, const CdtOptions& options, Cdt& cdt, std::string& error) {
+namespace {
+
+// buildCdt's first stage: the grid frame, every point quantised, points on the same grid point
+// merged (the lowest id wins). `vertices` receives the representatives sorted by (gx, gy).
+bool quantisePoints(const PointSet& set, const CdtOptions& options, Cdt& cdt,
+                    std::vector<PointId>& vertices, std::string& error) {
     cdt = Cdt();
     const std::size_t n = set.points.size();
     if (n >= Cdt::kGhost) {
@@ -704,7 +710,7 @@ bool buildCdt(const PointSet& set, const CdtOptions& options, Cdt& cdt, std::str
     });
     cdt.representative.assign(n, 0);
     cdt.locked.assign(n, 0);
-    std::vector<PointId> vertices;
+    vertices.clear();
     vertices.reserve(n);
     for (std::size_t k = 0; k < n; ++k) {
         const PointId id = ids[k];
@@ -722,6 +728,13 @@ bool buildCdt(const PointSet& set, const CdtOptions& options, Cdt& cdt, std::str
         error = "fewer than 3 distinct points in the block";
         return false;
     }
+    return true;
+}
+
+// buildCdt's second stage: the Delaunay triangulation of `vertices` (Bowyer-Watson, Hilbert
+// order). `n` = the number of point ids.
+bool triangulateVertices(Cdt& cdt, std::size_t n, std::vector<PointId>& vertices,
+                         std::string& error) {
     // Insertion order: Hilbert curve over the bounding box, ties by id.
     {
         std::int64_t lo = kMaxGridCoordinate, hi = -kMaxGridCoordinate;
@@ -776,6 +789,16 @@ bool buildCdt(const PointSet& set, const CdtOptions& options, Cdt& cdt, std::str
         if (k == 1 || k == third) continue;
         cdt.insertPoint(vertices[k]);
     }
+    return true;
+}
+
+}  // namespace
+
+bool buildCdt(const PointSet& set, const CdtOptions& options, Cdt& cdt, std::string& error) {
+    std::vector<PointId> vertices;
+    if (!quantisePoints(set, options, cdt, vertices, error)) return false;
+    const std::size_t n = set.points.size();
+    if (!triangulateVertices(cdt, n, vertices, error)) return false;
     // River constraints.
     std::vector<PointId> path;
     for (std::size_t r = 0; r < set.rivers.size(); ++r) {
@@ -804,6 +827,31 @@ bool buildCdt(const PointSet& set, const CdtOptions& options, Cdt& cdt, std::str
         if (out.size() >= 2) cdt.rivers.push_back(std::move(out));
     }
     return true;
+}
+
+bool buildHullCdt(const PointSet& set, const CdtOptions& options, Cdt& cdt, std::string& error) {
+    std::vector<PointId> vertices;
+    if (!quantisePoints(set, options, cdt, vertices, error)) return false;
+    // Andrew's monotone chain on the exact grid over the (gx, gy)-sorted representatives;
+    // collinear points are popped (orient <= 0), so only the corners remain.
+    std::vector<PointId> hull(2 * vertices.size());
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < vertices.size(); ++i) {
+        while (k >= 2 && cdt.orient(hull[k - 2], hull[k - 1], vertices[i]) <= 0)
+            --k;
+        hull[k++] = vertices[i];
+    }
+    for (std::size_t i = vertices.size() - 1, lower = k + 1; i-- > 0;) {
+        while (k >= lower && cdt.orient(hull[k - 2], hull[k - 1], vertices[i]) <= 0)
+            --k;
+        hull[k++] = vertices[i];
+    }
+    hull.resize(k - 1);  // the last point repeats the first
+    if (hull.size() < 3) {
+        error = "all points of the block are collinear";
+        return false;
+    }
+    return triangulateVertices(cdt, set.points.size(), hull, error);
 }
 
 std::vector<TriangleTriple> collectTriangles(const Cdt& cdt) {

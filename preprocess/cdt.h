@@ -172,11 +172,16 @@ public:
     // link[i+1]) half-edge index of v. Returns false when v is on the hull (a ghost triangle).
     bool star(PointId v, std::vector<PointId>& link, std::vector<std::uint32_t>& triangles) const;
 
-    // Inserts a point (construction only: no constraints yet). Returns false for a duplicate.
-    void insertPoint(PointId p);
+    // Inserts a point (construction only: no constraints yet; p not a vertex, not on a vertex).
+    // `hint`: an alive triangle near p to start the point location from (greedytin.h passes the
+    // triangle whose bucket holds p); kNone: the last triangle created.
+    void insertPoint(PointId p, std::uint32_t hint = kNone);
+    // Walks from the alive triangle `start` to a real triangle containing p (closed), or to a
+    // ghost triangle when p lies outside the hull.
+    std::uint32_t locateFrom(PointId p, std::uint32_t start) const;
 
 private:
-    std::uint32_t locate(PointId p) const;
+    std::uint32_t locate(PointId p) const { return locateFrom(p, lastTriangle_); }
     void saveTriangle(std::uint32_t t) {
         if (t < trialSlots_ && triangleMark_[t] != trialId_) saveTriangleSlow(t);
     }
@@ -236,6 +241,13 @@ private:
 // all points collinear, a non-finite coordinate, a block too large for the exact grid, a river
 // point id out of range, crossing or overlapping river segments.
 bool buildCdt(const PointSet& set, const CdtOptions& options, Cdt& cdt, std::string& error);
+
+// The Delaunay triangulation of the corners of the convex hull of the block's points only
+// (points on a hull edge between corners are left out), for greedy insertion (greedytin.h):
+// every point is quantised and merged exactly as by buildCdt, so any other representative can
+// be added later with insertPoint. Rivers are not inserted (set.rivers is ignored). Same errors
+// as buildCdt.
+bool buildHullCdt(const PointSet& set, const CdtOptions& options, Cdt& cdt, std::string& error);
 
 // The alive real triangles in canonical form, sorted.
 std::vector<TriangleTriple> collectTriangles(const Cdt& cdt);

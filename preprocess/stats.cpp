@@ -60,7 +60,59 @@ struct BlockSummary {
     std::vector<float> error;  // chosen metric, steps + 1 entries
     std::uint32_t vertexCount = 0;
     std::vector<std::uint32_t> triangles, riverEdges;  // per step k = 0..steps
+    std::vector<format::Level> levels;                 // the stored levels
 };
+
+// k* = the largest k with error[k] <= limit (0 when even error[0] exceeds it). Errors are
+// non-decreasing: the states within the tolerance are a prefix.
+std::size_t exactStep(const std::vector<float>& error, double limit) {
+    const auto it = std::upper_bound(error.begin(), error.end(), limit,
+                                     [](double v, float e) { return v < double(e); });
+    return it == error.begin() ? 0 : std::size_t(it - error.begin()) - 1;
+}
+
+// Opens `path`, resolves the metric (0: the file's default) and reads every block's summary.
+bool loadSummaries(const std::string& path, std::uint32_t requestedMetric, format::Reader& reader,
+                   std::uint32_t& metric, std::vector<BlockSummary>& blocks, std::string& error) {
+    if (!reader.open(path, error)) return false;
+    const format::Header& h = reader.header();
+    const std::vector<format::BlockInfo>& infos = reader.blocks();
+    metric = requestedMetric != 0 ? requestedMetric : h.defaultMetric;
+    if ((h.metrics & metric) == 0 ||
+        (metric != format::kMetricMax && metric != format::kMetricPaper)) {
+        error = "'" + path + "': the file does not store the " +
+                std::string(metric == format::kMetricPaper ? "paper" : "max") + " error metric";
+        return false;
+    }
+    if (infos.empty()) {
+        error = "'" + path + "': the file has no blocks";
+        return false;
+    }
+    blocks.assign(infos.size(), {});
+    format::Block b;
+    for (std::size_t i = 0; i < infos.size(); ++i) {
+        if (!reader.readBlock(i, b, error)) return false;
+        BlockSummary& s = blocks[i];
+        s.cx = 0.5 * (b.minX + b.maxX);
+        s.cy = 0.5 * (b.minY + b.maxY);
+        s.cz = 0.5 * (b.minZ + b.maxZ);
+        s.error = metric == format::kMetricPaper ? b.errorPaper : b.errorMax;
+        s.vertexCount = std::uint32_t(b.vertices.size());
+        if (b.levels.empty() || s.error.size() != b.steps.size() + 1) {
+            error = "'" + path + "': block (" + std::to_string(b.col) + "," +
+                    std::to_string(b.row) + ") has no full-resolution level or error table";
+            return false;
+        }
+        s.triangles.push_back(b.levels[0].triangleCount);
+        s.riverEdges.push_back(b.levels[0].riverCount);
+        for (const format::Step& step : b.steps) {
+            s.triangles.push_back(step.trianglesAlive);
+            s.riverEdges.push_back(step.riverEdgesAlive);
+        }
+        s.levels = std::move(b.levels);
+    }
+    return true;
+}
 
 }  // namespace
 
@@ -89,47 +141,14 @@ bool computeStats(const std::string& path, const StatsOptions& o, StatsTable& ta
     }
 
     format::Reader reader;
-    if (!reader.open(path, error)) return false;
+    std::vector<BlockSummary> blocks;
+    if (!loadSummaries(path, o.metric, reader, table.metric, blocks, error)) return false;
     const format::Header& h = reader.header();
     const std::vector<format::BlockInfo>& infos = reader.blocks();
-    const std::uint32_t metric = o.metric != 0 ? o.metric : h.defaultMetric;
-    if ((h.metrics & metric) == 0 ||
-        (metric != format::kMetricMax && metric != format::kMetricPaper)) {
-        error = "'" + path + "': the file does not store the " +
-                std::string(metric == format::kMetricPaper ? "paper" : "max") + " error metric";
-        return false;
-    }
-    if (infos.empty()) {
-        error = "'" + path + "': the file has no blocks";
-        return false;
-    }
-    table.metric = metric;
     table.blocksX = h.blocksX;
     table.blocksY = h.blocksY;
-
-    std::vector<BlockSummary> blocks(infos.size());
-    format::Block b;
-    for (std::size_t i = 0; i < infos.size(); ++i) {
-        if (!reader.readBlock(i, b, error)) return false;
-        BlockSummary& s = blocks[i];
-        s.cx = 0.5 * (b.minX + b.maxX);
-        s.cy = 0.5 * (b.minY + b.maxY);
-        s.cz = 0.5 * (b.minZ + b.maxZ);
-        s.error = metric == format::kMetricPaper ? b.errorPaper : b.errorMax;
-        s.vertexCount = std::uint32_t(b.vertices.size());
-        if (b.levels.empty() || s.error.size() != b.steps.size() + 1) {
-            error = "'" + path + "': block (" + std::to_string(b.col) + "," +
-                    std::to_string(b.row) + ") has no full-resolution level or error table";
-            return false;
-        }
-        s.triangles.push_back(b.levels[0].triangleCount);
-        s.riverEdges.push_back(b.levels[0].riverCount);
-        for (const format::Step& step : b.steps) {
-            s.triangles.push_back(step.trianglesAlive);
-            s.riverEdges.push_back(step.riverEdgesAlive);
-        }
+    for (const BlockSummary& s : blocks)
         table.fullPoints += s.vertexCount;
-    }
 
     const std::size_t corner = findBlock(infos, 0, 0);
     const std::uint32_t midCol = h.blocksX > 0 ? (h.blocksX - 1) / 2 : 0;
@@ -163,11 +182,7 @@ bool computeStats(const std::string& path, const StatsOptions& o, StatsTable& ta
             for (std::size_t i = 0; i < blocks.size(); ++i) {
                 const BlockSummary& bs = blocks[i];
                 const double hlim = limit(i);
-                // Errors are non-decreasing: the states within the tolerance are a prefix.
-                const auto it = std::upper_bound(bs.error.begin(), bs.error.end(), hlim,
-                                                 [](double v, float e) { return v < double(e); });
-                const std::size_t k =
-                    it == bs.error.begin() ? 0 : std::size_t(it - bs.error.begin()) - 1;
+                const std::size_t k = exactStep(bs.error, hlim);
                 row.points += bs.vertexCount - k;
                 row.riverEdges += bs.riverEdges[k];
                 row.triangles += bs.triangles[k];
@@ -176,6 +191,39 @@ bool computeStats(const std::string& path, const StatsOptions& o, StatsTable& ta
                 table.fullPoints > 0 ? 100.0 * double(row.points) / double(table.fullPoints) : 0.0;
             table.rows.push_back(row);
         }
+    }
+    return true;
+}
+
+bool computeErrorStats(const std::string& path, const std::vector<double>& errors,
+                       std::uint32_t metric, ErrorStatsTable& table, std::string& error) {
+    table = {};
+    for (double e : errors) {
+        if (!(e >= 0 && std::isfinite(e))) {
+            error = "model error thresholds must be finite and >= 0";
+            return false;
+        }
+    }
+    format::Reader reader;
+    std::vector<BlockSummary> blocks;
+    if (!loadSummaries(path, metric, reader, table.metric, blocks, error)) return false;
+    table.blocks = blocks.size();
+    for (const BlockSummary& s : blocks) {
+        table.fullPoints += s.vertexCount;
+        table.fullTriangles += s.triangles[0];
+    }
+    for (double e : errors) {
+        ErrorStatsRow row;
+        row.error = e;
+        for (const BlockSummary& s : blocks) {
+            const std::size_t k = exactStep(s.error, e);
+            row.exactPoints += s.vertexCount - k;
+            row.exactTriangles += s.triangles[k];
+            const format::Level& level = s.levels[format::storedLevelFor(s.levels, table.metric, e)];
+            row.levelPoints += level.vertexCount;
+            row.levelTriangles += level.triangleCount;
+        }
+        table.rows.push_back(row);
     }
     return true;
 }

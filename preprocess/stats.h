@@ -69,4 +69,32 @@ bool parseDistance(const std::string& text, double& metres);
 bool computeStats(const std::string& path, const StatsOptions& options, StatsTable& table,
                   std::string& error);
 
+// --- Uniform model-error thresholds (`unilod stats --error`): the same tolerance e (metres) for
+// every block, no viewpoint. Per e, summed over blocks (border vertices counted in every block
+// holding them, as above):
+// - exact: the exact step k* = the largest k with error[k] <= e (k* = 0 when even error[0] > e);
+//   points = vertexCount - k*, triangles = steps[k*-1].trianglesAlive (k* = 0: levels[0]).
+// - level: the stored level the engine draws for h_lim = e (format::storedLevelFor: the level
+//   with the largest step whose stored error is <= e, level 0 when none is); points = its
+//   vertexCount, triangles = its triangleCount. Coarser than exact or equal to it: stored levels
+//   are a subset of the steps.
+struct ErrorStatsRow {
+    double error = 0;  // e (metres)
+    std::uint64_t exactPoints = 0, exactTriangles = 0;
+    std::uint64_t levelPoints = 0, levelTriangles = 0;
+};
+
+struct ErrorStatsTable {
+    std::uint32_t metric = 0;  // the metric used
+    std::size_t blocks = 0;
+    std::uint64_t fullPoints = 0, fullTriangles = 0;  // sums at full resolution
+    std::vector<ErrorStatsRow> rows;                  // one per threshold, in the given order
+};
+
+// Reads `path` and fills `table` for the thresholds `errors` (metres, >= 0) with `metric`
+// (format::kMetricMax / kMetricPaper; 0 = the file's default). Returns false with `error`
+// naming the file and the problem, like computeStats.
+bool computeErrorStats(const std::string& path, const std::vector<double>& errors,
+                       std::uint32_t metric, ErrorStatsTable& table, std::string& error);
+
 }  // namespace unilod

@@ -3,7 +3,6 @@
 // thresholds here: the goals (bundled <= 1 s; 4097^2 <= 90 s with <= 1 GB peak RSS on the 2-core
 // machine) are read off the output. Each case runs in its own child process, so the peak resident
 // set size is per case.
-#include <sys/resource.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -13,40 +12,10 @@
 #include <string>
 #include <thread>
 
+#include "benchbuild.h"
 #include "benchutil.h"
-#include "build.h"
-#include "synthetic.h"
-
-namespace {
 
 using nlohmann::json;
-
-json runCase(const std::string& name, const unilod::BuildOptions& options) {
-    unilod::BuildSummary s;
-    std::string error;
-    if (!unilod::runBuild(options, s, error)) {
-        std::fprintf(stderr, "bench_build: %s: %s\n", name.c_str(), error.c_str());
-        std::exit(1);
-    }
-    rusage ru{};
-    getrusage(RUSAGE_SELF, &ru);
-    const double points = double(s.demPoints + s.riverPoints);
-    return {{"case", name},
-            {"dem_cells", {s.demWidth, s.demHeight}},
-            {"points", s.demPoints + s.riverPoints},
-            {"river_points", s.riverPoints},
-            {"river_lines", s.riverLines},
-            {"blocks", s.blocks},
-            {"deletion_steps", s.steps},
-            {"seconds", s.seconds},
-            {"max_rss_bytes", std::size_t(ru.ru_maxrss) * 1024},
-            {"output_bytes", s.outputBytes},
-            {"output_bytes_per_point", double(s.outputBytes) / points},
-            {"index_data_vs_full",
-             s.fullTriangles ? double(s.indexTriangles) / double(s.fullTriangles) : 0.0}};
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
     CLI::App app{"Time, peak RSS and output size of unilod build (prints JSON)"};
@@ -72,30 +41,27 @@ int main(int argc, char** argv) {
         o.riversPath = assets + "/jacksboro_rivers_grass.geojson";
         o.outPath = work + "/jacksboro.ulod";
         std::fprintf(stderr, "bench_build: bundled data...\n");
-        cases.push_back(unilod::bench::runInChild([&] { return runCase("jacksboro_grass", o); }));
+        cases.push_back(unilod::bench::runInChild(
+            [&] { return unilod::bench::measureBuild("jacksboro_grass", o); }));
     }
     if (!skipSynthetic) {
         const std::string dir = work + "/synthetic" + std::to_string(side);
         if (!std::filesystem::exists(dir + "/dem.tif")) {
             std::fprintf(stderr, "bench_build: generating a %d x %d synthetic DEM...\n", side,
                          side);
-            unilod::SyntheticOptions so;
-            so.width = so.height = side;
-            so.targetPoints = std::size_t(side) * std::size_t(side);
-            so.seed = 1;
-            std::string error;
-            if (!unilod::writeSyntheticData(unilod::generateSyntheticData(so), dir, error)) {
-                std::fprintf(stderr, "bench_build: %s\n", error.c_str());
-                return 1;
-            }
         }
+        unilod::SyntheticOptions so;
+        so.width = so.height = side;
+        so.targetPoints = std::size_t(side) * std::size_t(side);
+        so.seed = 1;
+        unilod::bench::ensureSyntheticInputs(dir, so);
         unilod::BuildOptions o = base;
         o.demPath = dir + "/dem.tif";
         o.riversPath = dir + "/rivers.geojson";
         o.outPath = work + "/synthetic" + std::to_string(side) + ".ulod";
         std::fprintf(stderr, "bench_build: synthetic %d x %d...\n", side, side);
         cases.push_back(unilod::bench::runInChild(
-            [&] { return runCase("synthetic_" + std::to_string(side), o); }));
+            [&] { return unilod::bench::measureBuild("synthetic_" + std::to_string(side), o); }));
         std::filesystem::remove(o.outPath);
     }
     const json result = {{"benchmark", "build"},

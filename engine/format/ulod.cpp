@@ -1049,4 +1049,14 @@ bool Reader::readGeometry(std::size_t index, int level, BlockGeometry& geometry,
     return true;
 }
 
+std::size_t storedLevelFor(const std::vector<Level>& levels, std::uint32_t metric, double hLim) {
+    assert(!levels.empty());
+    std::size_t chosen = 0;
+    for (std::size_t i = 0; i < levels.size(); ++i) {
+        const double e = metric == kMetricPaper ? levels[i].errorPaper : levels[i].errorMax;
+        if (e <= hLim) chosen = i;  // errors are non-decreasing with the step
+    }
+    return chosen;
+}
+
 }  // namespace unilod::format

@@ -122,6 +122,13 @@ struct BlockInfo {
 // arrays and indices below the level's vertexCount. Returns false with a precise message.
 bool validateBlock(const Block& block, std::uint32_t metrics, std::string& error);
 
+// The stored level drawn for a model-error tolerance hLim (paper Eq. 11's h_lim): the level with
+// the largest step whose own stored error (errorMax / errorPaper by `metric`) is <= hLim, or
+// level 0 (full resolution) when none is. Stored errors are non-decreasing with the step, so
+// this is the coarsest qualifying level. The one place this rule lives: the engine
+// (engine/lod.h chooseStoredLevel) and `unilod stats --error` both call it. `levels` non-empty.
+std::size_t storedLevelFor(const std::vector<Level>& levels, std::uint32_t metric, double hLim);
+
 // Writes header + blocks to `path` atomically (temporary file in the same folder + rename).
 // Blocks are written in the given order. Returns false with `error` naming the file on failure;
 // no partial file is left.

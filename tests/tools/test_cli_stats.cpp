@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "build.h"
@@ -333,6 +334,119 @@ TEST_F(StatsTest, SmallGridsNameBlockZeroForAll) {
         EXPECT_EQ(v, 0u);
     EXPECT_EQ(t.rows[0].hEdge, t.rows[0].hCorner);
     EXPECT_EQ(t.rows[0].hMiddle, t.rows[0].hCorner);
+}
+
+// --- `unilod stats --error` (computeErrorStats): uniform model-error thresholds.
+
+// Expected values for one threshold, from the file's own arrays without the library's code.
+struct ExpectedError {
+    std::uint64_t exactPoints = 0, exactTriangles = 0, levelPoints = 0, levelTriangles = 0;
+};
+
+ExpectedError expectedForError(const std::vector<format::Block>& blocks, double e, bool paper) {
+    ExpectedError x;
+    for (const format::Block& b : blocks) {
+        const std::vector<float>& err = paper ? b.errorPaper : b.errorMax;
+        std::size_t k = 0;
+        for (std::size_t s = 0; s < err.size(); ++s) {
+            if (err[s] <= e) k = s;
+        }
+        x.exactPoints += b.vertices.size() - k;
+        x.exactTriangles += k == 0 ? b.levels[0].triangleCount : b.steps[k - 1].trianglesAlive;
+        // The engine's rule, written out: the last level whose stored error is within e.
+        std::size_t level = 0;
+        for (std::size_t i = 0; i < b.levels.size(); ++i) {
+            if ((paper ? b.levels[i].errorPaper : b.levels[i].errorMax) <= e) level = i;
+        }
+        x.levelPoints += b.levels[level].vertexCount;
+        x.levelTriangles += b.levels[level].triangleCount;
+    }
+    return x;
+}
+
+const std::vector<double> kErrors = {0, 0.5, 2, 5, 10, 20, 50, 1e4};
+
+TEST_F(StatsTest, ErrorRowsMatchTheFilesArrays) {
+    for (const bool paper : {false, true}) {
+        ErrorStatsTable t;
+        std::string error;
+        ASSERT_TRUE(computeErrorStats(model, kErrors,
+                                      paper ? format::kMetricPaper : format::kMetricMax, t, error))
+            << error;
+        ASSERT_EQ(t.rows.size(), kErrors.size());
+        EXPECT_EQ(t.blocks, blocks.size());
+        std::set<std::uint64_t> distinct;
+        for (std::size_t i = 0; i < kErrors.size(); ++i) {
+            const ExpectedError x = expectedForError(blocks, kErrors[i], paper);
+            const ErrorStatsRow& r = t.rows[i];
+            EXPECT_EQ(r.error, kErrors[i]);
+            EXPECT_EQ(r.exactPoints, x.exactPoints) << "e " << kErrors[i];
+            EXPECT_EQ(r.exactTriangles, x.exactTriangles) << "e " << kErrors[i];
+            EXPECT_EQ(r.levelPoints, x.levelPoints) << "e " << kErrors[i];
+            EXPECT_EQ(r.levelTriangles, x.levelTriangles) << "e " << kErrors[i];
+            // A stored level is one of the steps up to k*: never finer than the exact state.
+            EXPECT_GE(r.levelTriangles, r.exactTriangles);
+            EXPECT_GE(r.levelPoints, r.exactPoints);
+            distinct.insert(r.exactTriangles);
+            if (i > 0) {
+                EXPECT_LE(r.exactTriangles, t.rows[i - 1].exactTriangles);
+                EXPECT_LE(r.exactPoints, t.rows[i - 1].exactPoints);
+                EXPECT_LE(r.levelTriangles, t.rows[i - 1].levelTriangles);
+            }
+        }
+        EXPECT_LE(t.rows.front().exactTriangles, t.fullTriangles);
+        EXPECT_GE(distinct.size(), 3u) << "the thresholds span fine to coarse";
+    }
+}
+
+TEST_F(StatsTest, ErrorJsonHasTheDocumentedKeys) {
+    const Result r = run("stats '" + model + "' --error 0.5,5,10m,0.02km --json");
+    ASSERT_EQ(r.code, 0) << r.err;
+    const nlohmann::json j = nlohmann::json::parse(r.out);
+    ASSERT_TRUE(j.contains("rows"));
+    ASSERT_EQ(j["rows"].size(), 4u);
+    const double expectedE[] = {0.5, 5, 10, 20};
+    for (std::size_t i = 0; i < 4; ++i) {
+        const nlohmann::json& row = j["rows"][i];
+        std::set<std::string> keys;
+        for (auto it = row.begin(); it != row.end(); ++it)
+            keys.insert(it.key());
+        EXPECT_EQ(keys, (std::set<std::string>{"error_m", "exact_points", "exact_triangles",
+                                               "level_points", "level_triangles"}));
+        EXPECT_DOUBLE_EQ(row["error_m"].get<double>(), expectedE[i]);
+        const ExpectedError x = expectedForError(blocks, expectedE[i], false);
+        EXPECT_EQ(row["exact_points"].get<std::uint64_t>(), x.exactPoints);
+        EXPECT_EQ(row["exact_triangles"].get<std::uint64_t>(), x.exactTriangles);
+        EXPECT_EQ(row["level_points"].get<std::uint64_t>(), x.levelPoints);
+        EXPECT_EQ(row["level_triangles"].get<std::uint64_t>(), x.levelTriangles);
+    }
+    EXPECT_EQ(j["metric"], "max");
+}
+
+TEST_F(StatsTest, ErrorTextReplacesTheDistanceTable) {
+    const Result r = run("stats '" + model + "' --error 5,10,20 --metric paper");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.out.find("View distance"), std::string::npos) << r.out;
+    for (const char* h : {"error (m)", "exact points", "exact triangles", "level points",
+                          "level triangles", "paper metric"})
+        EXPECT_NE(r.out.find(h), std::string::npos) << h << "\n" << r.out;
+    // Title + header + one line per threshold.
+    EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 2 + 3);
+}
+
+TEST_F(StatsTest, BadErrorValuesExitTwo) {
+    for (const char* bad : {"--error -5", "--error abc", "--error 5,x", "--error 10furlongs",
+                            "--error nan", "--error", "--json", "--error 5 --csv",
+                            "--error 5 --distance 10km", "--error 5 --pixels 2"}) {
+        const Result r = run("stats '" + model + "' " + bad);
+        EXPECT_EQ(r.code, 2) << bad << "\n" << r.err;
+        EXPECT_TRUE(r.out.empty()) << bad;
+    }
+    ErrorStatsTable t;
+    std::string error;
+    EXPECT_FALSE(computeErrorStats(model, {-1.0}, 0, t, error));
+    EXPECT_FALSE(computeErrorStats((dir / "missing.ulod").string(), {5.0}, 0, t, error));
+    EXPECT_NE(error.find("missing.ulod"), std::string::npos) << error;
 }
 
 TEST(StatsParse, Distances) {

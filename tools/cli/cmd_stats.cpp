@@ -1,8 +1,11 @@
 // `unilod stats FILE`: the paper's Tables 2 and 3 (§4.2.1) for a .ulod file; the definitions
 // (viewpoint, S, selected state, named blocks) are in preprocess/stats.h. Aligned text like the
-// paper's tables, or CSV with --csv. Options out of range are usage errors (exit 2).
+// paper's tables, or CSV with --csv. With --error: per uniform model-error threshold, the exact
+// and the stored-level network sizes instead (stats.h computeErrorStats), as text or --json.
+// Options out of range are usage errors (exit 2).
 #include <cstdio>
 #include <cstdlib>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -22,6 +25,8 @@ struct StatsCli {
     double height = 1080.0;
     std::string metric;  // empty: the file's default
     bool csv = false;
+    std::vector<std::string> errors;  // --error: model-error thresholds (m / km)
+    bool json = false;
 };
 
 // "12,345" like the paper's tables.
@@ -97,7 +102,82 @@ void printCsv(const StatsTable& t) {
     }
 }
 
+std::uint32_t metricOf(const std::string& name) {
+    if (name == "paper") return format::kMetricPaper;
+    if (name == "max") return format::kMetricMax;
+    return 0;  // the file's default
+}
+
+const char* metricName(std::uint32_t metric) {
+    return metric == format::kMetricPaper ? "paper" : "max";
+}
+
+void printErrorText(const ErrorStatsTable& t, const std::string& path) {
+    std::printf("%s: %s metric; %zu blocks; %s points, %s triangles at full resolution\n",
+                path.c_str(), metricName(t.metric), t.blocks, grouped(t.fullPoints).c_str(),
+                grouped(t.fullTriangles).c_str());
+    std::vector<std::vector<std::string>> cells = {
+        {"error (m)", "exact points", "exact triangles", "level points", "level triangles"}};
+    for (const ErrorStatsRow& r : t.rows) {
+        cells.push_back({format("%g", r.error), grouped(r.exactPoints), grouped(r.exactTriangles),
+                         grouped(r.levelPoints), grouped(r.levelTriangles)});
+    }
+    std::vector<std::size_t> width(cells[0].size(), 0);
+    for (const auto& row : cells) {
+        for (std::size_t c = 0; c < row.size(); ++c)
+            width[c] = std::max(width[c], row[c].size());
+    }
+    for (const auto& row : cells) {
+        std::string line;
+        for (std::size_t c = 0; c < row.size(); ++c) {
+            line += std::string(width[c] - row[c].size(), ' ') + row[c];
+            if (c + 1 < row.size()) line += "  ";
+        }
+        std::printf("%s\n", line.c_str());
+    }
+}
+
+void printErrorJson(const ErrorStatsTable& t, const std::string& path) {
+    nlohmann::json rows = nlohmann::json::array();
+    for (const ErrorStatsRow& r : t.rows) {
+        rows.push_back({{"error_m", r.error},
+                        {"exact_points", r.exactPoints},
+                        {"exact_triangles", r.exactTriangles},
+                        {"level_points", r.levelPoints},
+                        {"level_triangles", r.levelTriangles}});
+    }
+    const nlohmann::json out = {{"file", path},
+                                {"metric", metricName(t.metric)},
+                                {"blocks", t.blocks},
+                                {"full_points", t.fullPoints},
+                                {"full_triangles", t.fullTriangles},
+                                {"rows", rows}};
+    std::printf("%s\n", out.dump(2).c_str());
+}
+
+int runErrors(const StatsCli& c) {
+    std::vector<double> errors;
+    for (const std::string& e : c.errors) {
+        double m = 0;
+        parseDistance(e, m);  // already validated while parsing
+        errors.push_back(m);
+    }
+    ErrorStatsTable t;
+    std::string error;
+    if (!computeErrorStats(c.path, errors, metricOf(c.metric), t, error)) {
+        std::fprintf(stderr, "unilod stats: error: %s\n", error.c_str());
+        return 1;
+    }
+    if (c.json) {
+        printErrorJson(t, c.path);
+    } else {
+        printErrorText(t, c.path);
+    }
+    return 0;
+}
+
 int run(const StatsCli& c) {
+    if (!c.errors.empty()) return runErrors(c);
     StatsOptions o;
     o.distances.clear();
     for (const std::string& d : c.distances) {
@@ -108,9 +188,7 @@ int run(const StatsCli& c) {
     o.pixels = c.pixels;
     o.fovDegrees = c.fov;
     o.heightPixels = c.height;
-    o.metric = 0;
-    if (c.metric == "paper") o.metric = format::kMetricPaper;
-    if (c.metric == "max") o.metric = format::kMetricMax;
+    o.metric = metricOf(c.metric);
     StatsTable t;
     std::string error;
     if (!computeStats(c.path, o, t, error)) {
@@ -145,12 +223,12 @@ void addStatsCommand(CLI::App& app, int& exitCode) {
         "The paper's Tables 2 and 3: per view distance and pixel tolerance, h_lim of the "
         "edge / corner / middle blocks and the size of the selected network");
     sub->add_option("FILE", c->path, ".ulod file")->required();
-    sub->add_option("--distance", c->distances,
+    CLI::Option* distance = sub->add_option("--distance", c->distances,
                     "view distances, comma-separated, with m or km (default "
                     "100km,200km,500km,1000km,1500km; a bare number is metres)")
         ->delimiter(',')
         ->check(positiveDistance());
-    sub->add_option("--pixels", c->pixels,
+    CLI::Option* pixels = sub->add_option("--pixels", c->pixels,
                     "screen projection error tolerances P in pixels, comma-separated (default 1)")
         ->delimiter(',')
         ->check(CLI::PositiveNumber);
@@ -167,7 +245,23 @@ void addStatsCommand(CLI::App& app, int& exitCode) {
         ->check(CLI::Range(1.0, 1e9));
     sub->add_option("--metric", c->metric, "error metric (default: the file's default)")
         ->check(CLI::IsMember({"max", "paper"}));
-    sub->add_flag("--csv", c->csv, "CSV output (header row, '.' decimals)");
+    CLI::Option* csv = sub->add_flag("--csv", c->csv, "CSV output (header row, '.' decimals)");
+    CLI::Option* errors =
+        sub->add_option("--error", c->errors,
+                        "uniform model-error thresholds e, comma-separated (m or km; a bare "
+                        "number is metres): per e, the network at the exact step and at the "
+                        "stored level for h_lim = e, instead of the distance table")
+            ->delimiter(',')
+            ->check(CLI::Validator(
+                [](std::string& s) -> std::string {
+                    double m = 0;
+                    if (!parseDistance(s, m)) return "not a model error (e.g. 5, 10m): " + s;
+                    return m >= 0 ? "" : "model error must be >= 0: " + s;
+                },
+                "ERROR"));
+    sub->add_flag("--json", c->json, "JSON output of the --error table")->needs(errors);
+    // The thresholds replace the view: the view's options would be silently ignored.
+    errors->excludes(csv)->excludes(distance)->excludes(pixels);
     sub->callback([c, &exitCode] { exitCode = run(*c); });
 }
 

@@ -1,0 +1,87 @@
+// Greedy-insertion TIN: the baseline the deletion order is measured against (Garland and
+// Heckbert 1995, "Fast polygonal approximation of terrains and height fields", CMU-CS-95-181,
+// §4 algorithm III: Delaunay greedy insertion with per-triangle candidates in a heap).
+//
+// Start from the Delaunay triangulation of the corners of the convex hull of the points
+// (cdt.h buildHullCdt), then repeatedly insert the point with the largest vertical error
+// |z - S(x, y)| (S linear on each triangle) by Delaunay insertion (Cdt::insertPoint, exact
+// integer predicates on the block grid), until the largest error is <= the threshold.
+//
+// Bookkeeping (as modelerror.h's `max` metric): every point not in the triangulation sits in
+// the bucket of one real triangle covering it (exact closed point-in-triangle test); each
+// triangle's points are one contiguous range of a pool. An insertion re-locates only the points
+// of the triangles it destroyed (Cdt journal) among the triangles it created, and each created
+// triangle's worst point goes into a max-heap keyed (error, lower id first). Entries of
+// destroyed or rebuilt triangles are skipped when they reach the top (a version per slot: lazy
+// invalidation), so the valid top is always the global maximum error.
+//
+// Points on the same grid point (1 mm) are merged as in buildCdt (the lowest id is the vertex;
+// the others are not measured). Heights use the same barycentric formula as modelerror.cpp.
+// Deterministic: no threads, ties broken by point id.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <queue>
+#include <string>
+#include <vector>
+
+#include "cdt.h"
+#include "points.h"
+
+namespace unilod {
+
+class GreedyTin {
+public:
+    // Triangulates the hull corners of `set` (its rivers are ignored) and buckets the other
+    // points. `set` must outlive this object. False with `error` on too few distinct points,
+    // collinear points or a non-finite coordinate (buildHullCdt's errors).
+    bool init(const PointSet& set, std::string& error, const CdtOptions& options = {});
+    // Inserts worst points until the largest vertical error is <= `threshold` (metres).
+    void refineTo(double threshold);
+    // The largest vertical error over all (representative) points now; 0 when all are vertices.
+    double maxError();
+    std::uint32_t triangleCount() const { return cdt_.realTriangleCount; }
+    std::uint32_t vertexCount() const { return cdt_.vertexCount; }
+    const Cdt& cdt() const { return cdt_; }
+
+private:
+    struct PoolPoint {
+        std::int32_t gx, gy;
+        double z;
+        PointId id;
+        std::uint32_t pad;
+    };
+    static_assert(sizeof(PoolPoint) == 24);
+    struct Candidate {
+        double error;
+        PointId id;
+        std::uint32_t slot, version;
+        bool operator<(const Candidate& o) const {  // max-heap: larger error, then lower id
+            return error != o.error ? error < o.error : id > o.id;
+        }
+    };
+    void insertWorst(const Candidate& c);
+    // Appends the points of `pending` to the ranges of the triangles `slots` (each point lies in
+    // one of them) and pushes each triangle's worst point.
+    void distribute(const std::vector<std::uint32_t>& slots);
+    void growSlots();
+    void compact();
+
+    const PointSet* set_ = nullptr;
+    Cdt cdt_;
+    std::vector<PoolPoint> pool_, pending_;
+    std::vector<std::uint32_t> rangeStart_, rangeCount_, version_, destination_, created_;
+    std::size_t garbage_ = 0;
+    std::priority_queue<Candidate> heap_;
+    std::uint32_t step_ = 0;
+};
+
+// Runs one greedy insertion down to the smallest of `errors` (metres, each >= 0) and returns,
+// for each threshold in the given order, the real triangle count at the first moment the
+// largest vertical error is <= it. False with `error` as GreedyTin::init, or for a negative or
+// non-finite threshold.
+bool greedyTinTriangles(const PointSet& set, const std::vector<double>& errors,
+                        std::vector<std::uint64_t>& triangles, std::string& error);
+
+}  // namespace unilod

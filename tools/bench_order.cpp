@@ -1,0 +1,290 @@
+// bench_order: how many triangles the deletion order needs for a uniform model error, against the
+// greedy-insertion TIN (preprocess/greedytin.h, Garland and Heckbert 1995) on the same points.
+// Prints JSON.
+//
+// Per dataset (the bundled Jacksboro DEM with its GRASS rivers; synthetic DEMs of about 1M and
+// 4M points, `unilod synth --points N --seed 1`): build ONE block covering the DEM (block size =
+// the DEM's longer side - 1, the largest blocks.h accepts), once with the rivers and once with an
+// empty network, per deletion order (--orders). Per threshold e (--errors): the triangles of the
+// exact state k* (stats.h computeErrorStats, max metric) and the greedy TIN's triangle count on the
+// no-river block's own vertices (x, y = block origin + exact grid position, z), so domain and
+// points are identical. The ratio with rivers is taken against the same no-river TIN: what the
+// river constraints cost on top. Targets: no rivers <= 1.15 for e <= 10 m and <= 1.3 above
+// (20 m); with rivers <= 1.5.
+//
+// `--build-time N`: a synthetic DEM of about N points (its river network scales with the grid,
+// about 4 000 rivers at 16M points; tools/benchbuild.h as bench_build), built with the default
+// options; wall seconds and peak RSS.
+//
+// Every build and every TIN runs in its own child process (benchutil.h), so each peak RSS is that
+// step's alone.
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "benchbuild.h"
+#include "benchutil.h"
+#include "dem.h"
+#include "greedytin.h"
+#include "stats.h"
+#include "ulod.h"
+
+namespace {
+
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+[[noreturn]] void fail(const std::string& message) {
+    std::fprintf(stderr, "bench_order: %s\n", message.c_str());
+    std::exit(1);
+}
+
+double target(bool rivers, double e) {
+    if (rivers) return 1.5;
+    return e <= 10.0 ? 1.15 : 1.3;
+}
+
+std::size_t peakRssBytes() {
+    rusage ru{};
+    getrusage(RUSAGE_SELF, &ru);
+    return std::size_t(ru.ru_maxrss) * 1024;
+}
+
+// The one block's vertices of a .ulod file as metres: origin + exact grid position.
+unilod::PointSet readBlockPoints(const std::string& path) {
+    unilod::format::Reader reader;
+    std::string error;
+    if (!reader.open(path, error)) fail(error);
+    if (reader.blocks().size() != 1) {
+        fail("'" + path + "': expected one block, found " +
+             std::to_string(reader.blocks().size()));
+    }
+    unilod::format::Block b;
+    if (!reader.readBlock(0, b, error)) fail(error);
+    unilod::PointSet set;
+    set.points.reserve(b.vertices.size());
+    for (std::size_t i = 0; i < b.vertices.size(); ++i) {
+        const unilod::format::Vertex& v = b.vertices[i];
+        const double x = b.grid.empty() ? b.originX + v.x
+                                         : b.originX + b.grid[i].x * unilod::format::kGridUnit;
+        const double y = b.grid.empty() ? b.originY + v.y
+                                         : b.originY + b.grid[i].y * unilod::format::kGridUnit;
+        set.points.push_back({x, y, double(v.z)});
+    }
+    return set;
+}
+
+struct Dataset {
+    std::string name, dem, rivers;
+    int width = 0, height = 0;
+};
+
+// The DEM's size after loading (a geographic DEM is warped), for the one-block size.
+void measureDem(Dataset& d) {
+    const json size = unilod::bench::runInChild([&] {
+        unilod::DemGrid dem;
+        std::string error;
+        if (!unilod::loadDem(d.dem, {}, dem, error)) fail(error);
+        return json{dem.width, dem.height};
+    });
+    d.width = size[0];
+    d.height = size[1];
+}
+
+Dataset prepare(const std::string& name, const std::string& work, const std::string& assets) {
+    Dataset d;
+    d.name = name;
+    if (name == "jacksboro") {
+        d.dem = assets + "/jacksboro_dem.tif";
+        d.rivers = assets + "/jacksboro_rivers_grass.geojson";
+    } else {
+        const std::size_t points = name == "synth1m" ? 1000000 : 4000000;
+        const std::string dir = work + "/" + name;
+        std::fprintf(stderr, "bench_order: %s: synthetic inputs...\n", name.c_str());
+        unilod::bench::runInChild([&] {
+            unilod::SyntheticOptions so;
+            so.targetPoints = points;
+            so.seed = 1;
+            return unilod::bench::ensureSyntheticInputs(dir, so);
+        });
+        d.dem = dir + "/dem.tif";
+        d.rivers = dir + "/rivers.geojson";
+    }
+    measureDem(d);
+    return d;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"Triangles per uniform model error: deletion order vs greedy-insertion TIN "
+                 "(prints JSON)"};
+    std::vector<std::string> datasets = {"jacksboro", "synth1m", "synth4m"};
+    std::vector<std::string> orders = {"greedy"};
+    std::vector<double> errors = {5, 10, 20};
+    std::string keep;
+    std::size_t buildTime = 0;
+    int threads = 0;
+    app.add_option("--datasets", datasets, "comma-separated: jacksboro, synth1m, synth4m")
+        ->delimiter(',')
+        ->check(CLI::IsMember({"jacksboro", "synth1m", "synth4m"}));
+    app.add_option("--orders", orders, "deletion orders, comma-separated: greedy, 3ddp")
+        ->delimiter(',')
+        ->check(CLI::IsMember({"greedy", "3ddp"}));
+    app.add_option("--errors", errors, "model-error thresholds in metres, comma-separated")
+        ->delimiter(',')
+        ->check(CLI::NonNegativeNumber);
+    app.add_option("--keep", keep, "keep inputs and .ulod files in this folder (reused)");
+    app.add_option("--threads", threads, "build threads (0: all cores)")->check(CLI::Range(0, 256));
+    app.add_option("--build-time", buildTime,
+                   "only time a default build of a synthetic DEM of about N points")
+        ->check(CLI::Range(std::size_t{1000}, std::size_t{100000000}));
+    CLI11_PARSE(app, argc, argv);
+
+    const std::string work =
+        keep.empty() ? (fs::temp_directory_path() / ("unilod-bench-order-" + std::to_string(getpid())))
+                           .string()
+                     : keep;
+    fs::create_directories(work);
+
+    if (buildTime > 0) {
+        const std::string dir = work + "/synthetic_" + std::to_string(buildTime);
+        std::fprintf(stderr, "bench_order: synthetic inputs of %zu points...\n", buildTime);
+        const json inputs = unilod::bench::runInChild([&] {
+            unilod::SyntheticOptions so;
+            so.targetPoints = buildTime;
+            so.seed = 1;
+            return unilod::bench::ensureSyntheticInputs(dir, so);
+        });
+        unilod::BuildOptions o;
+        o.demPath = dir + "/dem.tif";
+        o.riversPath = dir + "/rivers.geojson";
+        o.outPath = work + "/synthetic_" + std::to_string(buildTime) + ".ulod";
+        o.threads = threads;
+        o.force = true;
+        std::fprintf(stderr, "bench_order: building...\n");
+        const auto start = std::chrono::steady_clock::now();
+        json build = unilod::bench::runInChild(
+            [&] { return unilod::bench::measureBuild("synthetic_" + std::to_string(buildTime), o); });
+        build["wall_seconds"] =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        if (keep.empty()) fs::remove_all(work);
+        const json result = {{"benchmark", "order_build_time"},
+                             {"hardware_threads", std::thread::hardware_concurrency()},
+                             {"target_points", buildTime},
+                             {"inputs", inputs},
+                             {"build", build}};
+        std::printf("%s\n", result.dump(2).c_str());
+        return 0;
+    }
+
+    const std::string noRivers = work + "/no_rivers.geojson";
+    {
+        // An empty FeatureCollection is an empty network (rivers.h).
+        std::ofstream(noRivers) << "{\"type\": \"FeatureCollection\", \"features\": []}\n";
+    }
+    json builds = json::array(), tins = json::array(), rows = json::array();
+    bool allMet = true;
+    for (const std::string& name : datasets) {
+        const Dataset d = prepare(name, work, UNILOD_ASSETS_DIR);
+        std::string tinSource;
+        std::vector<std::uint64_t> tin;
+        for (const bool rivers : {false, true}) {
+            for (const std::string& order : orders) {
+                unilod::BuildOptions o;
+                o.demPath = d.dem;
+                o.riversPath = rivers ? d.rivers : noRivers;
+                o.outPath = work + "/" + name + (rivers ? "_rivers_" : "_bare_") + order + ".ulod";
+                o.blockSize = std::max(d.width, d.height) - 1;
+                o.order = order == "3ddp" ? unilod::DeletionOrderKind::ThreeDdp
+                                          : unilod::DeletionOrderKind::Greedy;
+                o.threads = threads;
+                o.force = true;
+                const std::string label = name + (rivers ? " rivers " : " no rivers ") + order;
+                std::fprintf(stderr, "bench_order: build %s...\n", label.c_str());
+                json build = unilod::bench::runInChild(
+                    [&] { return unilod::bench::measureBuild("bench_order: " + label, o); });
+                build["dataset"] = name;
+                build["rivers"] = rivers;
+                build["order"] = order;
+                builds.push_back(build);
+
+                if (tinSource.empty()) {
+                    // The TIN once per dataset, on the first no-river block's vertices.
+                    tinSource = o.outPath;
+                    std::fprintf(stderr, "bench_order: greedy TIN %s...\n", name.c_str());
+                    const json t = unilod::bench::runInChild([&] {
+                        const unilod::PointSet set = readBlockPoints(tinSource);
+                        const auto start = std::chrono::steady_clock::now();
+                        std::vector<std::uint64_t> counts;
+                        std::string error;
+                        if (!unilod::greedyTinTriangles(set, errors, counts, error)) {
+                            fail("'" + tinSource + "': " + error);
+                        }
+                        const double seconds = std::chrono::duration<double>(
+                                                   std::chrono::steady_clock::now() - start)
+                                                   .count();
+                        return json{{"points", set.points.size()},
+                                    {"triangles", counts},
+                                    {"seconds", seconds},
+                                    {"max_rss_bytes", peakRssBytes()}};
+                    });
+                    tin = t["triangles"].get<std::vector<std::uint64_t>>();
+                    tins.push_back({{"dataset", name},
+                                    {"points", t["points"]},
+                                    {"seconds", t["seconds"]},
+                                    {"max_rss_bytes", t["max_rss_bytes"]}});
+                }
+
+                unilod::ErrorStatsTable table;
+                std::string error;
+                if (!unilod::computeErrorStats(o.outPath, errors, unilod::format::kMetricMax,
+                                               table, error)) {
+                    fail(error);
+                }
+                for (std::size_t i = 0; i < errors.size(); ++i) {
+                    const std::uint64_t ours = table.rows[i].exactTriangles;
+                    const double ratio = tin[i] > 0 ? double(ours) / double(tin[i]) : 0.0;
+                    const double goal = target(rivers, errors[i]);
+                    const bool met = ratio <= goal;
+                    allMet = allMet && met;
+                    rows.push_back({{"dataset", name},
+                                    {"rivers", rivers},
+                                    {"order", order},
+                                    {"error_m", errors[i]},
+                                    {"unilod_triangles", ours},
+                                    {"unilod_level_triangles", table.rows[i].levelTriangles},
+                                    {"tin_triangles", tin[i]},
+                                    {"ratio", std::round(ratio * 1000.0) / 1000.0},
+                                    {"target", goal},
+                                    {"met", met}});
+                    std::fprintf(stderr,
+                                 "bench_order: %s e=%g m: %llu vs TIN %llu, ratio %.3f (target "
+                                 "%.2f) %s\n",
+                                 label.c_str(), errors[i], (unsigned long long)ours,
+                                 (unsigned long long)tin[i], ratio, goal, met ? "met" : "NOT met");
+                }
+                if (keep.empty() && o.outPath != tinSource) fs::remove(o.outPath);
+            }
+        }
+    }
+    if (keep.empty()) fs::remove_all(work);
+    const json result = {{"benchmark", "order"},
+                         {"hardware_threads", std::thread::hardware_concurrency()},
+                         {"metric", "max"},
+                         {"rows", rows},
+                         {"all_met", allMet},
+                         {"builds", builds},
+                         {"tins", tins}};
+    std::printf("%s\n", result.dump(2).c_str());
+    return 0;
+}
