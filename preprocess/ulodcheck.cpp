@@ -43,8 +43,7 @@ bool checkLevelError(const format::Block& b, std::size_t level,
                 metres(double(b.errorMax[l.step])) + " (errorMax[" + std::to_string(l.step) +
                 "]), recomputed " + metres(recomputed) + " (vertical " + metres(e.vertical) +
                 " at vertex " + std::to_string(e.verticalVertex) + ", river " + metres(e.river) +
-                " at vertex " + std::to_string(e.riverVertex) + "), tolerance " +
-                metres(tolerance);
+                " at vertex " + std::to_string(e.riverVertex) + "), tolerance " + metres(tolerance);
         return false;
     }
     const double margin = stored - recomputed;
@@ -61,8 +60,8 @@ bool checkLevelError(const format::Block& b, std::size_t level,
     return true;
 }
 
-bool checkBlock(const format::Block& b, const UlodCheckOptions& options,
-                UlodCheckSummary& summary, std::string& error) {
+bool checkBlock(const format::Block& b, const UlodCheckOptions& options, UlodCheckSummary& summary,
+                std::string& error) {
     const std::size_t n = b.vertices.size();
     if (b.grid.size() != n) {
         error = "no exact grid coordinates stored: topology cannot be checked exactly";
@@ -186,8 +185,7 @@ bool checkBlock(const format::Block& b, const UlodCheckOptions& options,
 }  // namespace
 
 bool checkUlod(const std::string& path, const UlodCheckOptions& options, UlodCheckSummary& summary,
-               std::string& error,
-               const std::function<void(std::size_t, std::size_t)>& progress) {
+               std::string& error, const std::function<void(std::size_t, std::size_t)>& progress) {
     summary = {};
     format::Reader reader;
     if (!reader.open(path, error)) return false;

@@ -17,16 +17,16 @@ format::Block squareBlock(float zX) {
     const std::int32_t xy[7][2] = {{0, 0},     {1000, 0},  {1000, 1000}, {0, 1000},
                                    {200, 500}, {800, 500}, {500, 600}};
     for (int i = 0; i < 7; ++i) {
-        b.vertices.push_back({float(xy[i][0]) * 1e-3f, float(xy[i][1]) * 1e-3f,
-                              i == 6 ? zX : 0.0f, i >= 4 ? format::kVertexRiver : 0u});
+        b.vertices.push_back({float(xy[i][0]) * 1e-3f, float(xy[i][1]) * 1e-3f, i == 6 ? zX : 0.0f,
+                              i >= 4 ? format::kVertexRiver : 0u});
         b.grid.push_back({xy[i][0], xy[i][1]});
     }
     return b;
 }
 
 // The triangulation after step 1 (X gone): six counter-clockwise triangles over the square.
-const std::vector<TriangleTriple> kStep1 = {
-    {{0, 1, 5}}, {{0, 5, 4}}, {{0, 4, 3}}, {{4, 5, 2}}, {{4, 2, 3}}, {{1, 2, 5}}};
+const std::vector<TriangleTriple> kStep1 = {{{0, 1, 5}}, {{0, 5, 4}}, {{0, 4, 3}},
+                                            {{4, 5, 2}}, {{4, 2, 3}}, {{1, 2, 5}}};
 
 RiverReference chainAXC() {
     RiverReference r;
@@ -69,8 +69,8 @@ TEST(ErrorCheck, AliveVerticesCostNothing) {
                                                {{5, 2, 6}}, {{2, 4, 6}}, {{4, 2, 3}}, {{1, 2, 5}}};
     LevelMaxError e;
     std::string error;
-    ASSERT_TRUE(levelMaxError(b, 0, step0, {makeRiverEdge(4, 6), makeRiverEdge(5, 6)},
-                              chainAXC(), e, error))
+    ASSERT_TRUE(levelMaxError(b, 0, step0, {makeRiverEdge(4, 6), makeRiverEdge(5, 6)}, chainAXC(),
+                              e, error))
         << error;
     EXPECT_EQ(e.river, 0.0);
     EXPECT_LT(e.vertical, 1e-7);

@@ -66,8 +66,8 @@ protected:
         const fs::path synth = dir / "synth";
         ASSERT_TRUE(writeSyntheticData(data, synth.string(), error)) << error;
         const int blockSize = (std::max(data.dem.width, data.dem.height) - 1) / 3;
-        build("synthetic_greedy", (synth / "dem.tif").string(),
-              (synth / "rivers.geojson").string(), blockSize, DeletionOrderKind::Greedy);
+        build("synthetic_greedy", (synth / "dem.tif").string(), (synth / "rivers.geojson").string(),
+              blockSize, DeletionOrderKind::Greedy);
         build("synthetic_3ddp", (synth / "dem.tif").string(), (synth / "rivers.geojson").string(),
               blockSize, DeletionOrderKind::ThreeDdp);
     }
@@ -137,9 +137,8 @@ TEST_F(CheckErrors, LoweredBoundFails) {
         EXPECT_EQ(plain.code, 0) << plain.err;
         const test::CliResult r = test::runCli("check -q --errors " + q(tampered));
         EXPECT_EQ(r.code, 1) << r.out;
-        const std::string where = "block (" + std::to_string(b.col) + "," +
-                                  std::to_string(b.row) + "): level " +
-                                  std::to_string(bestLevel) + " (step " +
+        const std::string where = "block (" + std::to_string(b.col) + "," + std::to_string(b.row) +
+                                  "): level " + std::to_string(bestLevel) + " (step " +
                                   std::to_string(l.step) + "): max error lies";
         EXPECT_NE(r.err.find(tampered), std::string::npos) << r.err;
         EXPECT_NE(r.err.find(where), std::string::npos) << r.err << "\nexpected: " << where;
@@ -178,8 +177,8 @@ TEST_F(CheckErrors, MillimetreLieFails) {
 
         const test::CliResult r = test::runCli("check -q --errors " + q(tampered));
         EXPECT_EQ(r.code, 1) << r.out;
-        const std::string where = "block (" + std::to_string(s.worstCol) + "," +
-                                  std::to_string(s.worstRow) + "): level ";
+        const std::string where =
+            "block (" + std::to_string(s.worstCol) + "," + std::to_string(s.worstRow) + "): level ";
         EXPECT_NE(r.err.find(where), std::string::npos) << r.err;
         EXPECT_NE(r.err.find("max error lies"), std::string::npos) << r.err;
     }
