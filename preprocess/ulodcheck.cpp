@@ -2,9 +2,11 @@
 #include "ulodcheck.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <set>
 
 #include "checker.h"
+#include "errorcheck.h"
 #include "meshimport.h"
 #include "ulod.h"
 
@@ -19,7 +21,47 @@ RiverEdge toEdge(const format::Edge& e) {
     return makeRiverEdge(e.a, e.b);
 }
 
-bool checkBlock(const format::Block& b, std::string& error) {
+std::string metres(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.9g m", v);
+    return buf;
+}
+
+// The stored `max` error of level `level` against the current error recomputed from the level's
+// triangles and river edges (errorcheck.h); updates the summary's closest approach.
+bool checkLevelError(const format::Block& b, std::size_t level,
+                     const std::vector<TriangleTriple>& tris, const std::vector<RiverEdge>& edges,
+                     const RiverReference& rivers, double tolerance, UlodCheckSummary& summary,
+                     std::string& error) {
+    const format::Level& l = b.levels[level];
+    LevelMaxError e;
+    if (!levelMaxError(b, l.step, tris, edges, rivers, e, error)) return false;
+    const double stored = std::min(double(l.errorMax), double(b.errorMax[l.step]));
+    const double recomputed = e.value();
+    if (stored < recomputed - tolerance) {
+        error = "max error lies: stored " + metres(double(l.errorMax)) + " (level) and " +
+                metres(double(b.errorMax[l.step])) + " (errorMax[" + std::to_string(l.step) +
+                "]), recomputed " + metres(recomputed) + " (vertical " + metres(e.vertical) +
+                " at vertex " + std::to_string(e.verticalVertex) + ", river " + metres(e.river) +
+                " at vertex " + std::to_string(e.riverVertex) + "), tolerance " + metres(tolerance);
+        return false;
+    }
+    const double margin = stored - recomputed;
+    if (!summary.errorsChecked || margin < summary.smallestMargin) summary.smallestMargin = margin;
+    summary.errorsChecked = true;
+    if (stored > 0 && recomputed / stored > summary.worstRatio) {
+        summary.worstRatio = recomputed / stored;
+        summary.worstStored = stored;
+        summary.worstRecomputed = recomputed;
+        summary.worstCol = b.col;
+        summary.worstRow = b.row;
+        summary.worstLevel = static_cast<std::uint32_t>(level);
+    }
+    return true;
+}
+
+bool checkBlock(const format::Block& b, const UlodCheckOptions& options, UlodCheckSummary& summary,
+                std::string& error) {
     const std::size_t n = b.vertices.size();
     if (b.grid.size() != n) {
         error = "no exact grid coordinates stored: topology cannot be checked exactly";
@@ -61,6 +103,12 @@ bool checkBlock(const format::Block& b, std::string& error) {
     const CheckReference ref = captureCheckReference(cdt);
     if (!checkCdt(cdt, ref, &edges, error)) {
         error = "level 0: " + error;
+        return false;
+    }
+    const double tolerance = options.errors ? maxErrorTolerance(b) : 0.0;
+    if (options.errors &&
+        !checkLevelError(b, 0, tris, edges, ref.rivers, tolerance, summary, error)) {
+        error = "level 0 (step 0): " + error;
         return false;
     }
 
@@ -119,7 +167,9 @@ bool checkBlock(const format::Block& b, std::string& error) {
             return false;
         }
         if (!cdtFromTriangles(gx, gy, locked, tris, edges, cdt, error) ||
-            !checkCdt(cdt, ref, &edges, error)) {
+            !checkCdt(cdt, ref, &edges, error) ||
+            (options.errors &&
+             !checkLevelError(b, level, tris, edges, ref.rivers, tolerance, summary, error))) {
             error = name + ": " + error;
             return false;
         }
@@ -134,16 +184,20 @@ bool checkBlock(const format::Block& b, std::string& error) {
 
 }  // namespace
 
-bool checkUlod(const std::string& path, UlodCheckSummary& summary, std::string& error,
-               const std::function<void(std::size_t, std::size_t)>& progress) {
+bool checkUlod(const std::string& path, const UlodCheckOptions& options, UlodCheckSummary& summary,
+               std::string& error, const std::function<void(std::size_t, std::size_t)>& progress) {
     summary = {};
     format::Reader reader;
     if (!reader.open(path, error)) return false;
+    if (options.errors && (reader.header().metrics & format::kMetricMax) == 0) {
+        error = path + ": the file stores no `max` error, so --errors has nothing to check";
+        return false;
+    }
     const auto& blocks = reader.blocks();
     for (std::size_t i = 0; i < blocks.size(); ++i) {
         format::Block b;
         if (!reader.readBlock(i, b, error)) return false;
-        if (!checkBlock(b, error)) {
+        if (!checkBlock(b, options, summary, error)) {
             error = path + ": block (" + std::to_string(b.col) + "," + std::to_string(b.row) +
                     "): " + error;
             return false;

@@ -125,7 +125,7 @@ TEST(Nodata, BaysInsideABlockHullAreFilledWhenFewRefusedWhenMany) {
     EXPECT_EQ(summary.nodataCells, 9u);
     EXPECT_GE(summary.filledNodataCells, 6u);  // at least the two rows strictly inside the hull
     UlodCheckSummary cs;
-    ASSERT_TRUE(checkUlod(o.outPath, cs, err)) << err;
+    ASSERT_TRUE(checkUlod(o.outPath, {}, cs, err)) << err;
 
     // A 10-cell wide, 20-cell deep bay: 200 cells inside the hull -> refused, no output.
     DemGrid big = plane(40, 40);

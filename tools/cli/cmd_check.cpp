@@ -1,6 +1,7 @@
-// `unilod check FILE`: checksums and the topology invariants at every stored level of every block
-// (preprocess/ulodcheck.h). Exit 0 when everything holds, 1 with a precise message on the first
-// failure.
+// `unilod check FILE [--errors]`: checksums and the topology invariants at every stored level of
+// every block, and with --errors the `max` model error recomputed at every stored level
+// (preprocess/ulodcheck.h, errorcheck.h). Exit 0 when everything holds, 1 with a precise message
+// on the first failure.
 #include <cstdio>
 #include <string>
 
@@ -12,26 +13,40 @@ namespace unilod::cli {
 void addCheckCommand(CLI::App& app, int& exitCode) {
     auto path = std::make_shared<std::string>();
     auto quiet = std::make_shared<bool>(false);
+    auto options = std::make_shared<UlodCheckOptions>();
     CLI::App* sub = app.add_subcommand(
         "check",
         "Verify checksums and the topology invariants at every stored level of a .ulod file");
     sub->add_option("FILE", *path, ".ulod file")->required();
+    sub->add_flag("--errors", options->errors,
+                  "also recompute the true `max` model error at every stored level from the "
+                  "file's data; fail when a stored error is below it beyond the tolerance "
+                  "(4 * 2^-24 * max|z| of the block + 1e-6 m)");
     sub->add_flag("-q,--quiet", *quiet, "no progress output");
-    sub->callback([path, quiet, &exitCode] {
+    sub->callback([path, quiet, options, &exitCode] {
         UlodCheckSummary s;
         std::string error;
         auto progress = [&](std::size_t done, std::size_t total) {
             if (!*quiet) std::fprintf(stderr, "  checked block %zu/%zu\n", done, total);
         };
-        if (!checkUlod(*path, s, error, progress)) {
+        if (!checkUlod(*path, *options, s, error, progress)) {
             std::fprintf(stderr, "unilod check: FAILED: %s\n", error.c_str());
             exitCode = 1;
             return;
         }
         std::printf(
             "unilod check: OK: %s: %zu blocks, %zu stored levels, %zu deletion steps; "
-            "checksums, records and topology invariants hold at every level\n",
+            "checksums, records and topology invariants hold at every level",
             path->c_str(), s.blocks, s.levels, s.steps);
+        if (s.errorsChecked) {
+            std::printf(
+                "; stored max errors bound the recomputed ones at every level (largest "
+                "recomputed/stored %.9g: %.9g m of %.9g m at block (%u,%u) level %u; smallest "
+                "margin %.3g m)",
+                s.worstRatio, s.worstRecomputed, s.worstStored, s.worstCol, s.worstRow,
+                s.worstLevel, s.smallestMargin);
+        }
+        std::printf("\n");
         exitCode = 0;
     });
 }

@@ -1,0 +1,211 @@
+// The true `max` model error of a stored level, recomputed from a .ulod block (errorcheck.h).
+#include "errorcheck.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+#include "predicates.h"
+
+namespace unilod {
+
+namespace {
+
+constexpr std::uint32_t kNotFound = 0xFFFFFFFFu;
+
+// A level's triangles in a uniform grid of buckets: every triangle is listed in each bucket its
+// bounding box touches (compressed rows). About one triangle per bucket, so a point is located
+// with a handful of exact orientation tests; the triangles' areas sum to the domain's, so the
+// lists stay near linear in the triangle count.
+class TriangleBuckets {
+public:
+    TriangleBuckets(const format::Block& b, const std::vector<TriangleTriple>& triangles)
+        : b_(b), tris_(triangles) {
+        x0_ = y0_ = INT64_MAX;
+        std::int64_t x1 = INT64_MIN, y1 = INT64_MIN;
+        for (const format::GridXY& g : b.grid) {
+            x0_ = std::min<std::int64_t>(x0_, g.x);
+            y0_ = std::min<std::int64_t>(y0_, g.y);
+            x1 = std::max<std::int64_t>(x1, g.x);
+            y1 = std::max<std::int64_t>(y1, g.y);
+        }
+        const double w = double(x1 - x0_ + 1), h = double(y1 - y0_ + 1);
+        const double target = double(std::max<std::size_t>(triangles.size(), 1));
+        cell_ = std::max<std::int64_t>(1, std::int64_t(std::ceil(std::sqrt(w * h / target))));
+        nx_ = (x1 - x0_) / cell_ + 1;
+        ny_ = (y1 - y0_) / cell_ + 1;
+        start_.assign(std::size_t(nx_ * ny_) + 1, 0);
+        auto forCells = [&](const TriangleTriple& t, auto&& f) {
+            std::int64_t lx = INT64_MAX, ly = INT64_MAX, hx = INT64_MIN, hy = INT64_MIN;
+            for (PointId v : t.v) {
+                lx = std::min<std::int64_t>(lx, b.grid[v].x);
+                ly = std::min<std::int64_t>(ly, b.grid[v].y);
+                hx = std::max<std::int64_t>(hx, b.grid[v].x);
+                hy = std::max<std::int64_t>(hy, b.grid[v].y);
+            }
+            for (std::int64_t cy = (ly - y0_) / cell_; cy <= (hy - y0_) / cell_; ++cy) {
+                for (std::int64_t cx = (lx - x0_) / cell_; cx <= (hx - x0_) / cell_; ++cx)
+                    f(std::size_t(cy * nx_ + cx));
+            }
+        };
+        for (const TriangleTriple& t : triangles)
+            forCells(t, [&](std::size_t c) { ++start_[c + 1]; });
+        for (std::size_t c = 1; c < start_.size(); ++c)
+            start_[c] += start_[c - 1];
+        list_.resize(start_.back());
+        std::vector<std::uint32_t> fill(start_.begin(), start_.end() - 1);
+        for (std::uint32_t i = 0; i < triangles.size(); ++i)
+            forCells(triangles[i], [&](std::size_t c) { list_[fill[c]++] = i; });
+    }
+
+    // A triangle whose closed interior holds grid point (x, y), or kNotFound.
+    std::uint32_t locate(std::int64_t x, std::int64_t y) const {
+        if (x < x0_ || y < y0_) return kNotFound;
+        const std::int64_t cx = (x - x0_) / cell_, cy = (y - y0_) / cell_;
+        if (cx >= nx_ || cy >= ny_) return kNotFound;
+        const std::size_t c = std::size_t(cy * nx_ + cx);
+        for (std::uint32_t k = start_[c]; k < start_[c + 1]; ++k) {
+            if (contains(tris_[list_[k]], x, y)) return list_[k];
+        }
+        return kNotFound;
+    }
+
+private:
+    bool contains(const TriangleTriple& t, std::int64_t x, std::int64_t y) const {
+        const format::GridXY a = b_.grid[t.v[0]], b = b_.grid[t.v[1]], c = b_.grid[t.v[2]];
+        const std::int64_t o0 = orient2d(a.x, a.y, b.x, b.y, x, y);
+        const std::int64_t o1 = orient2d(b.x, b.y, c.x, c.y, x, y);
+        const std::int64_t o2 = orient2d(c.x, c.y, a.x, a.y, x, y);
+        // Either orientation (the file promises counter-clockwise; the checker verifies it).
+        return (o0 >= 0 && o1 >= 0 && o2 >= 0) || (o0 <= 0 && o1 <= 0 && o2 <= 0);
+    }
+
+    const format::Block& b_;
+    const std::vector<TriangleTriple>& tris_;
+    std::int64_t x0_ = 0, y0_ = 0, cell_ = 1, nx_ = 1, ny_ = 1;
+    std::vector<std::uint32_t> start_, list_;
+};
+
+// Height at grid point (x, y) of the plane through triangle t's vertices: the build's formula
+// (modelerror.cpp), exact barycentric weights from orient2d, heights from the file.
+double surfaceHeight(const format::Block& b, const TriangleTriple& t, std::int64_t x,
+                     std::int64_t y) {
+    const format::GridXY p = b.grid[t.v[0]], q = b.grid[t.v[1]], r = b.grid[t.v[2]];
+    const double den = double(orient2d(p.x, p.y, q.x, q.y, r.x, r.y));
+    const double wa = double(orient2d(q.x, q.y, r.x, r.y, x, y));
+    const double wb = double(orient2d(r.x, r.y, p.x, p.y, x, y));
+    const double wc = double(orient2d(p.x, p.y, q.x, q.y, x, y));
+    return (wa * double(b.vertices[t.v[0]].z) + wb * double(b.vertices[t.v[1]].z) +
+            wc * double(b.vertices[t.v[2]].z)) /
+           den;
+}
+
+// 3D distance from vertex m to the segment a-c: the build's formula (deletion.cpp).
+double segmentDistance(const format::Block& b, std::uint32_t a, std::uint32_t c, std::uint32_t m) {
+    const double u = format::kGridUnit;
+    const double ax = double(b.grid[a].x) * u, ay = double(b.grid[a].y) * u,
+                 az = double(b.vertices[a].z);
+    const double dx = double(b.grid[c].x) * u - ax, dy = double(b.grid[c].y) * u - ay,
+                 dz = double(b.vertices[c].z) - az;
+    const double len2 = dx * dx + dy * dy + dz * dz;
+    const double mx = double(b.grid[m].x) * u - ax, my = double(b.grid[m].y) * u - ay,
+                 mz = double(b.vertices[m].z) - az;
+    double t = len2 > 0 ? (mx * dx + my * dy + mz * dz) / len2 : 0.0;
+    t = std::clamp(t, 0.0, 1.0);
+    const double ex = mx - t * dx, ey = my - t * dy, ez = mz - t * dz;
+    return std::sqrt(ex * ex + ey * ey + ez * ez);
+}
+
+bool verticalError(const format::Block& b, const std::vector<TriangleTriple>& triangles,
+                   LevelMaxError& result, std::string& error) {
+    const TriangleBuckets buckets(b, triangles);
+    for (std::uint32_t i = 0; i < b.vertices.size(); ++i) {
+        const std::int64_t x = b.grid[i].x, y = b.grid[i].y;
+        const std::uint32_t t = buckets.locate(x, y);
+        if (t == kNotFound) {
+            error = "vertex " + std::to_string(i) + " lies in no triangle";
+            return false;
+        }
+        const double e = std::fabs(double(b.vertices[i].z) - surfaceHeight(b, triangles[t], x, y));
+        if (e > result.vertical) {
+            result.vertical = e;
+            result.verticalVertex = i;
+        }
+    }
+    return true;
+}
+
+bool riverError(const format::Block& b, std::uint32_t step, const std::vector<RiverEdge>& edges,
+                const RiverReference& rivers, LevelMaxError& result, std::string& error) {
+    const std::size_t aliveCount = b.vertices.size() - step;
+    auto alive = [&](PointId v) { return v < aliveCount; };
+    // The chain's vertices strictly between positions i and j (cyclic for a loop) against the
+    // segment chain[i]-chain[j], which must be an alive river edge.
+    auto span = [&](const std::vector<PointId>& chain, std::size_t i, std::size_t j,
+                    std::size_t period) {
+        const PointId a = chain[i], c = chain[j];
+        if (!std::binary_search(edges.begin(), edges.end(), makeRiverEdge(a, c))) {
+            error = "river vertices " + std::to_string(a) + " and " + std::to_string(c) +
+                    " are consecutive alive vertices of an original chain but no river edge";
+            return false;
+        }
+        for (std::size_t k = (i + 1) % period; k != j; k = (k + 1) % period) {
+            const double e = segmentDistance(b, a, c, chain[k]);
+            if (e > result.river) {
+                result.river = e;
+                result.riverVertex = chain[k];
+            }
+        }
+        return true;
+    };
+    for (const std::vector<PointId>& chain : rivers.chains) {
+        if (chain.size() < 2) continue;
+        const bool loop = chain.front() == chain.back();
+        // A loop's positions are cyclic over its distinct vertices; an open chain's ends are
+        // junctions or river ends, never deleted.
+        const std::size_t period = loop ? chain.size() - 1 : chain.size();
+        std::vector<std::size_t> at;
+        for (std::size_t k = 0; k < period; ++k) {
+            if (alive(chain[k])) at.push_back(k);
+        }
+        if (!loop && (!alive(chain.front()) || !alive(chain.back()))) {
+            error = "the river chain from vertex " + std::to_string(chain.front()) + " to " +
+                    std::to_string(chain.back()) + " lost an end vertex";
+            return false;
+        }
+        if (loop && at.size() < 2) {
+            error = "the river loop through vertex " + std::to_string(chain.front()) +
+                    " keeps fewer than two vertices";
+            return false;
+        }
+        const std::size_t spans = loop ? at.size() : at.size() - 1;
+        for (std::size_t s = 0; s < spans; ++s) {
+            if (!span(chain, at[s], at[(s + 1) % at.size()], period)) return false;
+        }
+    }
+    return true;
+}
+
+}  // namespace
+
+double maxErrorTolerance(const format::Block& block) {
+    double zMax = 0;
+    for (const format::Vertex& v : block.vertices)
+        zMax = std::max(zMax, std::fabs(double(v.z)));
+    return 4.0 * std::ldexp(zMax, -24) + 1e-6;
+}
+
+bool levelMaxError(const format::Block& block, std::uint32_t step,
+                   const std::vector<TriangleTriple>& triangles,
+                   const std::vector<RiverEdge>& sortedEdges, const RiverReference& rivers,
+                   LevelMaxError& result, std::string& error) {
+    result = {};
+    if (block.grid.size() != block.vertices.size() || step > block.vertices.size()) {
+        error = "no exact grid coordinates stored or step out of range";
+        return false;
+    }
+    return verticalError(block, triangles, result, error) &&
+           riverError(block, step, sortedEdges, rivers, result, error);
+}
+
+}  // namespace unilod

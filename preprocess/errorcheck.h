@@ -1,0 +1,59 @@
+// `unilod check --errors` (issue "a bound that lies is a defect"): the TRUE `max` model error of a
+// stored level, recomputed from the file's own data, so that a stored bound below it is caught.
+//
+// Definition (deletion.h, modelerror.h): the stored `max` error after step k is the running
+// maximum over the steps <= k of max(vertical, river). Being non-decreasing, it must be at least
+// the error of the CURRENT surface at every stored level, which is what is recomputed here:
+//   vertical = max over the block's vertices (all of them, alive or deleted: the original points
+//              as the file keeps them) of |z - S_k(x, y)|, S_k the level's triangulated surface,
+//              linear on each triangle through its three vertices. Each vertex is located exactly
+//              (integer orientation tests on its grid position, predicates.h; a point on an edge
+//              may take either triangle, the surface is continuous there) in a uniform grid of
+//              buckets over the level's triangles, about one triangle per bucket.
+//   river    = for every river edge A-C alive at level k, the largest 3D distance (x, y from the
+//              grid in metres, z) from the original chain vertices strictly between A and C to
+//              the segment A-C. The chains are the full-resolution ones (checker.h
+//              RiverReference); A and C are consecutive vertices alive after step k along a chain
+//              (alive: vertex index < vertices.size() - k, ulod.h retention order).
+//
+// Tolerance. The build computes in double from the original heights; the file keeps z as float
+// (round to nearest: |z_file - z| <= 2^-24 |z|) and stores errors rounded UP to float. A vertical
+// value moves by at most 2 * 2^-24 * max|z| (z itself and S, a convex combination of three
+// heights); a river distance is 1-Lipschitz in the point and in each segment end, so it moves by
+// at most 2 * 2^-24 * max|z| too (x, y are the same exact grid values on both sides). The
+// tolerance is twice that bound plus 1e-6 m for the double arithmetic (coordinates of tens of km,
+// relative rounding ~1e-16):
+//   stored >= recomputed - (4 * 2^-24 * max|z| of the block + 1e-6 m).
+// That is 0.07 mm at 300 m of altitude and 0.5 mm at 2000 m: any real lie is far above it.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "cdt.h"
+#include "checker.h"
+#include "ulod.h"
+
+namespace unilod {
+
+// The stored-versus-recomputed slack above (metres).
+double maxErrorTolerance(const format::Block& block);
+
+struct LevelMaxError {
+    double vertical = 0, river = 0;
+    std::uint32_t verticalVertex = 0;  // the vertex with the largest vertical distance
+    std::uint32_t riverVertex = 0;     // the chain vertex with the largest river distance
+    double value() const { return vertical > river ? vertical : river; }
+};
+
+// The current `max` error of `block` after `step` deletions, whose triangles and river edges
+// (vertex indices; the edges sorted) are given; `rivers`: the full-resolution chains. Returns
+// false with a message when a vertex lies in no triangle or a chain's consecutive alive vertices
+// are not a river edge (a file the topology check would reject).
+bool levelMaxError(const format::Block& block, std::uint32_t step,
+                   const std::vector<TriangleTriple>& triangles,
+                   const std::vector<RiverEdge>& sortedEdges, const RiverReference& rivers,
+                   LevelMaxError& result, std::string& error);
+
+}  // namespace unilod

@@ -1,0 +1,187 @@
+// `unilod check --errors` (issue "a bound that lies is a defect"): the `max` model error stored at
+// every level must be at least the error recomputed from the file's own data (errorcheck.h).
+// Models of the bundled data set and of a synthetic world with rivers, built with both deletion
+// orders, pass; a file whose stored bound was lowered at one step (otherwise valid: checksums,
+// non-decreasing errors, topology) fails with a message naming the file, block, level and values.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <string>
+
+#include "build.h"
+#include "synthetic.h"
+#include "tools/cliutil.h"
+#include "ulod.h"
+#include "ulodcheck.h"
+
+namespace fs = std::filesystem;
+using namespace unilod;
+
+namespace {
+
+using unilod::test::q;
+
+const std::string kAssets = UNILOD_ASSETS_DIR;
+
+struct Built {
+    std::string name, path;
+};
+
+class CheckErrors : public ::testing::Test {
+protected:
+    static inline fs::path dir;
+    static inline std::vector<Built> models;
+
+    static void build(const std::string& name, const std::string& dem, const std::string& rivers,
+                      int blockSize, DeletionOrderKind order) {
+        BuildOptions o;
+        o.demPath = dem;
+        o.riversPath = rivers;
+        o.outPath = (dir / (name + ".ulod")).string();
+        o.blockSize = blockSize;
+        o.order = order;
+        o.threads = 2;
+        BuildSummary summary;
+        std::string error;
+        ASSERT_TRUE(runBuild(o, summary, error)) << name << ": " << error;
+        models.push_back({name, o.outPath});
+    }
+
+    static void SetUpTestSuite() {
+        dir = fs::temp_directory_path() / ("unilod_test_check_" + std::to_string(getpid()));
+        fs::remove_all(dir);
+        fs::create_directories(dir);
+        const std::string dem = kAssets + "/jacksboro_dem.tif";
+        const std::string rivers = kAssets + "/jacksboro_rivers_grass.geojson";
+        build("jacksboro_greedy", dem, rivers, 128, DeletionOrderKind::Greedy);
+        build("jacksboro_3ddp", dem, rivers, 128, DeletionOrderKind::ThreeDdp);
+
+        SyntheticOptions so;
+        so.targetPoints = 40000;
+        so.seed = 11;
+        const SyntheticData data = generateSyntheticData(so);
+        ASSERT_GT(data.rivers.size(), 0u);
+        std::string error;
+        const fs::path synth = dir / "synth";
+        ASSERT_TRUE(writeSyntheticData(data, synth.string(), error)) << error;
+        const int blockSize = (std::max(data.dem.width, data.dem.height) - 1) / 3;
+        build("synthetic_greedy", (synth / "dem.tif").string(), (synth / "rivers.geojson").string(),
+              blockSize, DeletionOrderKind::Greedy);
+        build("synthetic_3ddp", (synth / "dem.tif").string(), (synth / "rivers.geojson").string(),
+              blockSize, DeletionOrderKind::ThreeDdp);
+    }
+    static void TearDownTestSuite() {
+        std::error_code ec;
+        fs::remove_all(dir, ec);
+    }
+};
+
+TEST_F(CheckErrors, StoredBoundsHoldOnEveryModel) {
+    ASSERT_EQ(models.size(), 4u);
+    for (const Built& m : models) {
+        SCOPED_TRACE(m.name);
+        UlodCheckOptions options;
+        options.errors = true;
+        UlodCheckSummary s;
+        std::string error;
+        ASSERT_TRUE(checkUlod(m.path, options, s, error)) << error;
+        ASSERT_TRUE(s.errorsChecked);
+        EXPECT_GT(s.levels, s.blocks);
+        // Where the running maximum has just risen, the current error is the stored one (up to
+        // float rounding): the recomputation finds it, it is not trivially small.
+        EXPECT_GT(s.worstRatio, 0.99);
+        // Recomputed above stored only by the float rounding of z (errorcheck.h: < 0.5 mm here).
+        EXPECT_GT(s.smallestMargin, -5e-4);
+
+        const test::CliResult r = test::runCli("check -q --errors " + q(m.path));
+        EXPECT_EQ(r.code, 0) << r.err;
+        EXPECT_NE(r.out.find("largest recomputed/stored"), std::string::npos) << r.out;
+    }
+}
+
+// Lowers errorMax at the stored level where the running maximum rises most to the value of the
+// step before (the array stays non-decreasing, the level keeps its copy equal) and rewrites the
+// file with fresh checksums: `check` still passes, `check --errors` must not.
+TEST_F(CheckErrors, LoweredBoundFails) {
+    ASSERT_EQ(models.size(), 4u);
+    for (const Built& m : models) {
+        SCOPED_TRACE(m.name);
+        test::Model model;
+        std::string error;
+        ASSERT_TRUE(test::readModel(m.path, model, error)) << error;
+        std::size_t bestBlock = 0, bestLevel = 0;
+        float bestRise = 0;
+        for (std::size_t i = 0; i < model.blocks.size(); ++i) {
+            const format::Block& b = model.blocks[i];
+            for (std::size_t j = 1; j < b.levels.size(); ++j) {
+                const std::uint32_t s = b.levels[j].step;
+                const float rise = b.errorMax[s] - b.errorMax[s - 1];
+                if (rise > bestRise) {
+                    bestRise = rise;
+                    bestBlock = i;
+                    bestLevel = j;
+                }
+            }
+        }
+        ASSERT_GT(bestRise, 0.01f) << "no stored level where the error rises by 1 cm";
+        format::Block& b = model.blocks[bestBlock];
+        format::Level& l = b.levels[bestLevel];
+        const float lowered = b.errorMax[l.step - 1];
+        b.errorMax[l.step] = lowered;
+        l.errorMax = lowered;
+        const std::string tampered = (dir / (m.name + "_tampered.ulod")).string();
+        ASSERT_TRUE(format::writeUlod(tampered, model.header, model.blocks, error)) << error;
+
+        const test::CliResult plain = test::runCli("check -q " + q(tampered));
+        EXPECT_EQ(plain.code, 0) << plain.err;
+        const test::CliResult r = test::runCli("check -q --errors " + q(tampered));
+        EXPECT_EQ(r.code, 1) << r.out;
+        const std::string where = "block (" + std::to_string(b.col) + "," + std::to_string(b.row) +
+                                  "): level " + std::to_string(bestLevel) + " (step " +
+                                  std::to_string(l.step) + "): max error lies";
+        EXPECT_NE(r.err.find(tampered), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find(where), std::string::npos) << r.err << "\nexpected: " << where;
+        EXPECT_NE(r.err.find("recomputed"), std::string::npos) << r.err;
+    }
+}
+
+// A lie of 1 mm, above the tolerance (< 0.5 mm for these altitudes): the stored error of the level
+// where the recomputed one comes closest is lowered by 1 mm, the steps before it clamped so that
+// the array stays non-decreasing.
+TEST_F(CheckErrors, MillimetreLieFails) {
+    ASSERT_EQ(models.size(), 4u);
+    for (const Built& m : models) {
+        SCOPED_TRACE(m.name);
+        UlodCheckOptions options;
+        options.errors = true;
+        UlodCheckSummary s;
+        std::string error;
+        ASSERT_TRUE(checkUlod(m.path, options, s, error)) << error;
+        ASSERT_GT(s.worstStored, 0.01);
+        test::Model model;
+        ASSERT_TRUE(test::readModel(m.path, model, error)) << error;
+        format::Block* b = nullptr;
+        for (format::Block& candidate : model.blocks) {
+            if (candidate.col == s.worstCol && candidate.row == s.worstRow) b = &candidate;
+        }
+        ASSERT_NE(b, nullptr);
+        const std::uint32_t step = b->levels[s.worstLevel].step;
+        const float lowered = float(s.worstStored - 1e-3);
+        for (std::uint32_t k = 0; k <= step; ++k)
+            b->errorMax[k] = std::min(b->errorMax[k], lowered);
+        for (format::Level& l : b->levels)
+            l.errorMax = b->errorMax[l.step];
+        const std::string tampered = (dir / (m.name + "_mm.ulod")).string();
+        ASSERT_TRUE(format::writeUlod(tampered, model.header, model.blocks, error)) << error;
+
+        const test::CliResult r = test::runCli("check -q --errors " + q(tampered));
+        EXPECT_EQ(r.code, 1) << r.out;
+        const std::string where =
+            "block (" + std::to_string(s.worstCol) + "," + std::to_string(s.worstRow) + "): level ";
+        EXPECT_NE(r.err.find(where), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find("max error lies"), std::string::npos) << r.err;
+    }
+}
+
+}  // namespace
