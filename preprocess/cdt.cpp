@@ -305,40 +305,54 @@ void Cdt::planHole(const std::vector<PointId>& poly, std::vector<std::uint32_t>&
         i = p;
     }
     triangles.insert(triangles.end(), {earPrev_[i], i, earNext_[i]});
-    // Lawson flips of the diagonals (an edge u-w with w != u +- 1 mod k) until none is illegal.
-    const std::uint32_t count = std::uint32_t(triangles.size() / 3);
-    auto boundary = [k](std::uint32_t u, std::uint32_t w) {
-        return w == (u + 1) % k || u == (w + 1) % k;
+    // Lawson flips of the diagonals until none is illegal. Neighbours: planNbr_[3t + e] is the
+    // half-edge across edge e of triangle t (opposite its corner e), kNone on the polygon.
+    planNbr_.assign(triangles.size(), kNone);
+    diagonals_.clear();
+    for (std::uint32_t h = 0; h < triangles.size(); ++h) {
+        const std::uint32_t t = h / 3, e = h % 3;
+        const std::uint32_t u = triangles[3 * t + nextIndex(e)], w = triangles[3 * t + prevIndex(e)];
+        if (w == (u + 1) % k) continue;  // a polygon edge
+        diagonals_.push_back({std::min(u, w), std::max(u, w), h});
+    }
+    std::sort(diagonals_.begin(), diagonals_.end(), [](const Diagonal& x, const Diagonal& y) {
+        return x.u != y.u ? x.u < y.u : (x.w != y.w ? x.w < y.w : x.h < y.h);
+    });
+    assert(diagonals_.size() == 2 * (triangles.size() / 3 - 1));
+    legal_.clear();
+    for (std::size_t d = 0; d + 1 < diagonals_.size(); d += 2) {
+        planNbr_[diagonals_[d].h] = diagonals_[d + 1].h;
+        planNbr_[diagonals_[d + 1].h] = diagonals_[d].h;
+        legal_.push_back(diagonals_[d].h);
+    }
+    auto setNbr = [&](std::uint32_t h, std::uint32_t g) {
+        planNbr_[h] = g;
+        if (g != kNone) planNbr_[g] = h;
     };
-    for (bool changed = true; changed;) {
-        changed = false;
-        for (std::uint32_t t = 0; t < count; ++t) {
-            for (std::uint32_t e = 0; e < 3; ++e) {
-                const std::uint32_t a = triangles[3 * t + e], u = triangles[3 * t + nextIndex(e)],
-                                    w = triangles[3 * t + prevIndex(e)];
-                if (boundary(u, w)) continue;
-                // The other triangle of the diagonal holds w -> u.
-                std::uint32_t o = 0, f = 0;
-                for (o = 0; o < count; ++o) {
-                    if (o == t) continue;
-                    for (f = 0; f < 3; ++f) {
-                        if (triangles[3 * o + nextIndex(f)] == w &&
-                            triangles[3 * o + prevIndex(f)] == u)
-                            break;
-                    }
-                    if (f < 3) break;
-                }
-                assert(o < count);
-                const std::uint32_t d = triangles[3 * o + f];
-                const PointId pa = poly[a], pu = poly[u], pw = poly[w], pd = poly[d];
-                if (incircle(gx[pa], gy[pa], gx[pu], gy[pu], gx[pw], gy[pw], gx[pd], gy[pd]) <= 0)
-                    continue;
-                // Quadrilateral a, u, d, w (counter-clockwise): u-w becomes a-d.
-                triangles[3 * t] = a, triangles[3 * t + 1] = u, triangles[3 * t + 2] = d;
-                triangles[3 * o] = a, triangles[3 * o + 1] = d, triangles[3 * o + 2] = w;
-                changed = true;
-                break;
-            }
+    while (!legal_.empty()) {
+        const std::uint32_t h = legal_.back();
+        legal_.pop_back();
+        const std::uint32_t g = planNbr_[h];
+        if (g == kNone) continue;
+        const std::uint32_t t = h / 3, e = h % 3, o = g / 3, f = g % 3;
+        const std::uint32_t a = triangles[3 * t + e], u = triangles[3 * t + nextIndex(e)],
+                            w = triangles[3 * t + prevIndex(e)], d = triangles[3 * o + f];
+        const PointId pa = poly[a], pu = poly[u], pw = poly[w], pd = poly[d];
+        if (incircle(gx[pa], gy[pa], gx[pu], gy[pu], gx[pw], gy[pw], gx[pd], gy[pd]) <= 0)
+            continue;
+        // Quadrilateral a, u, d, w (counter-clockwise): u-w becomes a-d; t = (a, u, d),
+        // o = (a, d, w).
+        const std::uint32_t nWA = planNbr_[3 * t + nextIndex(e)], nAU = planNbr_[3 * t + prevIndex(e)];
+        const std::uint32_t nUD = planNbr_[3 * o + nextIndex(f)], nDW = planNbr_[3 * o + prevIndex(f)];
+        triangles[3 * t] = a, triangles[3 * t + 1] = u, triangles[3 * t + 2] = d;
+        triangles[3 * o] = a, triangles[3 * o + 1] = d, triangles[3 * o + 2] = w;
+        setNbr(3 * t, nUD);
+        setNbr(3 * t + 2, nAU);
+        setNbr(3 * o, nDW);
+        setNbr(3 * o + 1, nWA);
+        setNbr(3 * t + 1, 3 * o + 2);
+        for (std::uint32_t q : {3 * t, 3 * t + 2, 3 * o, 3 * o + 1}) {
+            if (planNbr_[q] != kNone) legal_.push_back(q);
         }
     }
 }
@@ -528,33 +542,23 @@ void Cdt::removeVertex(PointId v, const std::vector<PointId>& ring,
     setVertexTriangle(v, kNone);
     --vertexCount;
     // Create the planned triangles; polygon edge i (ring[i] -> ring[i + 1]) takes outer[i] and
-    // its constraint flag, a diagonal its twin in the other triangle.
-    diagonals_.clear();
+    // its constraint flag, a diagonal its twin in the other triangle (planHole's neighbours).
     for (std::size_t j = 0; j < plan_.size(); j += 3) {
         const std::uint32_t t =
             createTriangle(ring[plan_[j]], ring[plan_[j + 1]], ring[plan_[j + 2]]);
         created_.push_back(t);
-        for (std::uint32_t e = 0; e < 3; ++e) {
-            const std::uint32_t h = 3 * t + e;
-            const std::uint32_t u = plan_[j + nextIndex(e)], w = plan_[j + prevIndex(e)];
-            if (w == (u + 1) % k) {
-                link(h, outer_[u]);
-                if (cons_[u]) tc[t] |= std::uint8_t(1u << e);
-                continue;
-            }
-            std::size_t d = 0;
-            while (d < diagonals_.size() && !(diagonals_[d].u == w && diagonals_[d].w == u))
-                ++d;
-            if (d < diagonals_.size()) {
-                link(h, diagonals_[d].h);
-                diagonals_[d] = diagonals_.back();
-                diagonals_.pop_back();
-            } else {
-                diagonals_.push_back({u, w, h});
-            }
-        }
     }
-    assert(diagonals_.empty());
+    for (std::uint32_t q = 0; q < plan_.size(); ++q) {
+        const std::uint32_t h = 3 * created_[q / 3] + q % 3;
+        const std::uint32_t g = planNbr_[q];
+        if (g != kNone) {
+            if (g > q) link(h, 3 * created_[g / 3] + g % 3);
+            continue;
+        }
+        const std::uint32_t u = plan_[q - q % 3 + nextIndex(q % 3)];
+        link(h, outer_[u]);
+        if (cons_[u]) tc[h / 3] |= std::uint8_t(1u << (h % 3));
+    }
     // A river edge at v is gone with it: a link vertex it hid may now be visible from a
     // triangle beyond the hole and inside its circumcircle, so those edges are checked too.
     if (!riverAtV) return;

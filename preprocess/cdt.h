@@ -221,7 +221,7 @@ private:
     std::vector<PointId> poly_;
     std::vector<std::uint32_t> outer_, starTris_;
     std::vector<std::uint8_t> cons_;
-    std::vector<std::uint32_t> earPrev_, earNext_, plan_;
+    std::vector<std::uint32_t> earPrev_, earNext_, plan_, planNbr_;
     struct Diagonal {
         std::uint32_t u, w, h;  // polygon indices u -> w, the half-edge taking it
     };
