@@ -293,6 +293,11 @@ void ModelError::removeVertex(PointId v) {
     entries_[e].id = kNil;
     entryOf_[v] = kNil;
     --alive_;
+    {
+        const std::int64_t i = std::clamp<std::int64_t>((vx - gridX0_) / cell_, 0, nx_ - 1);
+        const std::int64_t j = std::clamp<std::int64_t>((vy - gridY0_) / cell_, 0, ny_ - 1);
+        --coarseAlive_[std::size_t((j / kCoarse) * coarseX_ + i / kCoarse)];
+    }
     if (alive_ > 0 && std::size_t(alive_) * 2 < entries_.size()) buildGrid();
     std::uint32_t s = nearHead_[v];
     nearHead_[v] = kNil;
@@ -405,6 +410,13 @@ void ModelError::buildGrid() {
         entryOf_[e.id] = slot;
     }
     entries_.swap(sorted);
+    coarseX_ = (std::int64_t(nx_) + kCoarse - 1) / kCoarse;
+    coarseY_ = (std::int64_t(ny_) + kCoarse - 1) / kCoarse;
+    coarseAlive_.assign(std::size_t(coarseX_ * coarseY_), 0);
+    for (const Entry& e : entries_) {
+        const std::int64_t i = (e.gx - gridX0_) / cell_, j = (e.gy - gridY0_) / cell_;
+        ++coarseAlive_[std::size_t((j / kCoarse) * coarseX_ + i / kCoarse)];
+    }
 }
 
 PointId ModelError::nearest(std::int32_t gx, std::int32_t gy, double z) const {
@@ -422,7 +434,43 @@ PointId ModelError::nearest(std::int32_t gx, std::int32_t gy, double z) const {
             if (d2 < best || (d2 == best && e.id < bestId)) best = d2, bestId = e.id;
         }
     };
+    constexpr std::int64_t kFar = std::int64_t(1) << 40;
     for (std::int64_t r = 0;; ++r) {
+        if (r == kFineRings) {
+            // Far from any alive vertex (the greedy order empties whole flat regions): go on
+            // in rings of coarse blocks, skipping the empty ones by their alive counts.
+            const std::int64_t bx = cx / kCoarse, by = cy / kCoarse;
+            const std::int64_t bnx = coarseX_, bny = coarseY_;
+            for (std::int64_t R = 0;; ++R) {
+                auto scanBlock = [&](std::int64_t bi, std::int64_t bj) {
+                    if (bi < 0 || bj < 0 || bi >= bnx || bj >= bny) return;
+                    if (coarseAlive_[std::size_t(bj * bnx + bi)] == 0) return;
+                    for (std::int64_t j = bj * kCoarse; j < (bj + 1) * kCoarse; ++j) {
+                        for (std::int64_t i = bi * kCoarse; i < (bi + 1) * kCoarse; ++i)
+                            scanCell(i, j);
+                    }
+                };
+                if (R == 0) {
+                    scanBlock(bx, by);
+                } else {
+                    for (std::int64_t i = bx - R; i <= bx + R; ++i)
+                        scanBlock(i, by - R), scanBlock(i, by + R);
+                    for (std::int64_t j = by - R + 1; j <= by + R - 1; ++j)
+                        scanBlock(bx - R, j), scanBlock(bx + R, j);
+                }
+                const std::int64_t side = kCoarse * cell_;
+                const std::int64_t left = bx - R > 0 ? gx - (gridX0_ + (bx - R) * side) : kFar;
+                const std::int64_t right =
+                    bx + R < bnx - 1 ? gridX0_ + (bx + R + 1) * side - gx : kFar;
+                const std::int64_t down = by - R > 0 ? gy - (gridY0_ + (by - R) * side) : kFar;
+                const std::int64_t up = by + R < bny - 1 ? gridY0_ + (by + R + 1) * side - gy : kFar;
+                const std::int64_t gap = std::min({left, right, down, up});
+                if (gap == kFar) break;
+                const double bound = double(gap) * unit_;
+                if (bestId != kNil && best < bound * bound) break;
+            }
+            break;
+        }
         if (r == 0) {
             scanCell(cx, cy);
         } else {
@@ -433,7 +481,6 @@ PointId ModelError::nearest(std::int32_t gx, std::int32_t gy, double z) const {
             }
         }
         // Every unscanned cell lies outside the square of rings 0..r: at least this far away.
-        constexpr std::int64_t kFar = std::int64_t(1) << 40;
         const std::int64_t left = cx - r > 0 ? gx - (gridX0_ + (cx - r) * cell_) : kFar;
         const std::int64_t right = cx + r < nx_ - 1 ? gridX0_ + (cx + r + 1) * cell_ - gx : kFar;
         const std::int64_t down = cy - r > 0 ? gy - (gridY0_ + (cy - r) * cell_) : kFar;

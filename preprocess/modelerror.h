@@ -120,6 +120,11 @@ private:
     std::int64_t gridX0_ = 0, gridY0_ = 0, gridX1_ = 0, gridY1_ = 0;
     std::int64_t cell_ = 1;
     std::uint32_t nx_ = 1, ny_ = 1, alive_ = 0;
+    // Alive vertices per block of kCoarse x kCoarse cells: the ring search leaves the cells for
+    // these blocks after kFineRings rings.
+    static constexpr std::int64_t kCoarse = 8, kFineRings = 3;
+    std::vector<std::uint32_t> coarseAlive_;
+    std::int64_t coarseX_ = 1, coarseY_ = 1;
     long double paperSum_ = 0;
     double runningPaper_ = 0;
 };

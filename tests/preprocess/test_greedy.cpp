@@ -192,6 +192,38 @@ TEST(GreedyOrder, InvariantsAndErrorsWithRivers) {
     EXPECT_EQ(rec.steps.size() + kept, unlocked);
 }
 
+// The paper metric stays exact where the greedy order empties whole regions (a flat half is
+// deleted at zero error first), so the nearest-vertex search runs far from any alive vertex.
+TEST(GreedyOrder, PaperMetricExactOnEmptiedFlats) {
+    BlockSpec spec;
+    spec.points = 576;
+    spec.rivers = 0;
+    spec.grid = true;
+    PointSet set = makeBlock(spec);
+    for (Point& p : set.points) {
+        if (p.x < 700) p.z = 100.0;
+    }
+    Cdt cdt;
+    std::string error;
+    ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+    DeletionRecords rec;
+    DeletionOptions options;
+    double brute = bruteForcePaperError(set, cdt);
+    std::uint32_t failures = 0, checked = 0, zeroSteps = 0;
+    options.afterStep = [&](std::uint32_t step) {
+        zeroSteps += rec.stepErrorMax[step - 1] == 0;
+        ++checked;
+        brute = std::max(brute, bruteForcePaperError(set, cdt));
+        if (!(std::fabs(rec.errorPaper[step - 1] - brute) <= tolerance(brute)) && failures++ < 3)
+            ADD_FAILURE() << "step " << step << ": paper " << rec.errorPaper[step - 1] << " vs "
+                          << brute;
+    };
+    ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, error)) << error;
+    EXPECT_EQ(failures, 0u);
+    EXPECT_GT(checked, 400u);
+    EXPECT_GT(zeroSteps, 250u);  // the flat part went first, at zero error
+}
+
 // The BAI factor delays river vertices: with a huge weight on every river vertex, all DEM
 // deletions whose key is below the smallest weighted river key come first.
 TEST(GreedyOrder, RiverWeightsDelayRiverVertices) {
