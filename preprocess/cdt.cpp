@@ -515,6 +515,111 @@ bool Cdt::star(PointId v, std::vector<PointId>& link, std::vector<std::uint32_t>
     return true;
 }
 
+bool Cdt::straightHullStar(PointId v, std::vector<PointId>& link,
+                           std::vector<std::uint32_t>& triangles) const {
+    link.clear();
+    triangles.clear();
+    // Walk counter-clockwise round v from the ghost triangle (v, g, C) (the one after (v, A, g)).
+    const std::uint32_t t0 = vertexTriangle[v];
+    std::uint32_t t = t0, start = kNone;
+    do {
+        std::uint32_t i = 0;
+        while (tv[3 * t + i] != v)
+            ++i;
+        if (tv[3 * t + nextIndex(i)] == kGhost) {
+            start = t;
+            break;
+        }
+        t = tn[3 * t + nextIndex(i)] / 3;
+    } while (t != t0);
+    if (start == kNone) return false;  // interior
+    t = tn[3 * start + nextIndex([&] {
+             std::uint32_t i = 0;
+             while (tv[3 * start + i] != v)
+                 ++i;
+             return i;
+         }())] /
+        3;
+    for (;;) {
+        std::uint32_t i = 0;
+        while (tv[3 * t + i] != v)
+            ++i;
+        const PointId next = tv[3 * t + nextIndex(i)];
+        if (next == kGhost) return false;  // v on the hull twice cannot be; be safe
+        link.push_back(next);
+        if (tv[3 * t + prevIndex(i)] == kGhost) break;  // (v, A, g): A is the last
+        triangles.push_back(3 * t + i);
+        // No river edge at v (nor along the hull at v).
+        if (isConstrained(3 * t + nextIndex(i)) || isConstrained(3 * t + prevIndex(i)))
+            return false;
+        t = tn[3 * t + nextIndex(i)] / 3;
+    }
+    // link = C, L1, ..., A; triangles = the real ones (v, link[k], link[k + 1]).
+    if (link.size() < 2 || triangles.size() + 1 != link.size()) return false;
+    const PointId c = link.front(), a = link.back();
+    if (orient(a, v, c) != 0) return false;
+    return betweenCollinear(gx[a], gy[a], gx[c], gy[c], gx[v], gy[v]) && a != c;
+}
+
+void Cdt::removeHullVertex(PointId v, const std::vector<PointId>& ring,
+                           const std::vector<std::uint32_t>& triangles) {
+    const std::uint32_t k = std::uint32_t(ring.size());  // polygon C, ..., A; edge k-1: A -> C
+    const std::uint32_t m = k - 1;                        // real triangles
+    assert(triangles.size() == m);
+    outer_.resize(k);
+    cons_.assign(k, 0);
+    for (std::size_t i = 0; i < m; ++i) {
+        outer_[i] = tn[triangles[i]];
+        cons_[i] = isConstrained(triangles[i]) ? 1 : 0;
+    }
+    // The ghost triangles (v, A, g) and (v, g, C), and the ghost half-edges beyond them.
+    const std::uint32_t hA = triangles[m - 1], tA = hA / 3;  // (v, L, A)
+    const std::uint32_t gA = tn[tA * 3 + nextIndex(hA % 3)] / 3;  // across A -> v: (v, A, g)
+    const std::uint32_t hC = triangles[0], tC = hC / 3;              // (v, C, L1)
+    const std::uint32_t gC = tn[tC * 3 + prevIndex(hC % 3)] / 3;  // across v -> C: (C, v, g)
+    auto edgeOf = [&](std::uint32_t t, PointId from, PointId to) {
+        for (std::uint32_t e = 0; e < 3; ++e) {
+            if (tv[3 * t + nextIndex(e)] == from && tv[3 * t + prevIndex(e)] == to) return 3 * t + e;
+        }
+        assert(false);
+        return kNone;
+    };
+    const PointId a = ring[m], c = ring[0];
+    const std::uint32_t beyondA = tn[edgeOf(gA, a, kGhost)];  // twin of A -> g
+    const std::uint32_t beyondC = tn[edgeOf(gC, kGhost, c)];  // twin of g -> C
+    planHole(ring, plan_);
+    // Ghosts first, then the real triangles in star order: the plan's triangles take the real
+    // triangles' slots back last-in first-out, as for an interior vertex (deletion.cpp relies on
+    // it to evaluate the plan in the deletion's order).
+    destroyTriangle(gA);
+    destroyTriangle(gC);
+    for (std::uint32_t h : triangles)
+        destroyTriangle(h / 3);
+    created_.clear();
+    setVertexTriangle(v, kNone);
+    --vertexCount;
+    for (std::size_t j = 0; j < plan_.size(); j += 3) {
+        const std::uint32_t t =
+            createTriangle(ring[plan_[j]], ring[plan_[j + 1]], ring[plan_[j + 2]]);
+        created_.push_back(t);
+    }
+    const std::uint32_t ghost = createTriangle(c, a, kGhost);
+    link(edgeOf(ghost, a, kGhost), beyondA);
+    link(edgeOf(ghost, kGhost, c), beyondC);
+    outer_[m] = edgeOf(ghost, c, a);
+    for (std::uint32_t q = 0; q < plan_.size(); ++q) {
+        const std::uint32_t h = 3 * created_[q / 3] + q % 3;
+        const std::uint32_t g = planNbr_[q];
+        if (g != kNone) {
+            if (g > q) link(h, 3 * created_[g / 3] + g % 3);
+            continue;
+        }
+        const std::uint32_t u = plan_[q - q % 3 + nextIndex(q % 3)];
+        link(h, outer_[u]);
+        if (cons_[u]) tc[h / 3] |= std::uint8_t(1u << (h % 3));
+    }
+}
+
 void Cdt::removeVertex(PointId v) {
     const bool interior = star(v, poly_, starTris_);
     assert(interior);

@@ -171,6 +171,16 @@ public:
     // The star of v: link vertices counter-clockwise and, for each, the triangle (v, link[i],
     // link[i+1]) half-edge index of v. Returns false when v is on the hull (a ghost triangle).
     bool star(PointId v, std::vector<PointId>& link, std::vector<std::uint32_t>& triangles) const;
+    // A hull vertex v between its hull neighbours A and C on one straight line (exactly
+    // collinear, so deleting v leaves the domain as it is), with no river edge at v: its real
+    // triangles' link counter-clockwise from C to A (the hole polygon, closed by the new hull
+    // edge A -> C) and their half-edges of v. False otherwise.
+    bool straightHullStar(PointId v, std::vector<PointId>& link,
+                          std::vector<std::uint32_t>& triangles) const;
+    // Removes such a vertex: the hole is re-triangulated by planHole (the same plan as an
+    // interior vertex's), the two ghost triangles at v become one across A -> C.
+    void removeHullVertex(PointId v, const std::vector<PointId>& link,
+                          const std::vector<std::uint32_t>& triangles);
 
     // Inserts a point (construction only: no constraints yet; p not a vertex, not on a vertex).
     // `hint`: an alive triangle near p to start the point location from (greedytin.h passes the

@@ -157,6 +157,8 @@ private:
     // Greedy.
     const std::vector<float>* weight_ = nullptr;
     KeyHeap heap_;
+    bool straightHull_ = false;  // delete straight-hull vertices (greedy)
+    bool hullStar_ = false;      // the vertex classify() accepted is such a hull vertex
     std::vector<std::uint8_t> local_;  // the key was evaluated on a change confined to the star
     // Scratch.
     std::vector<PointId> link_;
@@ -302,7 +304,13 @@ Outcome Sequence::classify(PointId x, KeptReason& reason, PointId& a, PointId& c
         reason = KeptReason::Locked;
         return Outcome::Refused;
     }
+    hullStar_ = false;
     if (!cdt_.star(x, link_, tris_)) {
+        // The greedy order also deletes a hull vertex on a straight stretch of the hull.
+        if (straightHull_ && cdt_.straightHullStar(x, link_, tris_)) {
+            hullStar_ = true;
+            return Outcome::Deleted;
+        }
         reason = KeptReason::Hull;
         return Outcome::Refused;
     }
@@ -344,7 +352,11 @@ Outcome Sequence::classify(PointId x, KeptReason& reason, PointId& a, PointId& c
 
 void Sequence::apply(PointId x, PointId a, PointId c) {
     cdt_.beginJournal(step_ + 1);
-    cdt_.removeVertex(x, link_, tris_);
+    if (hullStar_) {
+        cdt_.removeHullVertex(x, link_, tris_);
+    } else {
+        cdt_.removeVertex(x, link_, tris_);
+    }
     if (a != kNil) {
         cdt_.constraintEdgeCount -= 2;
         std::string why;
@@ -512,6 +524,7 @@ bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
         return false;
     }
     weight_ = &weight;
+    straightHull_ = true;
     start(cdt_.vertexCount);
     heap_.reset(n);
     local_.assign(n, 0);

@@ -35,8 +35,10 @@
 // After a step the keys of every vertex of a created triangle are evaluated again (their stars
 // changed); a vertex at the top of the queue is deleted only when its deletion, done for real,
 // causes exactly its key (otherwise it goes back with the new key: the key of a river vertex
-// whose A-C leaves its star also depends on triangles outside the star). Locked, hull and
-// river-end vertices are refused as above; a river vertex whose A-C is blocked waits, as above,
+// whose A-C leaves its star also depends on triangles outside the star). A vertex on the convex
+// hull between two hull neighbours on one straight line (a straight raster edge) is a candidate
+// too: deleting it leaves the domain as it is (cdt.h removeHullVertex); other hull vertices,
+// locked and river-end vertices are refused as above; a river vertex whose A-C is blocked waits, as above,
 // for the deletion of one of its blockers and is then evaluated again.
 //
 // River deviation: the largest 3D distance from the original river vertices between A and C

@@ -224,6 +224,65 @@ TEST(GreedyOrder, PaperMetricExactOnEmptiedFlats) {
     EXPECT_GT(zeroSteps, 250u);  // the flat part went first, at zero error
 }
 
+// A straight raster edge simplifies: hull vertices between two collinear hull neighbours are
+// deleted (the domain stays: the checker compares its area), corners stay, and after every step
+// the triangulation is valid and the max error equals the brute force.
+TEST(GreedyOrder, StraightHullVerticesAreDeleted) {
+    BlockSpec spec;
+    spec.points = 400;
+    spec.rivers = 2;
+    spec.grid = true;
+    spec.lockBorder = false;
+    const PointSet set = makeBlock(spec);
+    Cdt cdt;
+    std::string error;
+    ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+    const CheckReference ref = captureCheckReference(cdt);
+    const std::vector<RiverEdge> initialEdges = collectRiverEdges(cdt);
+    std::set<RiverEdge> edges(initialEdges.begin(), initialEdges.end());
+    double lo = INFINITY, hi = -INFINITY;
+    for (const Point& p : set.points) {
+        if (p.kind == PointKind::Dem) lo = std::min({lo, p.x, p.y}), hi = std::max({hi, p.x, p.y});
+    }
+    auto onBorder = [&](PointId v) {
+        const Point& p = set.points[v];
+        return p.x == lo || p.y == lo || p.x == hi || p.y == hi;
+    };
+    DeletionRecords rec;
+    DeletionOptions options;
+    double brute = bruteForceMaxError(set, cdt);
+    std::uint32_t failures = 0, hullSteps = 0;
+    options.afterStep = [&](std::uint32_t step) {
+        const std::uint32_t s = step - 1;
+        for (std::uint32_t i = rec.removedEdgeOffset[s]; i < rec.removedEdgeOffset[s + 1]; ++i)
+            edges.erase(rec.removedEdges[i]);
+        for (std::uint32_t i = rec.addedEdgeOffset[s]; i < rec.addedEdgeOffset[s + 1]; ++i)
+            edges.insert(rec.addedEdges[i]);
+        hullSteps += onBorder(rec.steps[s].vertex);
+        const std::vector<RiverEdge> list(edges.begin(), edges.end());
+        std::string m;
+        if (!checkCdt(cdt, ref, &list, m) && failures++ < 3)
+            ADD_FAILURE() << "after step " << step << ": " << m;
+        EXPECT_EQ(rec.steps[s].trianglesAlive, cdt.realTriangleCount);
+        brute = std::max(
+            {brute, bruteForceMaxError(set, cdt), bruteForceRiverDeviation(set, cdt)});
+        if (!(std::fabs(rec.errorMax[s] - brute) <= tolerance(brute)) && failures++ < 3)
+            ADD_FAILURE() << "step " << step << ": max " << rec.errorMax[s] << " vs " << brute;
+    };
+    ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, error)) << error;
+    EXPECT_EQ(failures, 0u);
+    EXPECT_GT(hullSteps, 20u);
+    std::uint32_t corners = 0;
+    for (PointId v = 0; v < set.points.size(); ++v) {
+        const Point& p = set.points[v];
+        if ((p.x == lo || p.x == hi) && (p.y == lo || p.y == hi)) {
+            ++corners;
+            EXPECT_TRUE(cdt.isVertex(v)) << p.x << ", " << p.y;
+        }
+    }
+    EXPECT_EQ(corners, 4u);
+}
+
 // The BAI factor delays river vertices: with a huge weight on every river vertex, all DEM
 // deletions whose key is below the smallest weighted river key come first.
 TEST(GreedyOrder, RiverWeightsDelayRiverVertices) {
