@@ -184,8 +184,12 @@ PointSet BlockSource::points(std::size_t i) const {
         for (int col = r.cellCol0; col <= r.cellCol1; col += s) {
             const std::size_t cell = static_cast<std::size_t>(row) * dem.width + col;
             if (std::isnan(dem.z[cell]) || (!drop_.empty() && drop_[cell])) continue;
+            const bool outer = options_.lockOuterEdge;
             const bool border =
-                row == r.cellRow0 || row == r.cellRow1 || col == r.cellCol0 || col == r.cellCol1;
+                (row == r.cellRow0 && (outer || row != borderRows_.front())) ||
+                (row == r.cellRow1 && (outer || row != borderRows_.back())) ||
+                (col == r.cellCol0 && (outer || col != borderCols_.front())) ||
+                (col == r.cellCol1 && (outer || col != borderCols_.back()));
             set.points.push_back(
                 {dem.centreX(col), dem.centreY(row), double(dem.z[cell]), PointKind::Dem, border});
         }

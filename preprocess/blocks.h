@@ -2,7 +2,8 @@
 //
 // The DEM is sampled every `stride` cells (columns 0, s, 2s, ..., rows likewise). A block spans
 // `blockSize / stride` sampled cells; neighbouring blocks share their border row or column of
-// sampled points, and every point on a block border is locked, so neighbouring blocks meet
+// sampled points, and every point on a shared block border is locked (the DEM's outer edge only
+// with BlockOptions::lockOuterEdge), so neighbouring blocks meet
 // without cracks at any pair of levels. Where a river segment crosses a border line, a locked
 // crossing vertex (x or y exactly on the line, z from the DEM) is inserted once, globally, so
 // both blocks hold the identical vertex. River vertices exactly on a border line are locked too,
@@ -27,6 +28,9 @@ inline constexpr double kDefaultRiverClearance = 1.0;  // metres
 struct BlockOptions {
     int blockSize = kDefaultBlockSize;  // DEM cells; a multiple of stride is advised
     int stride = 1;                     // take every stride-th cell
+    // Lock the DEM's outer edge too (it bounds one block only; the 3ddp order keeps it locked as
+    // the paper does, the greedy order lets straight stretches of it simplify).
+    bool lockOuterEdge = true;
     double riverClearance = kDefaultRiverClearance;
 };
 

@@ -186,6 +186,7 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     BlockOptions blocks;
     blocks.blockSize = o.blockSize;
     blocks.stride = o.stride;
+    blocks.lockOuterEdge = o.order == DeletionOrderKind::ThreeDdp;
     BlockSource source;
     if (!source.init(dem, rivers, blocks, error)) {
         error = "DEM '" + o.demPath + "': " + error;
