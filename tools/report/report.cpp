@@ -197,10 +197,10 @@ std::string riversCsv(const std::vector<RiverRow>& rows) {
 
 std::string riversMd(const std::vector<RiverRow>& rows) {
     std::ostringstream s;
-    s << "# BAI vs plain 3D_DP: river shapes at equal point budgets\n\n"
+    s << "# BAI vs no BAI: river shapes at equal point budgets\n\n"
       << "Symmetric 2D Hausdorff distance (m) between each simplified river and the original "
          "polyline. Budget = share of a river's unlocked points kept (ends and junctions always "
-         "kept), the highest-ranked of each importance order. Landform class by the river's "
+         "kept), the highest-ranked of the file's deletion order computed with and without BAI. Landform class by the river's "
          "mean vertex altitude (Table 1 classes). Definitions: tools/report/report.h.\n\n"
       << "| Landform class | Budget (%) | Rivers | Points kept / original | Mean BAI (m) | Mean "
          "plain (m) | Max BAI (m) | Max plain (m) | BAI better | Plain better |\n"
@@ -257,7 +257,7 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
     say("error vs retention curves");
     if (!computeCurve(o.path, summary.curve, summary.hasMax, summary.hasPaper, error)) return false;
     if (o.rivers) {
-        say("rivers: BAI vs plain 3D_DP");
+        say("rivers: BAI vs no BAI");
         if (!compareRivers(o, buildInfo, summary.rivers, error)) return false;
     }
 
@@ -342,7 +342,7 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
        << "- [curves.svg](curves.svg), [curves.csv](curves.csv): model error vs retention, both "
           "metrics\n";
     if (o.rivers) {
-        md << "- [rivers.md](rivers.md), [rivers.csv](rivers.csv): BAI vs plain 3D_DP, 2D "
+        md << "- [rivers.md](rivers.md), [rivers.csv](rivers.csv): BAI vs no BAI, 2D "
               "Hausdorff distance at equal point budgets by landform class\n";
     }
     md << "- [grid.csv](grid.csv), [report.json](report.json): the numbers\n\n"

@@ -14,10 +14,12 @@
 //   k_b = min(steps_b, floor((1 - r) · vertexCount_b)) (a block cannot drop its locked points: it
 //   stays at its coarsest state), error_b = errors[k_b]; the curve shows the maximum and the mean
 //   of error_b over blocks, per metric.
-// - Rivers: the importance order is computed twice on the model's inputs (DEM + rivers from the
-//   file's build info or --dem / --rivers, cleaned like `unilod build`, the whole DEM at the
-//   build's stride as one point set, as `unilod order` does): improved 3D_DP with BAI, and plain
-//   3D_DP (--no-bai). For a budget f, each river polyline keeps its locked points (ends,
+// - Rivers: the file's deletion order is computed twice on the model's inputs (DEM + rivers from
+//   the file's build info or --dem / --rivers, cleaned like `unilod build`, the whole DEM at the
+//   build's stride as one point set, as `unilod order` does): with BAI and without (--no-bai).
+//   For a greedy build that is the greedy deletion order of that point set as one block, with
+//   and without the BAI weights on river keys; for a 3ddp build (or a file without an `order`
+//   in its build info) improved 3D_DP with BAI and plain 3D_DP. For a budget f, each river polyline keeps its locked points (ends,
 //   junctions) and the round(f · n) highest-ranked of its n unlocked points (rank = position in
 //   the deletion order: deleted later = more important); the simplified polyline joins the kept
 //   points in their original order. Its symmetric 2D Hausdorff distance to the original polyline

@@ -1,4 +1,5 @@
-// BAI vs plain 3D_DP river shapes at equal point budgets (report.h; paper §2.2, Table 1).
+// BAI vs no BAI river shapes at equal point budgets (report.h; paper §2.2, Table 1), in the
+// file's deletion order: greedy with and without the BAI weights, or 3ddp vs plain 3D_DP.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -6,6 +7,8 @@
 
 #include "bai.h"
 #include "dem.h"
+#include "cdt.h"
+#include "deletion.h"
 #include "importance.h"
 #include "pointset.h"
 #include "rivercleaning.h"
@@ -53,6 +56,25 @@ std::vector<XY> simplified(const PointSet& set, const Polyline& line,
         if (p.locked || (keep > 0 && pos[id] >= threshold)) out.push_back({p.x, p.y});
     }
     return out;
+}
+
+// The greedy order (preprocess/deletion.h) of the whole point set as one block, with the given
+// river weights (BAI factors, or none): deletion position per point id as above; a merged
+// duplicate takes its vertex's position, a vertex never deleted the maximum.
+bool greedyPositions(const PointSet& set, const std::vector<float>& weight,
+                     std::vector<std::size_t>& pos, std::string& error) {
+    Cdt cdt;
+    if (!buildCdt(set, {}, cdt, error)) return false;
+    DeletionOptions options;
+    options.paperError = false;
+    DeletionRecords records;
+    if (!runGreedyDeletion(set, cdt, weight, options, records, error)) return false;
+    pos.assign(set.points.size(), std::numeric_limits<std::size_t>::max());
+    for (std::size_t i = 0; i < records.steps.size(); ++i)
+        pos[records.steps[i].vertex] = i;
+    for (PointId id = 0; id < set.points.size(); ++id)
+        pos[id] = pos[cdt.representative[id]];
+    return true;
 }
 
 }  // namespace
@@ -108,10 +130,25 @@ bool compareRivers(const ReportOptions& options, const std::string& buildInfo,
     withBai.baiRow = infoValue<double>(info, "bai_row", kDefaultBaiRow);
     ImportanceOptions plain = withBai;
     plain.useBai = false;
-    ImportanceResult rBai, rPlain;
-    if (!computeImportance(set, withBai, rBai, error)) return false;
-    if (!computeImportance(set, plain, rPlain, error)) return false;
-    const std::vector<std::size_t> posBai = positions(set, rBai), posPlain = positions(set, rPlain);
+    // The file's own order (a file without the key predates the greedy order: 3ddp).
+    const bool greedy = infoValue<std::string>(info, "order", "3ddp") == "greedy";
+    std::vector<std::size_t> posBai, posPlain;
+    if (greedy) {
+        const int row = withBai.baiTable.findRow(withBai.baiRow);
+        if (row < 0) {
+            error = options.path + ": the BAI table has no row for its build's threshold";
+            return false;
+        }
+        if (!greedyPositions(set, baiFactors(set, withBai.baiTable, row), posBai, error) ||
+            !greedyPositions(set, {}, posPlain, error))
+            return false;
+    } else {
+        ImportanceResult rBai, rPlain;
+        if (!computeImportance(set, withBai, rBai, error)) return false;
+        if (!computeImportance(set, plain, rPlain, error)) return false;
+        posBai = positions(set, rBai);
+        posPlain = positions(set, rPlain);
+    }
 
     const std::vector<double> bounds = withBai.baiTable.classLowerBounds.empty()
                                            ? std::vector<double>{0, 500, 1000}
