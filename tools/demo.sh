@@ -84,13 +84,14 @@ $unilod report "$paper_model" -q -o "$out/report_paper" --dem "$dem" --rivers "$
 echo "== 9. unilod order: improved 3D_DP importance order of the whole point set =="
 $unilod order "$dem" "$rivers" --out "$out/jacksboro_order.csv" -q
 echo "== outputs =="
-echo "  unified LOD model:  $out/jacksboro.ulod (greedy order; the paper's: jacksboro_paper.ulod)"
+echo "  unified LOD model:  $out/jacksboro.ulod (greedy order)"
+echo "  paper's config:     $out/jacksboro_paper.ulod (3ddp order, paper metric)"
 echo "  captures (PNG+JSON): $out/capture/{oblique,topdown,grid,path}/"
 echo "  benchmark JSON:     $out/bench.json (fly-over), $out/bench_orbit.json (orbit),"
 echo "                      $out/bench_orbit_paper.json (orbit, the paper's configuration)"
 echo "  glTF export:        $out/jacksboro_oblique.glb"
-echo "  report:             $out/report/report.md (tables, curves, rivers, grid diagrams),"
-echo "                      $out/report_paper/report.md (the paper's configuration)"
+echo "  report:             $out/report/report.md (tables, curves, rivers, grid diagrams)"
+echo "  paper's report:     $out/report_paper/report.md (3ddp order, paper metric)"
 echo "  importance order:   $out/jacksboro_order.csv"
 if [ "$view" = auto ]; then
     view=0
