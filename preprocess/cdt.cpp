@@ -308,22 +308,44 @@ void Cdt::planHole(const std::vector<PointId>& poly, std::vector<std::uint32_t>&
     // Lawson flips of the diagonals until none is illegal. Neighbours: planNbr_[3t + e] is the
     // half-edge across edge e of triangle t (opposite its corner e), kNone on the polygon.
     planNbr_.assign(triangles.size(), kNone);
-    diagonals_.clear();
-    for (std::uint32_t h = 0; h < triangles.size(); ++h) {
-        const std::uint32_t t = h / 3, e = h % 3;
-        const std::uint32_t u = triangles[3 * t + nextIndex(e)], w = triangles[3 * t + prevIndex(e)];
-        if (w == (u + 1) % k) continue;  // a polygon edge
-        diagonals_.push_back({std::min(u, w), std::max(u, w), h});
-    }
-    std::sort(diagonals_.begin(), diagonals_.end(), [](const Diagonal& x, const Diagonal& y) {
-        return x.u != y.u ? x.u < y.u : (x.w != y.w ? x.w < y.w : x.h < y.h);
-    });
-    assert(diagonals_.size() == 2 * (triangles.size() / 3 - 1));
     legal_.clear();
-    for (std::size_t d = 0; d + 1 < diagonals_.size(); d += 2) {
-        planNbr_[diagonals_[d].h] = diagonals_[d + 1].h;
-        planNbr_[diagonals_[d + 1].h] = diagonals_[d].h;
-        legal_.push_back(diagonals_[d].h);
+    if (k == 3) return;
+    // Pair the diagonals' two half-edges: a k x k table of half-edges by (from, to) for small
+    // holes (the common case), a sort for large ones.
+    if (k <= kSmallHole) {
+        for (std::uint32_t h = 0; h < triangles.size(); ++h) {
+            const std::uint32_t t = h / 3, e = h % 3;
+            const std::uint32_t u = triangles[3 * t + nextIndex(e)],
+                                w = triangles[3 * t + prevIndex(e)];
+            if (w == (u + 1) % k) continue;  // a polygon edge
+            const std::uint32_t twin = holeEdge_[w * k + u];
+            if (twin == kNone) {
+                holeEdge_[u * k + w] = h;
+                continue;
+            }
+            holeEdge_[w * k + u] = kNone;
+            planNbr_[h] = twin;
+            planNbr_[twin] = h;
+            legal_.push_back(twin);
+        }
+    } else {
+        diagonals_.clear();
+        for (std::uint32_t h = 0; h < triangles.size(); ++h) {
+            const std::uint32_t t = h / 3, e = h % 3;
+            const std::uint32_t u = triangles[3 * t + nextIndex(e)],
+                                w = triangles[3 * t + prevIndex(e)];
+            if (w == (u + 1) % k) continue;  // a polygon edge
+            diagonals_.push_back({std::min(u, w), std::max(u, w), h});
+        }
+        std::sort(diagonals_.begin(), diagonals_.end(), [](const Diagonal& x, const Diagonal& y) {
+            return x.u != y.u ? x.u < y.u : (x.w != y.w ? x.w < y.w : x.h < y.h);
+        });
+        assert(diagonals_.size() == 2 * (triangles.size() / 3 - 1));
+        for (std::size_t d = 0; d + 1 < diagonals_.size(); d += 2) {
+            planNbr_[diagonals_[d].h] = diagonals_[d + 1].h;
+            planNbr_[diagonals_[d + 1].h] = diagonals_[d].h;
+            legal_.push_back(diagonals_[d].h);
+        }
     }
     auto setNbr = [&](std::uint32_t h, std::uint32_t g) {
         planNbr_[h] = g;

@@ -232,6 +232,10 @@ private:
     std::vector<std::uint32_t> outer_, starTris_;
     std::vector<std::uint8_t> cons_;
     std::vector<std::uint32_t> earPrev_, earNext_, plan_, planNbr_;
+    static constexpr std::uint32_t kSmallHole = 16;
+    // planHole's (from, to) -> half-edge table for holes of up to kSmallHole vertices; every
+    // entry is kNone between calls.
+    std::vector<std::uint32_t> holeEdge_ = std::vector<std::uint32_t>(kSmallHole * kSmallHole, kNone);
     struct Diagonal {
         std::uint32_t u, w, h;  // polygon indices u -> w, the half-edge taking it
     };

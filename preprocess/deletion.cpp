@@ -531,7 +531,11 @@ bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
     for (PointId v = 0; v < n; ++v) {
         // Locked points take no part (as in the 3ddp order); a vertex that merged a locked
         // point is refused as Locked by evaluate().
-        if (cdt_.representative[v] != v || set_.points[v].locked) continue;
+        if (cdt_.representative[v] != v) continue;
+        if (set_.points[v].locked) {
+            state_[v] = State::Kept;  // never evaluated, never listed (as in 3ddp)
+            continue;
+        }
         evaluate(v);
     }
     while (!heap_.empty() && step_ < options_.maxSteps) {
