@@ -537,6 +537,29 @@ bool Cdt::star(PointId v, std::vector<PointId>& link, std::vector<std::uint32_t>
     return true;
 }
 
+void Cdt::createPlanned(const std::vector<PointId>& ring) {
+    created_.clear();
+    for (std::size_t j = 0; j < plan_.size(); j += 3) {
+        const std::uint32_t t =
+            createTriangle(ring[plan_[j]], ring[plan_[j + 1]], ring[plan_[j + 2]]);
+        created_.push_back(t);
+    }
+}
+
+void Cdt::linkPlanned() {
+    for (std::uint32_t q = 0; q < plan_.size(); ++q) {
+        const std::uint32_t h = 3 * created_[q / 3] + q % 3;
+        const std::uint32_t g = planNbr_[q];
+        if (g != kNone) {
+            if (g > q) link(h, 3 * created_[g / 3] + g % 3);
+            continue;
+        }
+        const std::uint32_t u = plan_[q - q % 3 + nextIndex(q % 3)];
+        link(h, outer_[u]);
+        if (cons_[u]) tc[h / 3] |= std::uint8_t(1u << (h % 3));
+    }
+}
+
 bool Cdt::straightHullStar(PointId v, std::vector<PointId>& link,
                            std::vector<std::uint32_t>& triangles) const {
     link.clear();
@@ -617,29 +640,14 @@ void Cdt::removeHullVertex(PointId v, const std::vector<PointId>& ring,
     destroyTriangle(gC);
     for (std::uint32_t h : triangles)
         destroyTriangle(h / 3);
-    created_.clear();
     setVertexTriangle(v, kNone);
     --vertexCount;
-    for (std::size_t j = 0; j < plan_.size(); j += 3) {
-        const std::uint32_t t =
-            createTriangle(ring[plan_[j]], ring[plan_[j + 1]], ring[plan_[j + 2]]);
-        created_.push_back(t);
-    }
+    createPlanned(ring);
     const std::uint32_t ghost = createTriangle(c, a, kGhost);
     link(edgeOf(ghost, a, kGhost), beyondA);
     link(edgeOf(ghost, kGhost, c), beyondC);
     outer_[m] = edgeOf(ghost, c, a);
-    for (std::uint32_t q = 0; q < plan_.size(); ++q) {
-        const std::uint32_t h = 3 * created_[q / 3] + q % 3;
-        const std::uint32_t g = planNbr_[q];
-        if (g != kNone) {
-            if (g > q) link(h, 3 * created_[g / 3] + g % 3);
-            continue;
-        }
-        const std::uint32_t u = plan_[q - q % 3 + nextIndex(q % 3)];
-        link(h, outer_[u]);
-        if (cons_[u]) tc[h / 3] |= std::uint8_t(1u << (h % 3));
-    }
+    linkPlanned();
 }
 
 void Cdt::removeVertex(PointId v) {
@@ -665,27 +673,10 @@ void Cdt::removeVertex(PointId v, const std::vector<PointId>& ring,
                    isConstrained(h - h % 3 + prevIndex(h % 3));
     for (std::uint32_t h : triangles)
         destroyTriangle(h / 3);
-    created_.clear();
     setVertexTriangle(v, kNone);
     --vertexCount;
-    // Create the planned triangles; polygon edge i (ring[i] -> ring[i + 1]) takes outer[i] and
-    // its constraint flag, a diagonal its twin in the other triangle (planHole's neighbours).
-    for (std::size_t j = 0; j < plan_.size(); j += 3) {
-        const std::uint32_t t =
-            createTriangle(ring[plan_[j]], ring[plan_[j + 1]], ring[plan_[j + 2]]);
-        created_.push_back(t);
-    }
-    for (std::uint32_t q = 0; q < plan_.size(); ++q) {
-        const std::uint32_t h = 3 * created_[q / 3] + q % 3;
-        const std::uint32_t g = planNbr_[q];
-        if (g != kNone) {
-            if (g > q) link(h, 3 * created_[g / 3] + g % 3);
-            continue;
-        }
-        const std::uint32_t u = plan_[q - q % 3 + nextIndex(q % 3)];
-        link(h, outer_[u]);
-        if (cons_[u]) tc[h / 3] |= std::uint8_t(1u << (h % 3));
-    }
+    createPlanned(ring);
+    linkPlanned();
     // A river edge at v is gone with it: a link vertex it hid may now be visible from a
     // triangle beyond the hole and inside its circumcircle, so those edges are checked too.
     if (!riverAtV) return;

@@ -196,6 +196,10 @@ private:
         if (t < trialSlots_ && triangleMark_[t] != trialId_) saveTriangleSlow(t);
     }
     void saveTriangleSlow(std::uint32_t t);
+    // The plan_ of planHole(ring) as new triangles (created_), then linked: polygon edge i
+    // (ring[i] -> ring[i + 1]) to outer_[i] with constraint flag cons_[i], a diagonal to its twin.
+    void createPlanned(const std::vector<PointId>& ring);
+    void linkPlanned();
     void setVertexTriangle(PointId v, std::uint32_t t) {
         if (trial_ && vertexMark_[v] != trialId_) {
             vertexMark_[v] = trialId_;
