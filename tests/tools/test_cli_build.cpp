@@ -508,6 +508,29 @@ TEST(CliBuildBad, BlockSize) {
     expectRejected(c, r, 1, c.in("dem.tif"), "larger than the DEM");
 }
 
+// --order: greedy by default, 3ddp on request, recorded in the build info; anything else is a
+// usage error. Both orders give a model `check --errors` accepts.
+TEST(CliBuildOdd, OrderOption) {
+    for (const char* order : {"", "greedy", "3ddp"}) {
+        Case c(std::string("order_") + (*order ? order : "default"));
+        c.writeGood();
+        const std::string extra = *order ? std::string("--order ") + order : std::string();
+        const Result r = run(build(c, c.in("dem.tif"), c.in("rivers.geojson"), extra));
+        ASSERT_EQ(r.code, 0) << r.err;
+        const Result check = run("check -q --errors " + q(c.out()));
+        EXPECT_EQ(check.code, 0) << check.err << check.out;
+        format::Reader reader;
+        std::string error;
+        ASSERT_TRUE(reader.open(c.out(), error)) << error;
+        const nlohmann::json info = nlohmann::json::parse(reader.header().buildInfo);
+        EXPECT_EQ(info.at("order"), *order ? order : "greedy");
+    }
+    Case c("order_bad");
+    c.writeGood();
+    expectRejected(c, run(build(c, c.in("dem.tif"), c.in("rivers.geojson"), "--order 4ddp")), 2,
+                   "", "--order");
+}
+
 TEST(CliBuildBad, StrideZero) {
     Case c("stride");
     c.writeGood();
