@@ -143,6 +143,44 @@ TEST(GreedyOrder, KeyIsTheRealisedErrorAndTheSmallestGrid) {
     expectGreedyAgainstOracle(makeBlock(spec), false);
 }
 
+// After every step (DeletionOptions::afterStep): the river edges replayed from the records, the
+// invariants with them, the alive triangle count, and the `max` error against the brute force
+// (vertical and river deviation, running maximum). Construct after buildCdt.
+class StepChecks {
+public:
+    StepChecks(const PointSet& set, const Cdt& cdt, const DeletionRecords& rec)
+        : set_(set), cdt_(cdt), rec_(rec), ref_(captureCheckReference(cdt)),
+          brute_(bruteForceMaxError(set, cdt)) {
+        const std::vector<RiverEdge> initial = collectRiverEdges(cdt);
+        edges_.insert(initial.begin(), initial.end());
+    }
+    void operator()(std::uint32_t step) {
+        const std::uint32_t s = step - 1;
+        for (std::uint32_t i = rec_.removedEdgeOffset[s]; i < rec_.removedEdgeOffset[s + 1]; ++i)
+            edges_.erase(rec_.removedEdges[i]);
+        for (std::uint32_t i = rec_.addedEdgeOffset[s]; i < rec_.addedEdgeOffset[s + 1]; ++i)
+            edges_.insert(rec_.addedEdges[i]);
+        const std::vector<RiverEdge> list(edges_.begin(), edges_.end());
+        std::string m;
+        if (!checkCdt(cdt_, ref_, &list, m) && failures++ < 3)
+            ADD_FAILURE() << "after step " << step << ": " << m;
+        EXPECT_EQ(rec_.steps[s].trianglesAlive, cdt_.realTriangleCount);
+        brute_ = std::max(
+            {brute_, bruteForceMaxError(set_, cdt_), bruteForceRiverDeviation(set_, cdt_)});
+        if (!(std::fabs(rec_.errorMax[s] - brute_) <= tolerance(brute_)) && failures++ < 3)
+            ADD_FAILURE() << "step " << step << ": max " << rec_.errorMax[s] << " vs " << brute_;
+    }
+    std::uint32_t failures = 0;
+
+private:
+    const PointSet& set_;
+    const Cdt& cdt_;
+    const DeletionRecords& rec_;
+    const CheckReference ref_;
+    std::set<RiverEdge> edges_;
+    double brute_;
+};
+
 // With rivers: invariants after every step, errors equal to the brute force (vertical and river
 // deviation) at every step, keys non-decreasing where the order is free, BAI weights respected.
 TEST(GreedyOrder, InvariantsAndErrorsWithRivers) {
@@ -154,31 +192,16 @@ TEST(GreedyOrder, InvariantsAndErrorsWithRivers) {
     Cdt cdt;
     std::string error;
     ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
-    const CheckReference ref = captureCheckReference(cdt);
-    const std::vector<RiverEdge> initialEdges = collectRiverEdges(cdt);
-    std::set<RiverEdge> edges(initialEdges.begin(), initialEdges.end());
     DeletionRecords rec;
     DeletionOptions options;
-    double brute = bruteForceMaxError(set, cdt);
-    std::uint32_t failures = 0, riverSteps = 0;
+    StepChecks checks(set, cdt, rec);
+    std::uint32_t riverSteps = 0;
     options.afterStep = [&](std::uint32_t step) {
-        const std::uint32_t s = step - 1;
-        for (std::uint32_t i = rec.removedEdgeOffset[s]; i < rec.removedEdgeOffset[s + 1]; ++i)
-            edges.erase(rec.removedEdges[i]);
-        for (std::uint32_t i = rec.addedEdgeOffset[s]; i < rec.addedEdgeOffset[s + 1]; ++i)
-            edges.insert(rec.addedEdges[i]);
-        riverSteps += rec.addedEdgeOffset[s + 1] > rec.addedEdgeOffset[s];
-        const std::vector<RiverEdge> list(edges.begin(), edges.end());
-        std::string m;
-        if (!checkCdt(cdt, ref, &list, m) && failures++ < 3)
-            ADD_FAILURE() << "after step " << step << ": " << m;
-        brute = std::max(
-            {brute, bruteForceMaxError(set, cdt), bruteForceRiverDeviation(set, cdt)});
-        if (!(std::fabs(rec.errorMax[s] - brute) <= tolerance(brute)) && failures++ < 3)
-            ADD_FAILURE() << "step " << step << ": max " << rec.errorMax[s] << " vs " << brute;
+        checks(step);
+        riverSteps += rec.addedEdgeOffset[step] > rec.addedEdgeOffset[step - 1];
     };
     ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, error)) << error;
-    EXPECT_EQ(failures, 0u);
+    EXPECT_EQ(checks.failures, 0u);
     EXPECT_GT(riverSteps, 20u);
     EXPECT_EQ(rec.stepErrorMax.size(), rec.steps.size());
     EXPECT_EQ(rec.errorPaper.size(), rec.steps.size());
@@ -237,9 +260,6 @@ TEST(GreedyOrder, StraightHullVerticesAreDeleted) {
     Cdt cdt;
     std::string error;
     ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
-    const CheckReference ref = captureCheckReference(cdt);
-    const std::vector<RiverEdge> initialEdges = collectRiverEdges(cdt);
-    std::set<RiverEdge> edges(initialEdges.begin(), initialEdges.end());
     double lo = INFINITY, hi = -INFINITY;
     for (const Point& p : set.points) {
         if (p.kind == PointKind::Dem) lo = std::min({lo, p.x, p.y}), hi = std::max({hi, p.x, p.y});
@@ -250,27 +270,14 @@ TEST(GreedyOrder, StraightHullVerticesAreDeleted) {
     };
     DeletionRecords rec;
     DeletionOptions options;
-    double brute = bruteForceMaxError(set, cdt);
-    std::uint32_t failures = 0, hullSteps = 0;
+    StepChecks checks(set, cdt, rec);
+    std::uint32_t hullSteps = 0;
     options.afterStep = [&](std::uint32_t step) {
-        const std::uint32_t s = step - 1;
-        for (std::uint32_t i = rec.removedEdgeOffset[s]; i < rec.removedEdgeOffset[s + 1]; ++i)
-            edges.erase(rec.removedEdges[i]);
-        for (std::uint32_t i = rec.addedEdgeOffset[s]; i < rec.addedEdgeOffset[s + 1]; ++i)
-            edges.insert(rec.addedEdges[i]);
-        hullSteps += onBorder(rec.steps[s].vertex);
-        const std::vector<RiverEdge> list(edges.begin(), edges.end());
-        std::string m;
-        if (!checkCdt(cdt, ref, &list, m) && failures++ < 3)
-            ADD_FAILURE() << "after step " << step << ": " << m;
-        EXPECT_EQ(rec.steps[s].trianglesAlive, cdt.realTriangleCount);
-        brute = std::max(
-            {brute, bruteForceMaxError(set, cdt), bruteForceRiverDeviation(set, cdt)});
-        if (!(std::fabs(rec.errorMax[s] - brute) <= tolerance(brute)) && failures++ < 3)
-            ADD_FAILURE() << "step " << step << ": max " << rec.errorMax[s] << " vs " << brute;
+        checks(step);
+        hullSteps += onBorder(rec.steps[step - 1].vertex);
     };
     ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, error)) << error;
-    EXPECT_EQ(failures, 0u);
+    EXPECT_EQ(checks.failures, 0u);
     EXPECT_GT(hullSteps, 20u);
     std::uint32_t corners = 0;
     for (PointId v = 0; v < set.points.size(); ++v) {
