@@ -5,10 +5,12 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <thread>
 #include <nlohmann/json.hpp>
 
 #include "headless.h"
+#include "jsontext.h"
 #include "pngwrite.h"
 
 namespace unilod::engine {
@@ -106,13 +108,19 @@ bool validCamera(const Camera& c) {
 }
 
 bool loadCameraPath(const std::string& path, CameraPath& out, std::string& error) {
-    std::ifstream in(path);
-    if (!in) {
-        error = path + ": cannot open the camera path";
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream text;
+    if (in) text << in.rdbuf();
+    if (!in || in.bad()) {
+        error = path + ": cannot read the camera path";
         return false;
     }
-    const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
-    if (j.is_discarded() || !j.is_object()) {
+    nlohmann::json j;
+    if (!parseJson(text.str(), j, error)) {
+        error = path + ": " + error;
+        return false;
+    }
+    if (!j.is_object()) {
         error = path + ": not a JSON object";
         return false;
     }
@@ -273,7 +281,7 @@ bool runCapture(const CaptureOptions& options, CaptureResult& result, std::strin
         written.push_back(f.pngPath);
         const nlohmann::json json =
             frameJson(options, options.cameras[i], f, metric, result.deviceName);
-        if (!writeText(f.jsonPath, json.dump(2) + "\n", error)) {
+        if (!writeText(f.jsonPath, jsonText(json, 2) + "\n", error)) {
             cleanup();
             return false;
         }

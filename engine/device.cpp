@@ -240,6 +240,15 @@ bool createDevice(const DeviceOptions& requested, Device& device, std::string& e
     vkGetPhysicalDeviceProperties(device.physical, &device.properties);
     if (device.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU) keepFreedHostMemory();
     vkGetPhysicalDeviceMemoryProperties(device.physical, &device.memory);
+    {
+        VkPhysicalDeviceMaintenance3Properties m3{};
+        m3.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES;
+        VkPhysicalDeviceProperties2 p2{};
+        p2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+        p2.pNext = &m3;
+        vkGetPhysicalDeviceProperties2(device.physical, &p2);
+        device.maxAllocation = m3.maxMemoryAllocationSize;
+    }
     graphicsFamily(device.physical, device.surface, device.queueFamily);
 
     const float priority = 1.0f;

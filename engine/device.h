@@ -47,6 +47,7 @@ struct Device {
     bool fillModeNonSolid = false;       // wireframe (grid mode) available and enabled
     bool timestamps = false;             // the queue writes timestamps (GPU frame time)
     double timestampPeriodNs = 0;        // nanoseconds per timestamp tick
+    VkDeviceSize maxAllocation = 0;      // maxMemoryAllocationSize (Vulkan 1.1 maintenance3)
 };
 
 // Returns false with a message when no usable Vulkan instance or device exists (an environment

@@ -2,12 +2,15 @@
 // lambert shading, rivers as lines on their constraint edges (DESIGN.md "Engine").
 #include "renderer.h"
 
+#include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <string>
 
 #include "../shaders/shared.h"
 #include "vkcheck.h"
@@ -18,9 +21,27 @@
 
 namespace unilod::engine {
 
-void createBuffer(const Device& device, VkDeviceSize size, VkBufferUsageFlags usage,
-                  VkMemoryPropertyFlags properties, Buffer& buffer) {
+VkDeviceSize largestAllocation(const Device& device, VkMemoryPropertyFlags properties) {
+    VkDeviceSize largest = 0;
+    for (std::uint32_t i = 0; i < device.memory.memoryTypeCount; ++i) {
+        const VkMemoryType& t = device.memory.memoryTypes[i];
+        if ((t.propertyFlags & properties) == properties)
+            largest = std::max(largest, device.memory.memoryHeaps[t.heapIndex].size);
+    }
+    if (device.maxAllocation > 0) largest = std::min(largest, device.maxAllocation);
+    return largest;
+}
+
+bool tryCreateBuffer(const Device& device, VkDeviceSize size, VkBufferUsageFlags usage,
+                     VkMemoryPropertyFlags properties, Buffer& buffer, std::string& error) {
     assert(size > 0);
+    const auto mib = [](VkDeviceSize b) { return std::to_string((b + (1u << 20) - 1) >> 20); };
+    const VkDeviceSize limit = largestAllocation(device, properties);
+    if (size > limit) {
+        error = "a buffer of " + mib(size) + " MiB exceeds what the Vulkan device '" +
+                device.properties.deviceName + "' can allocate at once (" + mib(limit) + " MiB)";
+        return false;
+    }
     VkBufferCreateInfo info{};
     info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
     info.size = size;
@@ -33,11 +54,32 @@ void createBuffer(const Device& device, VkDeviceSize size, VkBufferUsageFlags us
     alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
     alloc.allocationSize = req.size;
     alloc.memoryTypeIndex = findMemoryType(device, req.memoryTypeBits, properties);
-    VK_CHECK(vkAllocateMemory(device.device, &alloc, nullptr, &buffer.memory));
+    const VkResult r = vkAllocateMemory(device.device, &alloc, nullptr, &buffer.memory);
+    if (r == VK_ERROR_OUT_OF_DEVICE_MEMORY || r == VK_ERROR_OUT_OF_HOST_MEMORY) {
+        vkDestroyBuffer(device.device, buffer.buffer, nullptr);
+        buffer = Buffer{};
+        error = "the Vulkan device '" + std::string(device.properties.deviceName) +
+                "' could not allocate " + mib(req.size) + " MiB (" +
+                (r == VK_ERROR_OUT_OF_DEVICE_MEMORY ? "out of device memory"
+                                                    : "out of host memory") +
+                ")";
+        return false;
+    }
+    VK_CHECK(r);
     VK_CHECK(vkBindBufferMemory(device.device, buffer.buffer, buffer.memory, 0));
     buffer.size = size;
     if (properties & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT)
         VK_CHECK(vkMapMemory(device.device, buffer.memory, 0, VK_WHOLE_SIZE, 0, &buffer.mapped));
+    return true;
+}
+
+void createBuffer(const Device& device, VkDeviceSize size, VkBufferUsageFlags usage,
+                  VkMemoryPropertyFlags properties, Buffer& buffer) {
+    std::string error;
+    if (!tryCreateBuffer(device, size, usage, properties, buffer, error)) {
+        std::fprintf(stderr, "unilod: %s\n", error.c_str());
+        std::abort();
+    }
 }
 
 void destroyBuffer(const Device& device, Buffer& buffer) {

@@ -22,8 +22,18 @@ struct Buffer {
     VkDeviceSize size = 0;
     void* mapped = nullptr;  // host-visible buffers stay mapped
 };
+// A buffer with its own memory (host-visible buffers stay mapped). Running out of memory here is
+// not expected (small, fixed-size buffers): it aborts with a message.
 void createBuffer(const Device& device, VkDeviceSize size, VkBufferUsageFlags usage,
                   VkMemoryPropertyFlags properties, Buffer& buffer);
+// The same for a buffer whose size comes from the user or the data (the GPU budget, staging for
+// the largest block): false with a message when it exceeds what the device can allocate (the
+// memory heap of its type, maxMemoryAllocationSize) or the allocation fails; nothing is left.
+bool tryCreateBuffer(const Device& device, VkDeviceSize size, VkBufferUsageFlags usage,
+                     VkMemoryPropertyFlags properties, Buffer& buffer, std::string& error);
+// The largest buffer of memory with `properties` the device can allocate at once: the largest
+// heap among the matching memory types, capped by maxMemoryAllocationSize. 0 when none matches.
+VkDeviceSize largestAllocation(const Device& device, VkMemoryPropertyFlags properties);
 void destroyBuffer(const Device& device, Buffer& buffer);
 
 struct Image {

@@ -299,28 +299,61 @@ bool StreamingScene::open(const Device& device, const std::string& path,
         for (const BlockState& b : s.blocks) all += alignUp(b.fullBytes);
         budget = std::max(budget, all);
     }
-    // Indices are addressed in uint32 units from the start of the arena.
-    s.budget = std::min<std::uint64_t>(budget, 16ull << 30) / kAlignment * kAlignment;
+    if (budget > kMaxGpuBudget) {
+        char text[160];
+        std::snprintf(text, sizeof text,
+                      ": %s %.10g MiB is more than one buffer can address (%llu MiB)",
+                      options.preloadAll ? "every block resident needs" : "--gpu-budget",
+                      double(budget) / 1048576.0, (unsigned long long)(kMaxGpuBudget >> 20));
+        error = path + text;
+        return false;
+    }
+    s.budget = budget / kAlignment * kAlignment;
     if (s.coarseBytes > s.budget) {
         char text[200];
         std::snprintf(text, sizeof text,
-                      ": --gpu-budget %.2f MiB is below the always-resident coarse levels "
+                      ": --gpu-budget %.6g MiB is below the always-resident coarse levels "
                       "(%.2f MiB)",
                       double(options.gpuBudget) / 1048576.0, double(s.coarseBytes) / 1048576.0);
         error = path + text;
         return false;
     }
+    // The arena must fit the device: checked first, so that a large --gpu-budget (or a model too
+    // large to preload) is an error naming the option and the device's limit, not a driver abort.
+    const std::uint64_t deviceLimit = largestAllocation(device, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    if (s.budget > deviceLimit) {
+        char text[160];
+        if (options.preloadAll)
+            std::snprintf(text, sizeof text, ": every block resident needs %.2f MiB, more than ",
+                          double(s.budget) / 1048576.0);
+        else
+            std::snprintf(text, sizeof text, ": --gpu-budget %.10g MiB is more than ",
+                          double(options.gpuBudget) / 1048576.0);
+        error = path + text + "the Vulkan device '" + device.properties.deviceName +
+                "' can allocate at once (" + std::to_string(deviceLimit >> 20) + " MiB)";
+        return false;
+    }
     s.device = &device;
-    createBuffer(device, s.budget,
-                 VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_INDEX_BUFFER_BIT |
-                     VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                 VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, s.arena);
+    if (!tryCreateBuffer(device, s.budget,
+                         VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_INDEX_BUFFER_BIT |
+                             VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                         VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, s.arena, error)) {
+        error = path + ": --gpu-budget: " + error;
+        close();
+        return false;
+    }
     s.allocator.reset(s.budget);
     s.stagingSize = std::max({options.uploadBytesPerFrame, largest, s.coarseBytes});
-    for (Staging& st : s.staging)
-        createBuffer(device, s.stagingSize, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                     VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
-                     st.buffer);
+    for (Staging& st : s.staging) {
+        if (!tryCreateBuffer(device, s.stagingSize, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                             VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
+                                 VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                             st.buffer, error)) {
+            error = path + ": staging for the coarse levels and the largest block: " + error;
+            close();
+            return false;
+        }
+    }
     // The coarse set, in one transfer through the first staging buffer.
     std::vector<VkBufferCopy> copies;
     std::uint64_t at = 0;

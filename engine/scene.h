@@ -35,6 +35,8 @@ namespace unilod::engine {
 
 inline constexpr std::uint32_t kFramesInFlight = 2;
 inline constexpr std::uint64_t kDefaultGpuBudget = 512ull << 20;  // 512 MiB
+// The largest budget: indices are addressed in uint32 units from the start of one buffer.
+inline constexpr std::uint64_t kMaxGpuBudget = 16ull << 30;  // 16 GiB
 
 enum class LodPolicy {
     Adaptive,  // the coarsest level with h_s <= h_lim (the product)

@@ -14,6 +14,7 @@
 
 #include "blockbuild.h"
 #include "dem.h"
+#include "jsontext.h"
 #include "nodata.h"
 #include "rivercleaning.h"
 #include "rivers.h"
@@ -255,7 +256,7 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
         {"lod_triangle_ratio", blockOptions.lodRatio},
         {"grid_unit_m", format::kGridUnit},
     };
-    header.buildInfo = info.dump();
+    header.buildInfo = jsonText(info);
 
     // Blocks in parallel, written in grid order by this thread as soon as each is next in line,
     // so the file does not depend on timing. Workers run at most `window` blocks ahead of the

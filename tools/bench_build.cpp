@@ -14,6 +14,7 @@
 
 #include "benchbuild.h"
 #include "benchutil.h"
+#include "jsontext.h"
 
 using nlohmann::json;
 
@@ -71,6 +72,6 @@ int main(int argc, char** argv) {
                            {"synthetic_4097_seconds_max", 90.0},
                            {"synthetic_4097_rss_bytes_max", 1000000000}}},
                          {"cases", cases}};
-    std::printf("%s\n", result.dump(2).c_str());
+    std::printf("%s\n", unilod::jsonText(result, 2).c_str());
     return 0;
 }

@@ -18,6 +18,7 @@
 
 #include "cdt.h"
 #include "deletion.h"
+#include "jsontext.h"
 
 namespace {
 
@@ -207,6 +208,6 @@ int main(int argc, char** argv) {
                        {"added_river_edges", double(records.addedEdges.size()) / steps}};
     if (!records.errorMax.empty()) out["final_error_max_m"] = records.errorMax.back();
     if (!records.errorPaper.empty()) out["final_error_paper_m"] = records.errorPaper.back();
-    std::printf("%s\n", out.dump(2).c_str());
+    std::printf("%s\n", jsonText(out, 2).c_str());
     return 0;
 }

@@ -20,6 +20,7 @@
 
 #include "benchutil.h"
 #include "importance.h"
+#include "jsontext.h"
 #include "synthetic.h"
 
 namespace {
@@ -143,7 +144,7 @@ int main(int argc, char** argv) {
         {"hardware_threads", std::thread::hardware_concurrency()},
         {"runs", runs},
     };
-    const std::string text = result.dump(2);
+    const std::string text = unilod::jsonText(result, 2);
     std::printf("%s\n", text.c_str());
     if (!out.empty()) {
         FILE* f = std::fopen(out.c_str(), "w");

@@ -36,6 +36,7 @@
 #include "benchutil.h"
 #include "dem.h"
 #include "greedytin.h"
+#include "jsontext.h"
 #include "stats.h"
 #include "ulod.h"
 
@@ -272,7 +273,7 @@ int main(int argc, char** argv) {
                              {"target_points", buildTime},
                              {"inputs", inputs},
                              {"build", build}};
-        std::printf("%s\n", result.dump(2).c_str());
+        std::printf("%s\n", unilod::jsonText(result, 2).c_str());
         return 0;
     }
 
@@ -389,6 +390,6 @@ int main(int argc, char** argv) {
                          {"all_met", allMet},
                          {"builds", builds},
                          {"tins", tins}};
-    std::printf("%s\n", result.dump(2).c_str());
+    std::printf("%s\n", unilod::jsonText(result, 2).c_str());
     return 0;
 }

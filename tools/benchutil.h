@@ -9,6 +9,8 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "jsontext.h"
+
 namespace unilod::bench {
 
 // Runs f() (returning JSON) in a forked child and returns its result; exits the program with 1
@@ -20,7 +22,7 @@ nlohmann::json runInChild(F f) {
     const pid_t pid = fork();
     if (pid == 0) {
         close(fd[0]);
-        const std::string text = f().dump();
+        const std::string text = jsonText(f());
         if (write(fd[1], text.data(), text.size()) < 0) _exit(1);
         _exit(0);
     }

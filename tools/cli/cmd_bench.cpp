@@ -15,6 +15,7 @@
 #include "capture.h"
 #include "commands.h"
 #include "engineopts.h"
+#include "jsontext.h"
 #include "ulod.h"
 
 namespace unilod::cli {
@@ -110,7 +111,7 @@ int run(BenchCli& c) {
         const std::string temp = c.jsonOut + ".tmp";
         {
             std::ofstream f(temp, std::ios::trunc);
-            f << out.dump(2) << "\n";
+            f << jsonText(out, 2) << "\n";
             if (!f.flush()) {
                 std::error_code ec;
                 std::filesystem::remove(temp, ec);

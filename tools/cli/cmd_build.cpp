@@ -8,6 +8,7 @@
 
 #include "build.h"
 #include "commands.h"
+#include "numbers.h"
 
 namespace unilod::cli {
 
@@ -102,7 +103,7 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
     sub->add_option("-o,--output", c->o.outPath, "output .ulod file")->required();
     sub->add_flag("--force", c->o.force, "overwrite an existing output file");
     sub->add_option("--band", c->o.band, "raster band (1-based) for multi-band rasters")
-        ->check(CLI::PositiveNumber);
+        ->check(positive());
     sub->add_option("--t-srs", c->o.targetSrs,
                     "working CRS (default: a projected DEM's own, a geographic DEM's UTM zone)");
     sub->add_option("--layer", c->o.layer, "river layer name (default: the first line layer)");
@@ -121,12 +122,13 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
         ->check(CLI::IsMember({"greedy", "3ddp"}));
     sub->add_flag("--no-bai", c->noBai, "no Bending Adjustment Index (3ddp: plain 3D_DP)");
     sub->add_option("--bai-table", c->o.baiTablePath, "BAI constants table file (see README)");
-    sub->add_option("--bai-row", c->o.baiRow, "simplification-threshold row of the BAI table (m)");
+    sub->add_option("--bai-row", c->o.baiRow, "simplification-threshold row of the BAI table (m)")
+        ->check(finite());
     sub->add_option("--metric", c->metric, "default error metric recorded in the file")
         ->check(CLI::IsMember({"max", "paper"}));
     sub->add_option("--min-river-length", c->o.minRiverLength,
                     "drop rivers shorter than this (metres)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(nonNegative());
     sub->add_flag("-q,--quiet", c->quiet, "no progress output");
     sub->callback([c, &exitCode] { exitCode = run(*c); });
 }

@@ -11,6 +11,7 @@
 #include "capture.h"
 #include "commands.h"
 #include "engineopts.h"
+#include "numbers.h"
 
 namespace unilod::cli {
 
@@ -87,7 +88,7 @@ void addCaptureCommand(CLI::App& app, int& exitCode) {
                     "frames to render (default: one per keyframe; sampled evenly along the path)")
         ->check(CLI::Range(1u, 100000u));
     sub->add_option("--fov", c->fov, "vertical field of view in degrees with --camera (default 60)")
-        ->check(CLI::Range(1.0, 179.0));
+        ->check(numberIn(1.0, 179.0));
     c->engine.add(*sub, "1024x768");
     sub->add_flag("--grid", c->o.grid,
                   "2D grid mode: top-down orthographic wireframe, river edges highlighted");

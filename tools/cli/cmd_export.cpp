@@ -11,6 +11,7 @@
 
 #include "commands.h"
 #include "gltfexport.h"
+#include "numbers.h"
 #include "ulod.h"
 
 namespace unilod::cli {
@@ -105,15 +106,15 @@ void addExportCommand(CLI::App& app, int& exitCode) {
             ->expected(3, 5);
     CLI::Option* hLim = sub->add_option("--h-lim", c->hLim,
                                         "model-space error tolerance in metres for every block")
-                            ->check(CLI::NonNegativeNumber);
+                            ->check(nonNegative());
     camera->excludes(hLim);
     hLim->excludes(camera);
     sub->add_option("--pixels", c->o.selection.pixels,
                     "screen-space error tolerance P in pixels (--camera; default 1)")
-        ->check(CLI::PositiveNumber);
+        ->check(positive());
     sub->add_option("--fov", c->o.selection.fovDegrees,
                     "vertical field of view in degrees (--camera; default 60)")
-        ->check(CLI::Range(1e-6, 179.999));
+        ->check(numberIn(0, 180, Bound::Open, Bound::Open));
     sub->add_option("--size", c->size,
                     "viewport WxH: H enters h_lim, W/H the frustum (--camera; default 1920x1080)");
     sub->add_option("--distance", c->distance,

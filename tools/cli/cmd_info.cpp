@@ -4,6 +4,7 @@
 #include <string>
 
 #include "commands.h"
+#include "jsontext.h"
 #include "ulod.h"
 
 namespace unilod::cli {
@@ -55,7 +56,7 @@ int run(const std::string& path, bool asJson) {
             {"full_triangles", triangles},
             {"blocks", blocks},
         };
-        std::printf("%s\n", out.dump(2).c_str());
+        std::printf("%s\n", jsonText(out, 2).c_str());
         return 0;
     }
     std::printf("%s: unilod .ulod version %u\n", path.c_str(), format::kVersion);

@@ -22,6 +22,8 @@
 #include "commands.h"
 #include "dem.h"
 #include "importance.h"
+#include "jsontext.h"
+#include "numbers.h"
 #include "pointset.h"
 #include "rivers.h"
 
@@ -144,7 +146,7 @@ void printText(const json& s) {
     }
     std::printf("  chain length   %zu\n", s["chainLength"].get<std::size_t>());
     std::printf("  BAI            %s\n", s["bai"]["enabled"].get<bool>()
-                                             ? ("on, row " + s["bai"]["row"].dump() + " m").c_str()
+                                             ? ("on, row " + jsonText(s["bai"]["row"]) + " m").c_str()
                                              : "off (plain 3D_DP)");
     for (const char* k : {"dem", "river"}) {
         const auto& q = s["importance"][k];
@@ -197,7 +199,7 @@ int runOrder(const OrderOptions& o) {
         if (!BaiTable::load(o.baiTable, io.baiTable, error)) return fail(error);
         if (io.baiTable.findRow(o.baiRow) < 0) {
             return fail("BAI table '" + o.baiTable + "': no row for threshold " +
-                        json(o.baiRow).dump() + " m (--bai-row)");
+                        jsonText(json(o.baiRow)) + " m (--bai-row)");
         }
     }
     const int baiRowIndex = io.baiTable.findRow(o.baiRow);
@@ -342,7 +344,7 @@ int runOrder(const OrderOptions& o) {
     summary["seconds"] = seconds;
 
     if (o.json) {
-        std::printf("%s\n", summary.dump(2).c_str());
+        std::printf("%s\n", jsonText(summary, 2).c_str());
     } else {
         printText(summary);
     }
@@ -358,7 +360,7 @@ void addOrderCommand(CLI::App& app, int& exitCode) {
     sub->add_option("DEM", opts->dem, "DEM raster (any single-band raster GDAL reads)")->required();
     sub->add_option("RIVERS", opts->rivers, "River lines (any OGR line layer)")->required();
     sub->add_option("--band", opts->band, "DEM band (1-based; needed for multi-band rasters)")
-        ->check(CLI::PositiveNumber);
+        ->check(positive());
     sub->add_option("--target-srs", opts->targetSrs,
                     "Working CRS (default: the DEM's projected CRS, or the UTM zone of its centre "
                     "for a geographic DEM)");
@@ -390,7 +392,7 @@ void addOrderCommand(CLI::App& app, int& exitCode) {
                 if (table->count() > 0 || paper.findRow(v) >= 0) return "";
                 std::string rows;
                 for (const auto& r : paper.rows) {
-                    rows += (rows.empty() ? "" : ", ") + json(r.threshold).dump();
+                    rows += (rows.empty() ? "" : ", ") + jsonText(json(r.threshold));
                 }
                 return "no such row in the paper's table (rows: " + rows + ")";
             },

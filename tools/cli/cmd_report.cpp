@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "commands.h"
+#include "numbers.h"
 #include "report.h"
 #include "ulod.h"
 
@@ -73,11 +74,11 @@ void addReportCommand(CLI::App& app, int& exitCode) {
     sub->add_option("--pixels", c->o.stats.pixels,
                     "pixel tolerances P, comma-separated (default 1; diagrams use the first)")
         ->delimiter(',')
-        ->check(CLI::PositiveNumber);
+        ->check(positive());
     sub->add_option("--fov", c->o.stats.fovDegrees, "vertical field of view in degrees (default 60)")
-        ->check(CLI::Range(1e-6, 179.999));
+        ->check(numberIn(0, 180, Bound::Open, Bound::Open));
     sub->add_option("--height", c->o.stats.heightPixels, "viewport height in pixels (default 1080)")
-        ->check(CLI::Range(1.0, 1e9));
+        ->check(numberIn(1.0, 1e9));
     sub->add_option("--metric", c->metric, "error metric (default: the file's default)")
         ->check(CLI::IsMember({"max", "paper"}));
     sub->add_option("--dem", c->o.demPath, "DEM for the river comparison (default: the build's)");
@@ -88,7 +89,7 @@ void addReportCommand(CLI::App& app, int& exitCode) {
                     "river point budgets in percent of unlocked points, comma-separated "
                     "(default 5,10,20,40)")
         ->delimiter(',')
-        ->check(CLI::Range(0.0, 100.0));
+        ->check(numberIn(0.0, 100.0));
     sub->add_option("--image-size", c->o.imageSize, "grid diagram size in pixels (default 1024)")
         ->check(CLI::Range(16, 16384));
     sub->add_flag("-q,--quiet", c->quiet, "no progress lines on stderr");

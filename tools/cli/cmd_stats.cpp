@@ -10,6 +10,8 @@
 #include <vector>
 
 #include "commands.h"
+#include "jsontext.h"
+#include "numbers.h"
 #include "stats.h"
 #include "ulod.h"
 
@@ -152,7 +154,7 @@ void printErrorJson(const ErrorStatsTable& t, const std::string& path) {
                                 {"full_points", t.fullPoints},
                                 {"full_triangles", t.fullTriangles},
                                 {"rows", rows}};
-    std::printf("%s\n", out.dump(2).c_str());
+    std::printf("%s\n", jsonText(out, 2).c_str());
 }
 
 int runErrors(const StatsCli& c) {
@@ -231,18 +233,11 @@ void addStatsCommand(CLI::App& app, int& exitCode) {
     CLI::Option* pixels = sub->add_option("--pixels", c->pixels,
                     "screen projection error tolerances P in pixels, comma-separated (default 1)")
         ->delimiter(',')
-        ->check(CLI::PositiveNumber);
+        ->check(positive());
     sub->add_option("--fov", c->fov, "vertical field of view in degrees (default 60)")
-        ->check(CLI::Validator(
-            [](std::string& s) -> std::string {
-                char* end = nullptr;
-                const double v = std::strtod(s.c_str(), &end);
-                if (end == s.c_str() || *end != '\0') return "not a number: " + s;
-                return v > 0 && v < 180 ? "" : "field of view must be in (0, 180) degrees: " + s;
-            },
-            "(0,180)"));
+        ->check(numberIn(0, 180, Bound::Open, Bound::Open));
     sub->add_option("--height", c->height, "viewport height in pixels (default 1080)")
-        ->check(CLI::Range(1.0, 1e9));
+        ->check(numberIn(1.0, 1e9));
     sub->add_option("--metric", c->metric, "error metric (default: the file's default)")
         ->check(CLI::IsMember({"max", "paper"}));
     CLI::Option* csv = sub->add_flag("--csv", c->csv, "CSV output (header row, '.' decimals)");

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "commands.h"
+#include "numbers.h"
 #include "synthetic.h"
 
 namespace unilod::cli {
@@ -60,7 +61,7 @@ void addSynthCommand(CLI::App& app, int& exitCode) {
     sub->add_option("--seed", opts->seed, "Random seed (same seed, same files)")
         ->capture_default_str();
     sub->add_option("--cell-size", opts->cellSize, "DEM cell size in metres")
-        ->check(CLI::Range(0.01, 100000.0))
+        ->check(numberIn(0.01, 100000.0))
         ->capture_default_str();
     sub->add_option("--rivers", opts->rivers, "Main rivers (0: scale with the size)")
         ->check(CLI::Range(0, 1000))

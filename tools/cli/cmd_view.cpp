@@ -10,6 +10,7 @@
 
 #include "commands.h"
 #include "engineopts.h"
+#include "numbers.h"
 #include "view.h"
 
 namespace unilod::cli {
@@ -70,7 +71,7 @@ void addViewCommand(CLI::App& app, int& exitCode) {
         ->expected(5);
     c->engine.add(*sub, "1280x720");
     sub->add_option("--frames", c->o.frames, "render N frames, then exit (default: until Esc)")
-        ->check(CLI::PositiveNumber);
+        ->check(positive());
     sub->add_option("--screenshot", c->o.screenshotPath,
                     "with --frames: write the last frame to this PNG");
     sub->add_option("--resize", c->resize,

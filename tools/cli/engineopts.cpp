@@ -2,6 +2,8 @@
 
 #include <cstdio>
 
+#include "numbers.h"
+
 namespace unilod::cli {
 
 namespace {
@@ -32,7 +34,7 @@ void EngineCli::add(CLI::App& sub, const std::string& defaultSize) {
     size = defaultSize;
     sub.add_option("--size", size, "image size WxH (default " + defaultSize + ")");
     sub.add_option("--pixels", pixels, "screen-space error tolerance P in pixels (default 1)")
-        ->check(CLI::PositiveNumber);
+        ->check(positive());
     sub.add_option("--metric", metric, "error metric: max (a bound, default) or paper")
         ->check(CLI::IsMember({"max", "paper"}));
     sub.add_option("--distance", distance,
@@ -44,7 +46,7 @@ void EngineCli::add(CLI::App& sub, const std::string& defaultSize) {
                    "device memory for block geometry in MiB (default " +
                        std::to_string(engine::kDefaultGpuBudget >> 20) +
                        "); must hold every block's coarsest level")
-        ->check(CLI::PositiveNumber);
+        ->check(numberIn(0, double(engine::kMaxGpuBudget >> 20), Bound::Open));
     CLI::Option* on = sub.add_flag(
         "--validation", validation,
         std::string("enable the Vulkan validation layer; any warning or error fails the command "
@@ -56,7 +58,7 @@ void EngineCli::add(CLI::App& sub, const std::string& defaultSize) {
     off->excludes(on);
     sub.add_option("--device", device,
                    "Vulkan physical device index (default: $UNILOD_DEVICE, else the best)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(nonNegative());
 }
 
 bool EngineCli::apply(engine::SceneOptions& scene, engine::DeviceOptions& dev, std::uint32_t& width,

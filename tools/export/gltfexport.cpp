@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <limits>
 
+#include "jsontext.h"
+
 namespace unilod::exporter {
 
 namespace {
@@ -176,13 +178,14 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
     model.asset.version = "2.0";
     model.asset.generator = "unilod export";
     Value::Object assetExtras;
-    assetExtras["crs_wkt"] = Value(header.crsWkt);
+    // glTF is JSON: text from the outside (a CRS, a path) must be valid UTF-8 (jsontext.h).
+    assetExtras["crs_wkt"] = Value(validUtf8(header.crsWkt));
     assetExtras["origin"] =
         Value(Value::Array{Value(header.originX), Value(header.originY), Value(0.0)});
     assetExtras["axes"] = Value(std::string(
         "gltf (x, y, z) = (X - origin[0], Z, -(Y - origin[1])) for a world point (X east, Y "
         "north, Z up) of crs_wkt, metres"));
-    assetExtras["source"] = Value(options.path);
+    assetExtras["source"] = Value(validUtf8(options.path));
     assetExtras["metric"] =
         Value(std::string(metric == format::kMetricPaper ? "paper" : "max"));
     Value::Object sel;

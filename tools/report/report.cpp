@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "jsontext.h"
 #include "pngwrite.h"
 #include "ulod.h"
 
@@ -333,7 +334,7 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
                                {"max_hausdorff_plain_m", r.maxPlain}});
     }
     j["files"] = summary.files;  // the files above; report.json and report.md come last
-    if (!writeText(temp, "report.json", j.dump(2) + "\n", summary, error)) return false;
+    if (!writeText(temp, "report.json", jsonText(j, 2) + "\n", summary, error)) return false;
 
     std::ostringstream md;
     md << "# unilod report: " << o.path << "\n\n"

@@ -1,0 +1,197 @@
+// Hostile input that is not a damaged file (issue 16): text that is not UTF-8 where JSON is
+// written (a DEM path with the byte 0xFF, a CRS WKT with it), option values that are not finite
+// numbers or outside their range, a --gpu-budget larger than the device can allocate, and a
+// camera path whose number overflows. Every case: no abort, a message naming the option or the
+// file, exit code != 0 where the input is refused, no output file; valid JSON where it is accepted.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "synthetic.h"
+#include "tools/cliutil.h"
+#include "ulod.h"
+
+namespace fs = std::filesystem;
+using namespace unilod;
+
+namespace {
+
+using unilod::test::q;
+using unilod::test::runCli;
+using unilod::test::slurp;
+
+const std::string kAssets = UNILOD_ASSETS_DIR;
+const std::string kBad = "\xff";  // never valid in UTF-8
+
+// A JSON document parsed with exceptions on: a parse error or invalid UTF-8 fails the test.
+nlohmann::json parseStrict(const std::string& text) {
+    try {
+        return nlohmann::json::parse(text);
+    } catch (const std::exception& e) {
+        ADD_FAILURE() << "not valid JSON: " << e.what() << "\n" << text.substr(0, 400);
+        return {};
+    }
+}
+
+// The JSON chunk of a GLB (glTF 2.0 binary: 12-byte header, then chunk length + type "JSON").
+std::string glbJson(const std::string& glb) {
+    if (glb.size() < 20 || glb.compare(0, 4, "glTF") != 0) return {};
+    std::uint32_t length = 0;
+    std::memcpy(&length, glb.data() + 12, 4);
+    if (glb.compare(16, 4, "JSON") != 0 || 20 + std::size_t(length) > glb.size()) return {};
+    return glb.substr(20, length);
+}
+
+bool aborted(const test::CliResult& r) { return r.code < 0 || r.code >= 128; }
+
+class Inputs : public ::testing::Test {
+protected:
+    static inline fs::path dir;
+    static inline std::string dem, rivers, model;
+    static void SetUpTestSuite() {
+        dir = fs::temp_directory_path() / ("unilod_test_inputs_" + std::to_string(getpid()));
+        fs::remove_all(dir);
+        fs::create_directories(dir);
+        SyntheticOptions so;
+        so.targetPoints = 6000;
+        so.seed = 5;
+        const SyntheticData data = generateSyntheticData(so);
+        std::string error;
+        ASSERT_TRUE(writeSyntheticData(data, (dir / "synth").string(), error)) << error;
+        // Input paths that are not UTF-8 (valid on Linux).
+        dem = (dir / ("dem_" + kBad + ".tif")).string();
+        rivers = (dir / ("rivers_" + kBad + ".geojson")).string();
+        fs::copy_file(dir / "synth" / "dem.tif", dem);
+        fs::copy_file(dir / "synth" / "rivers.geojson", rivers);
+        model = (dir / ("model_" + kBad + ".ulod")).string();
+        const auto r = runCli("build " + q(dem) + " " + q(rivers) + " -o " + q(model) +
+                                " --block-size 32 -q");
+        ASSERT_EQ(r.code, 0) << r.err;
+    }
+    static void TearDownTestSuite() {
+        std::error_code ec;
+        fs::remove_all(dir, ec);
+    }
+};
+
+TEST_F(Inputs, PathsThatAreNotUtf8BuildAndReportValidJson) {
+    // The build info records the paths; it must be valid JSON (U+FFFD for the bad byte).
+    format::Reader reader;
+    std::string error;
+    ASSERT_TRUE(reader.open(model, error)) << error;
+    const nlohmann::json info = parseStrict(reader.header().buildInfo);
+    ASSERT_TRUE(info.is_object());
+    EXPECT_NE(info.value("dem", std::string()).find("\xEF\xBF\xBD"), std::string::npos)
+        << "the 0xFF byte is shown as U+FFFD";
+
+    const auto r = runCli("info --json " + q(model));
+    ASSERT_EQ(r.code, 0) << r.err;
+    const nlohmann::json j = parseStrict(r.out);
+    EXPECT_EQ(j.value("vertices", 0u) > 0, true);
+
+    const std::string glb = (dir / ("out_" + kBad + ".glb")).string();
+    const auto e = runCli("export " + q(model) + " --h-lim 5 -o " + q(glb));
+    ASSERT_EQ(e.code, 0) << e.err;
+    const nlohmann::json g = parseStrict(glbJson(slurp(glb)));
+    EXPECT_TRUE(g.contains("asset"));
+}
+
+TEST_F(Inputs, CrsTextThatIsNotUtf8IsSanitisedInEveryJsonOutput) {
+    // A file written by another tool (or edited) may carry any bytes in its CRS WKT and build
+    // info; the format does not forbid them, the JSON writers must cope.
+    test::Model m;
+    std::string error;
+    ASSERT_TRUE(test::readModel(model, m, error)) << error;
+    m.header.crsWkt = "LOCAL_CS[\"caf" + kBad + "\"]";
+    m.header.buildInfo = "{\"dem\": \"" + kBad + "\"";  // neither UTF-8 nor complete JSON
+    const std::string odd = (dir / "odd.ulod").string();
+    ASSERT_TRUE(format::writeUlod(odd, m.header, m.blocks, error)) << error;
+
+    const auto r = runCli("info --json " + q(odd));
+    ASSERT_EQ(r.code, 0) << r.err;
+    const nlohmann::json j = parseStrict(r.out);
+    EXPECT_EQ(j.value("crs_wkt", std::string()), "LOCAL_CS[\"caf\xEF\xBF\xBD\"]");
+    EXPECT_TRUE(j["build"].is_string()) << "unparsable build info is shown as text";
+
+    const std::string glb = (dir / "odd.glb").string();
+    const auto e = runCli("export " + q(odd) + " --h-lim 5 -o " + q(glb));
+    ASSERT_EQ(e.code, 0) << e.err;
+    const nlohmann::json g = parseStrict(glbJson(slurp(glb)));
+    EXPECT_EQ(g["asset"]["extras"].value("crs_wkt", std::string()),
+              "LOCAL_CS[\"caf\xEF\xBF\xBD\"]");
+}
+
+TEST_F(Inputs, OptionValuesOutsideTheirRangeAreUsageErrorsWithShortMessages) {
+    const std::string out = (dir / "refused").string();
+    struct Case {
+        std::string command, option, value;
+    };
+    const std::string path = kAssets + "/jacksboro_path.json";
+    const std::string buildArgs = "build " + q(dem) + " " + q(rivers) + " -o " + q(out);
+    const std::string captureArgs = "capture " + q(model) + " --path " + q(path) + " --out " + q(out);
+    const std::vector<Case> cases = {
+        {buildArgs, "--min-river-length", "nan"},
+        {buildArgs, "--min-river-length", "-1"},
+        {buildArgs, "--bai-row", "inf"},
+        {buildArgs, "--band", "-1"},
+        {captureArgs, "--pixels", "-1"},
+        {captureArgs, "--pixels", "nan"},
+        {captureArgs, "--pixels", "1e999"},
+        {captureArgs, "--fov", "nan"},
+        {captureArgs, "--fov", "180"},
+        {captureArgs, "--gpu-budget", "nan"},
+        {captureArgs, "--gpu-budget", "-5"},
+        {captureArgs, "--gpu-budget", "99999999"},
+        {"export " + q(model) + " -o " + q(out) + ".glb", "--h-lim", "nan"},
+        {"stats " + q(model), "--pixels", "0"},
+        {"stats " + q(model), "--fov", "inf"},
+        {"stats " + q(model), "--height", "nan"},
+    };
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.option + " " + c.value);
+        const auto r = runCli(c.command + " " + c.option + " " + q(c.value));
+        EXPECT_FALSE(aborted(r)) << r.err;
+        EXPECT_NE(r.code, 0);
+        EXPECT_NE(r.err.find(c.option), std::string::npos) << r.err;
+        EXPECT_LT(r.err.size(), 300u) << "no 309-digit bounds: " << r.err;
+        EXPECT_FALSE(fs::exists(out)) << "no output on a refused option";
+        EXPECT_FALSE(fs::exists(out + ".glb"));
+    }
+}
+
+TEST_F(Inputs, GpuBudgetBeyondTheDeviceIsAnErrorNamingTheOption) {
+    // 16 GiB is accepted by the option; lavapipe (2 GiB heap) cannot allocate it and a large GPU
+    // can: either a clean error naming the option and the device, or frames.
+    const std::string out = (dir / "budget").string();
+    const auto r = runCli("capture " + q(model) + " --path " + q(kAssets + "/jacksboro_path.json") +
+                          " --frames 1 --size 64x48 --gpu-budget 16384 --out " + q(out));
+    EXPECT_FALSE(aborted(r)) << r.err;
+    if (r.code != 0) {
+        EXPECT_EQ(r.code, 1) << r.err;
+        EXPECT_NE(r.err.find("--gpu-budget 16384 MiB"), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find("can allocate"), std::string::npos) << r.err;
+        EXPECT_FALSE(fs::exists(out));
+    } else {
+        EXPECT_TRUE(fs::exists(fs::path(out) / "frame_0000.png"));
+    }
+}
+
+TEST_F(Inputs, CameraPathWithAnOverflowingNumberNamesTheProblem) {
+    const std::string path = (dir / "overflow.json").string();
+    std::ofstream(path) << "{\"fov\": 60, \"keyframes\": [{\"eye\": [0, 0, 1e999], "
+                           "\"yaw\": 0, \"pitch\": -30}]}";
+    const std::string out = (dir / "overflow_frames").string();
+    const auto r = runCli("capture " + q(model) + " --path " + q(path) + " --out " + q(out));
+    EXPECT_FALSE(aborted(r)) << r.err;
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find(path), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("overflow"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+}
+
+}  // namespace
