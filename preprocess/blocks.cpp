@@ -211,6 +211,14 @@ PointSet BlockSource::points(std::size_t i) const {
     return set;
 }
 
+bool BlockSource::hasNodataCells(std::size_t i) const {
+    const BlockRect& r = rects_[i];
+    for (int row = r.cellRow0; row <= r.cellRow1; ++row)
+        for (int col = r.cellCol0; col <= r.cellCol1; ++col)
+            if (std::isnan(dem_->at(col, row))) return true;
+    return false;
+}
+
 std::vector<std::size_t> BlockSource::bridgedNodataCells(std::size_t i, const PointSet& set) const {
     std::vector<std::size_t> cells;
     const DemGrid& dem = *dem_;

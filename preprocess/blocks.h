@@ -66,6 +66,9 @@ public:
     // nodata.h rule 2: the nodata cells (row-major indices) of block i's rectangle whose centres
     // lie strictly inside the convex hull of `set` (the block's points).
     std::vector<std::size_t> bridgedNodataCells(std::size_t i, const PointSet& set) const;
+    // Whether block i's rectangle has a nodata cell at all (a cheap scan: without one nothing can
+    // be bridged, and the block's points need not be made for bridgedNodataCells).
+    bool hasNodataCells(std::size_t i) const;
 
 private:
     const DemGrid* dem_ = nullptr;

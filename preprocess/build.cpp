@@ -198,6 +198,7 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     for (int round = 0; round < 8; ++round) {
         std::size_t filled = 0;
         for (std::size_t i = 0; i < source.blockCount(); ++i) {
+            if (!source.hasNodataCells(i)) continue;
             const std::vector<std::size_t> cells = source.bridgedNodataCells(i, source.points(i));
             if (cells.size() > kMaxBridgedCells) {
                 const std::size_t c = cells.front();
