@@ -19,29 +19,6 @@ namespace {
 
 constexpr double kDegree = 3.14159265358979323846 / 180.0;
 
-bool writeText(const std::string& path, const std::string& text, std::string& error) {
-    const std::string temp = path + ".tmp";
-    {
-        std::ofstream out(temp, std::ios::binary | std::ios::trunc);
-        out << text;
-        out.flush();
-        if (!out) {
-            std::error_code ec;
-            std::filesystem::remove(temp, ec);
-            error = path + ": cannot write";
-            return false;
-        }
-    }
-    std::error_code ec;
-    std::filesystem::rename(temp, path, ec);
-    if (ec) {
-        std::filesystem::remove(temp, ec);
-        error = path + ": cannot move into place";
-        return false;
-    }
-    return true;
-}
-
 nlohmann::json frameJson(const CaptureOptions& options, const Camera& c, const CaptureFrame& f,
                          std::uint32_t metric, const std::string& deviceName) {
     nlohmann::json blocks = nlohmann::json::array();
@@ -108,6 +85,10 @@ bool validCamera(const Camera& c) {
 }
 
 bool loadCameraPath(const std::string& path, CameraPath& out, std::string& error) {
+    if (std::string why; !format::checkInputFile(path, false, why)) {
+        error = path + ": " + why;
+        return false;
+    }
     std::ifstream in(path, std::ios::binary);
     std::stringstream text;
     if (in) text << in.rdbuf();
@@ -268,20 +249,25 @@ bool runCapture(const CaptureOptions& options, CaptureResult& result, std::strin
     auto cleanup = [&] {
         for (const std::string& f : written) std::filesystem::remove(f, ec);
     };
+    // Frames replace those of an earlier capture, never a file this run read.
+    format::OutputOptions output;
+    output.replace = true;
+    output.inputs = options.inputs;
+    output.inputs.push_back(options.path);
     for (std::size_t i = 0; i < result.frames.size(); ++i) {
         CaptureFrame& f = result.frames[i];
         char name[32];
         std::snprintf(name, sizeof name, "frame_%04zu", i);
         f.pngPath = (dir / (std::string(name) + ".png")).string();
         f.jsonPath = (dir / (std::string(name) + ".json")).string();
-        if (!writePng(f.pngPath, options.width, options.height, images[i], error)) {
+        if (!writePng(f.pngPath, options.width, options.height, images[i], output, error)) {
             cleanup();
             return false;
         }
         written.push_back(f.pngPath);
         const nlohmann::json json =
             frameJson(options, options.cameras[i], f, metric, result.deviceName);
-        if (!writeText(f.jsonPath, jsonText(json, 2) + "\n", error)) {
+        if (!format::writeFileAtomically(f.jsonPath, jsonText(json, 2) + "\n", output, error)) {
             cleanup();
             return false;
         }

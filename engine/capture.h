@@ -25,9 +25,10 @@ bool loadCameraPath(const std::string& path, CameraPath& out, std::string& error
 std::vector<Camera> sampleCameraPath(const CameraPath& path, std::uint32_t frames);
 
 struct CaptureOptions {
-    std::string path;             // the .ulod file
-    std::string outDir;           // created if missing
-    std::vector<Camera> cameras;  // one frame each
+    std::string path;                 // the .ulod file
+    std::string outDir;               // created if missing
+    std::vector<std::string> inputs;  // other files read (the camera path): never overwritten
+    std::vector<Camera> cameras;      // one frame each
     std::uint32_t width = 1024, height = 768;
     SceneOptions scene;
     bool settle = true;  // wait until each frame's wanted levels are resident (deterministic)

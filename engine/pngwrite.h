@@ -5,11 +5,15 @@
 #include <string>
 #include <vector>
 
+#include "atomicfile.h"
+
 namespace unilod::engine {
 
-// Writes RGBA8 rows (top to bottom) as an RGBA PNG, atomically: a temporary file beside `path`,
-// then rename. Returns false with a message naming the file; nothing is left behind on failure.
+// Writes RGBA8 rows (top to bottom) as an RGBA PNG with format::writeFileAtomically (`output`:
+// replace an existing file or not, the inputs `path` must not be). Returns false with a message
+// naming the file; nothing is left behind on failure.
 bool writePng(const std::string& path, std::uint32_t width, std::uint32_t height,
-              const std::vector<std::uint8_t>& rgba, std::string& error);
+              const std::vector<std::uint8_t>& rgba, const format::OutputOptions& output,
+              std::string& error);
 
 }  // namespace unilod::engine

@@ -49,14 +49,14 @@ std::string nextScreenshotPath() {
 }
 
 bool saveScreenshot(const Device& device, WindowTarget& target, const std::string& path,
-                    std::string& error) {
+                    const format::OutputOptions& output, std::string& error) {
     std::uint32_t width = 0, height = 0;
     std::vector<std::uint8_t> rgba;
     if (!readWindowScreenshot(device, target, width, height, rgba, error)) {
         error = path + ": " + error;
         return false;
     }
-    return writePng(path, width, height, rgba, error);
+    return writePng(path, width, height, rgba, output, error);
 }
 
 // Metres from the view centre to the top edge in grid mode: what the perspective camera sees
@@ -263,7 +263,11 @@ bool runView(const ViewOptions& options, ViewResult& result, std::string& error)
         if (screenshot || finalShot) {
             const std::string path = finalShot ? options.screenshotPath : nextScreenshotPath();
             std::string shotError;
-            if (saveScreenshot(device, target, path, shotError)) {
+            // --screenshot replaces its file; a numbered one never replaces another view's.
+            format::OutputOptions output;
+            output.replace = finalShot;
+            output.inputs = {options.path};
+            if (saveScreenshot(device, target, path, output, shotError)) {
                 std::printf("screenshot %s (%ux%u)\n", path.c_str(),
                             target.swapchain.extent.width, target.swapchain.extent.height);
             } else if (finalShot) {

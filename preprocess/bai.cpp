@@ -23,6 +23,8 @@
 #include <numbers>
 #include <sstream>
 
+#include "atomicfile.h"
+
 namespace unilod {
 
 BaiTable BaiTable::paperDefault() {
@@ -40,6 +42,10 @@ BaiTable BaiTable::paperDefault() {
 //     altitudes 0 500 1000          lower bounds of the altitude classes, ascending
 //     100  0.1 0.05 0.05            threshold (m) and one C per class; thresholds ascending
 bool BaiTable::load(const std::string& path, BaiTable& table, std::string& error) {
+    if (std::string why; !format::checkInputFile(path, false, why)) {
+        error = path + ": " + why;
+        return false;
+    }
     std::ifstream in(path);
     if (!in) {
         error = path + ": cannot open BAI table";

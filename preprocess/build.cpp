@@ -1,8 +1,6 @@
 // `unilod build` pipeline (build.h).
 #include "build.h"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -23,31 +21,14 @@ namespace unilod {
 
 namespace {
 
-bool checkOutput(const BuildOptions& o, std::string& error) {
-    namespace fs = std::filesystem;
-    if (o.outPath.empty()) {
-        error = "no output file given (-o OUT.ulod)";
-        return false;
-    }
-    std::error_code ec;
-    const fs::path out(o.outPath);
-    if (fs::exists(out, ec)) {
-        if (fs::is_directory(out, ec)) {
-            error = "output '" + o.outPath + "' is a directory";
-            return false;
-        }
-        if (!o.force) {
-            error = "output '" + o.outPath + "' already exists (use --force to overwrite it)";
-            return false;
-        }
-    }
-    const fs::path dir = out.has_parent_path() ? out.parent_path() : fs::path(".");
-    if (!fs::is_directory(dir, ec) || access(dir.c_str(), W_OK) != 0) {
-        error = "output '" + o.outPath + "': directory '" + dir.string() +
-                "' does not exist or is not writable";
-        return false;
-    }
-    return true;
+// The output rules: replace only with --force, and never one of the inputs (also with --force:
+// `build dem.tif rivers.geojson -o dem.tif --force` must not destroy the DEM).
+format::OutputOptions outputOptions(const BuildOptions& o) {
+    format::OutputOptions out;
+    out.replace = o.force;
+    out.inputs = {o.demPath, o.riversPath};
+    if (!o.baiTablePath.empty()) out.inputs.push_back(o.baiTablePath);
+    return out;
 }
 
 }  // namespace
@@ -58,7 +39,12 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     auto warn = [&](const std::string& w) {
         if (o.warn) o.warn(w);
     };
-    if (!checkOutput(o, error)) return false;
+    // Fail fast, before the long work; the Writer checks again when it creates the file.
+    if (o.outPath.empty()) {
+        error = "no output file given (-o OUT.ulod)";
+        return false;
+    }
+    if (!format::checkOutputPath(o.outPath, outputOptions(o), false, error)) return false;
     if (o.stride < 1) {
         error = "stride must be at least 1 (got " + std::to_string(o.stride) + ")";
         return false;
@@ -264,7 +250,7 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     // writer: memory holds a few blocks' results, never the whole model.
     const std::size_t n = source.blockCount();
     format::Writer writer;
-    if (!writer.open(o.outPath, header, n, error)) return false;
+    if (!writer.open(o.outPath, header, n, outputOptions(o), error)) return false;
     const unsigned threads =
         o.threads > 0 ? unsigned(o.threads) : std::max(1u, std::thread::hardware_concurrency());
     const std::size_t window = 2 * std::size_t(threads);

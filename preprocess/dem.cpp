@@ -14,6 +14,7 @@
 #include <limits>
 #include <memory>
 
+#include "atomicfile.h"
 #include "gdal_errors.h"
 
 // Bilinear samples must be bit-identical on every platform (the synthetic data's river altitudes
@@ -120,6 +121,11 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
     VSIStatBufL st;
     if (VSIStatL(path.c_str(), &st) != 0) {
         error = "DEM '" + path + "': no such file";
+        return false;
+    }
+    // A FIFO or a device would block GDAL's open; folders are GDAL's to judge (AIG grids).
+    if (std::string why; !format::checkInputFile(path, true, why)) {
+        error = "DEM '" + path + "': " + why;
         return false;
     }
     GDALDatasetUniquePtr ds(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER));

@@ -10,6 +10,7 @@
 
 #include <memory>
 
+#include "atomicfile.h"
 #include "gdal_errors.h"
 
 namespace unilod {
@@ -48,6 +49,11 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
     VSIStatBufL st;
     if (VSIStatL(path.c_str(), &st) != 0) {
         error = what + ": no such file";
+        return false;
+    }
+    // A FIFO or a device would block OGR's open; a folder can be a data set (Shapefiles).
+    if (std::string why; !format::checkInputFile(path, true, why)) {
+        error = what + ": " + why;
         return false;
     }
     GDALDatasetUniquePtr ds(GDALDataset::Open(path.c_str(), GDAL_OF_VECTOR));

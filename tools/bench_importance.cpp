@@ -18,6 +18,7 @@
 #include <string>
 #include <thread>
 
+#include "atomicfile.h"
 #include "benchutil.h"
 #include "importance.h"
 #include "jsontext.h"
@@ -147,13 +148,12 @@ int main(int argc, char** argv) {
     const std::string text = unilod::jsonText(result, 2);
     std::printf("%s\n", text.c_str());
     if (!out.empty()) {
-        FILE* f = std::fopen(out.c_str(), "w");
-        if (!f) {
-            std::fprintf(stderr, "bench_importance: cannot write %s\n", out.c_str());
+        std::string error;
+        if (!unilod::format::writeFileAtomically(out, text + "\n", {.replace = true, .inputs = {}},
+                                                 error)) {
+            std::fprintf(stderr, "bench_importance: error: %s\n", error.c_str());
             return 1;
         }
-        std::fprintf(f, "%s\n", text.c_str());
-        std::fclose(f);
     }
     return 0;
 }

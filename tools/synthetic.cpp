@@ -14,7 +14,6 @@
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
 #include <ogrsf_frmts.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <bit>
@@ -23,6 +22,7 @@
 #include <filesystem>
 #include <system_error>
 
+#include "atomicfile.h"
 #include "gdal_errors.h"
 #include "pointset.h"
 
@@ -695,15 +695,8 @@ bool writeSyntheticData(const SyntheticData& data, const std::string& dir, std::
         error = "'" + dir + "': cannot create the directory: " + ec.message();
         return false;
     }
-    const fs::path demPath = fs::path(dir) / "dem.tif";
-    const fs::path riverPath = fs::path(dir) / "rivers.geojson";
-    const std::string tag = ".tmp-" + std::to_string(getpid());
-    const fs::path demTmp = fs::path(dir) / ("dem" + tag + ".tif");
-    const fs::path riverTmp = fs::path(dir) / ("rivers" + tag + ".geojson");
-    auto cleanup = [&] {
-        fs::remove(demTmp, ec);
-        fs::remove(riverTmp, ec);
-    };
+    const std::string demPath = (fs::path(dir) / "dem.tif").string();
+    const std::string riverPath = (fs::path(dir) / "rivers.geojson").string();
 
     OGRSpatialReference srs;
     if (srs.importFromEPSG(kSyntheticEpsg) != OGRERR_NONE) {
@@ -711,19 +704,15 @@ bool writeSyntheticData(const SyntheticData& data, const std::string& dir, std::
         return false;
     }
     srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
-    if (!writeDemFile(data.dem, srs, demTmp.string(), error) ||
-        !writeRiverFile(data, srs, riverTmp.string(), error)) {
-        cleanup();
-        return false;
-    }
-    fs::rename(demTmp, demPath, ec);
-    if (!ec) fs::rename(riverTmp, riverPath, ec);
-    if (ec) {
-        error = "'" + dir + "': cannot move the files into place: " + ec.message();
-        cleanup();
-        return false;
-    }
-    return true;
+    // GDAL writes the temporaries by name; AtomicFile checks, syncs and moves them into place
+    // (replacing the files of an earlier run).
+    const format::OutputOptions output{.replace = true, .inputs = {}};
+    format::AtomicFile demFile, riverFile;
+    return demFile.openByName(demPath, output, error) &&
+           riverFile.openByName(riverPath, output, error) &&
+           writeDemFile(data.dem, srs, demFile.tempPath(), error) &&
+           writeRiverFile(data, srs, riverFile.tempPath(), error) && demFile.commit(error) &&
+           riverFile.commit(error);
 }
 
 }  // namespace unilod

@@ -459,19 +459,6 @@ bool preadAll(int fd, void* data, std::uint64_t size, std::uint64_t offset) {
     return true;
 }
 
-bool pwriteAll(int fd, const void* data, std::uint64_t size, std::uint64_t offset) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    while (size > 0) {
-        const ssize_t put = ::pwrite(fd, p, size, static_cast<off_t>(offset));
-        if (put < 0 && errno == EINTR) continue;
-        if (put <= 0) return false;
-        p += put;
-        size -= static_cast<std::uint64_t>(put);
-        offset += static_cast<std::uint64_t>(put);
-    }
-    return true;
-}
-
 std::uint32_t crc32Of(const void* data, std::uint64_t size, std::uint32_t crc = 0) {
     // zlib's crc32 takes a uInt length: feed it in chunks.
     const auto* p = static_cast<const Bytef*>(data);
@@ -519,17 +506,6 @@ void serializeBlock(const Block& b, std::vector<unsigned char>& out) {
     assert(out.size() == blockByteSize(h));
 }
 
-// Removes the temporary file on every early return of writeUlod.
-struct TempFile {
-    std::string path;
-    int fd = -1;
-    bool keep = false;
-    ~TempFile() {
-        if (fd >= 0) ::close(fd);
-        if (!keep && !path.empty()) ::unlink(path.c_str());
-    }
-};
-
 }  // namespace
 
 bool validateBlock(const Block& block, std::uint32_t metrics, std::string& error) {
@@ -547,7 +523,7 @@ bool validateBlock(const Block& block, std::uint32_t metrics, std::string& error
 struct Writer::Impl {
     std::string path;
     Header header;
-    TempFile tmp;
+    AtomicFile file;
     std::size_t blockCount = 0;
     std::vector<DirEntry> dir;
     std::set<std::pair<std::uint32_t, std::uint32_t>> seen;
@@ -557,12 +533,12 @@ struct Writer::Impl {
 };
 
 Writer::Writer() : impl_(std::make_unique<Impl>()) {}
-Writer::~Writer() = default;  // an unfinished temporary file is removed (TempFile)
+Writer::~Writer() = default;  // an unfinished temporary file is removed (AtomicFile)
 
 Header& Writer::header() { return impl_->header; }
 
 bool Writer::open(const std::string& path, const Header& header, std::size_t blockCount,
-                  std::string& error) {
+                  const OutputOptions& output, std::string& error) {
     impl_ = std::make_unique<Impl>();
     Impl& w = *impl_;
     w.path = path;
@@ -587,14 +563,7 @@ bool Writer::open(const std::string& path, const Header& header, std::size_t blo
                   alignUp(header.buildInfo.size()) + blockCount * sizeof(DirEntry) +
                   sizeof(HeaderTrailer);
     w.offset = w.dataStart;
-    {
-        std::string templ = path + ".tmp-XXXXXX";
-        w.tmp.fd = ::mkstemp(templ.data());
-        if (w.tmp.fd < 0) return fail("cannot create a temporary file beside it: " + errnoText());
-        w.tmp.path = templ;
-    }
-    // mkstemp creates 0600; a model file is ordinary data.
-    if (::fchmod(w.tmp.fd, 0644) != 0) return fail("cannot set permissions: " + errnoText());
+    if (!w.file.open(path, output, error)) return false;
     w.open = true;
     return true;
 }
@@ -636,9 +605,7 @@ bool Writer::writeBlock(const Block& b, std::string& error) {
     e.stepCount = static_cast<std::uint32_t>(b.steps.size());
     e.levelCount = static_cast<std::uint32_t>(b.levels.size());
     e.fullTriangles = b.levels[0].triangleCount;  // validateBlock: levels[0] is step 0
-    if (!pwriteAll(w.tmp.fd, w.bytes.data(), w.bytes.size(), w.offset)) {
-        return fail("write failed: " + errnoText());
-    }
+    if (!w.file.writeAt(w.bytes.data(), w.bytes.size(), w.offset, error)) return false;
     w.offset += w.bytes.size();
     w.dir.push_back(e);
     return true;
@@ -694,35 +661,20 @@ bool Writer::finish(std::string& error) {
     HeaderTrailer trailer{crc32Of(bytes.data(), bytes.size()), 0};
     appendPadded(bytes, &trailer, sizeof(trailer));
     assert(bytes.size() == w.dataStart);
-    if (!pwriteAll(w.tmp.fd, bytes.data(), bytes.size(), 0)) {
-        return fail("write failed: " + errnoText());
-    }
-
-    // Data on disk before the rename makes it visible; close errors can report delayed writes.
-    if (::fsync(w.tmp.fd) != 0) return fail("fsync failed: " + errnoText());
-    const int fd = std::exchange(w.tmp.fd, -1);
-    if (::close(fd) != 0) return fail("close failed: " + errnoText());
-    if (::rename(w.tmp.path.c_str(), w.path.c_str()) != 0) {
-        return fail("cannot rename the temporary file into place: " + errnoText());
-    }
-    w.tmp.keep = true;
+    if (!w.file.writeAt(bytes.data(), bytes.size(), 0, error)) return false;
+    // fsync, close and the move into place: AtomicFile (no replacing unless asked to).
+    if (!w.file.commit(error)) return false;
     w.open = false;
-
-    // Make the rename itself durable (best effort: some file systems refuse fsync on folders).
-    const std::size_t slash = w.path.find_last_of('/');
-    const std::string folder = slash == std::string::npos ? "." : w.path.substr(0, slash + 1);
-    const int dirFd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-    if (dirFd >= 0) {
-        ::fsync(dirFd);
-        ::close(dirFd);
-    }
     return true;
 }
 
 bool writeUlod(const std::string& path, const Header& header, const std::vector<Block>& blocks,
                std::string& error) {
     Writer writer;
-    if (!writer.open(path, header, blocks.size(), error)) return false;
+    if (!writer.open(path, header, blocks.size(), OutputOptions{.replace = true, .inputs = {}},
+                     error)) {
+        return false;
+    }
     for (const Block& b : blocks) {
         if (!writer.writeBlock(b, error)) return false;
     }
@@ -767,6 +719,8 @@ bool Reader::open(const std::string& path, std::string& error) {
         return false;
     };
 
+    // Before open(): a FIFO would block it forever.
+    if (std::string why; !checkInputFile(path, false, why)) return fail(why);
     Impl& r = *impl_;
     r.path = path;
     r.fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "atomicfile.h"
+
 namespace unilod::format {
 
 inline constexpr char kMagic[8] = {'U', 'L', 'O', 'D', '\r', '\n', '\x1a', '\n'};
@@ -129,15 +131,17 @@ bool validateBlock(const Block& block, std::uint32_t metrics, std::string& error
 // (engine/lod.h chooseStoredLevel) and `unilod stats --error` both call it. `levels` non-empty.
 std::size_t storedLevelFor(const std::vector<Level>& levels, std::uint32_t metric, double hLim);
 
-// Writes header + blocks to `path` atomically (temporary file in the same folder + rename).
-// Blocks are written in the given order. Returns false with `error` naming the file on failure;
-// no partial file is left.
+// Writes header + blocks to `path` atomically (AtomicFile: temporary file in the same folder,
+// fsync, rename), replacing an existing file. Blocks are written in the given order. Returns false
+// with `error` naming the file on failure; no partial file is left.
 bool writeUlod(const std::string& path, const Header& header, const std::vector<Block>& blocks,
                std::string& error);
 
-// The same, streamed: open() with the number of blocks, writeBlock() each block (any grid
-// position, each once; the directory keeps the write order), finish() to write the header and
-// move the file into place. The header's extents may be changed through header() before
+// The same, streamed: open() with the number of blocks and the output rules (`output`: replace
+// an existing file or not, the command's inputs that `path` must not be: atomicfile.h),
+// writeBlock() each block (any grid position, each once; the directory keeps the write order),
+// finish() to write the header and move the file into place (without `output.replace`, a file
+// that appeared at `path` meanwhile makes finish() fail and stays). The header's extents may be changed through header() before
 // finish(), its CRS WKT and build info may not change size. Destroying an unfinished Writer
 // removes its temporary file; nothing is ever left at `path` on failure.
 class Writer {
@@ -148,7 +152,7 @@ public:
     Writer& operator=(const Writer&) = delete;
 
     bool open(const std::string& path, const Header& header, std::size_t blockCount,
-              std::string& error);
+              const OutputOptions& output, std::string& error);
     bool writeBlock(const Block& block, std::string& error);
     Header& header();
     bool finish(std::string& error);

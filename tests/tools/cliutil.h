@@ -28,16 +28,18 @@ struct CliResult {
     std::string out, err;
 };
 
-// Runs `unilod ARGS` (ARGS already shell-quoted where needed).
-inline CliResult runCli(const std::string& args) {
+// Runs `unilod ARGS` (ARGS already shell-quoted where needed). `shellPrefix` comes before the
+// command in the same shell: "timeout 20" (a hang fails instead of blocking the test), "ulimit -f
+// 16; exec" (a file size limit).
+inline CliResult runCli(const std::string& args, const std::string& shellPrefix = "") {
     namespace fs = std::filesystem;
     static int counter = 0;
     const fs::path base =
         fs::temp_directory_path() /
         ("unilod_test_cli_run_" + std::to_string(getpid()) + "_" + std::to_string(counter++));
     const std::string out = base.string() + ".out", err = base.string() + ".err";
-    const std::string command =
-        "'" + std::string(UNILOD_CLI) + "' " + args + " >'" + out + "' 2>'" + err + "'";
+    const std::string command = shellPrefix + " '" + std::string(UNILOD_CLI) + "' " + args + " >'" +
+                                out + "' 2>'" + err + "'";
     const int status = std::system(command.c_str());
     CliResult r;
     r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;

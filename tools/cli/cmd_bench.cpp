@@ -4,13 +4,12 @@
 // FPS and frame time median / p95 / p99, GPU time, triangles, resident blocks, bytes uploaded.
 // A benchmark, not a test: it prints numbers and asserts nothing.
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "atomicfile.h"
 #include "bench.h"
 #include "capture.h"
 #include "commands.h"
@@ -59,6 +58,14 @@ int run(BenchCli& c) {
         c.o.runs.push_back(r);
     }
     std::string error;
+    // --json replaces an earlier result, never the model or the camera path; checked now so
+    // that a bad path fails before the runs.
+    format::OutputOptions output{.replace = true, .inputs = {c.o.path}};
+    if (!c.cameraPath.empty()) output.inputs.push_back(c.cameraPath);
+    if (!c.jsonOut.empty() && !format::checkOutputPath(c.jsonOut, output, false, error)) {
+        std::fprintf(stderr, "unilod bench: error: %s\n", error.c_str());
+        return 1;
+    }
     engine::CameraPath path;
     if (!c.cameraPath.empty()) {
         if (!engine::loadCameraPath(c.cameraPath, path, error)) {
@@ -108,23 +115,8 @@ int run(BenchCli& c) {
     std::printf("device: %s, %ux%u, %zu frames\n", out["device"].get<std::string>().c_str(),
                 c.o.width, c.o.height, c.o.cameras.size());
     if (!c.jsonOut.empty()) {
-        const std::string temp = c.jsonOut + ".tmp";
-        {
-            std::ofstream f(temp, std::ios::trunc);
-            f << jsonText(out, 2) << "\n";
-            if (!f.flush()) {
-                std::error_code ec;
-                std::filesystem::remove(temp, ec);
-                std::fprintf(stderr, "unilod bench: error: %s: cannot write\n", c.jsonOut.c_str());
-                return 1;
-            }
-        }
-        std::error_code ec;
-        std::filesystem::rename(temp, c.jsonOut, ec);
-        if (ec) {
-            std::filesystem::remove(temp, ec);
-            std::fprintf(stderr, "unilod bench: error: %s: cannot move into place\n",
-                         c.jsonOut.c_str());
+        if (!format::writeFileAtomically(c.jsonOut, jsonText(out, 2) + "\n", output, error)) {
+            std::fprintf(stderr, "unilod bench: error: %s\n", error.c_str());
             return 1;
         }
         std::printf("json: %s\n", c.jsonOut.c_str());

@@ -45,6 +45,8 @@ int run(CaptureCli& c) {
     } else if (!engine::loadCameraPath(c.cameraPath, path, error)) {
         std::fprintf(stderr, "unilod capture: error: %s\n", error.c_str());
         return 1;
+    } else {
+        c.o.inputs.push_back(c.cameraPath);
     }
     const std::uint32_t frames =
         c.frames ? c.frames : std::uint32_t(path.keyframes.size());

@@ -3,21 +3,20 @@
 // set, rank it, print a summary (text or JSON) and optionally the deletion order as CSV.
 //
 // Errors name the file and the problem on stderr and exit with 1; the CSV goes through a
-// temporary file renamed into place only after everything succeeded, so a failed run leaves no
+// format::AtomicFile moved into place only after everything succeeded, so a failed run leaves no
 // partial output.
 #include <ogr_spatialref.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "atomicfile.h"
 #include "bai.h"
 #include "commands.h"
 #include "dem.h"
@@ -55,52 +54,6 @@ constexpr double kRiverClearanceCells = 0.01;
 double secondsSince(Clock::time_point t) {
     return std::chrono::duration<double>(Clock::now() - t).count();
 }
-
-// A CSV written to `path.tmp-PID` and renamed onto `path` by commit(); removed when abandoned.
-class AtomicFile {
-public:
-    bool open(const std::string& path, std::string& error) {
-        path_ = path;
-        tmp_ = path + ".tmp-" + std::to_string(getpid());
-        file_ = std::fopen(tmp_.c_str(), "w");
-        if (file_ == nullptr) {
-            error = "output '" + path + "': cannot create '" + tmp_ + "'";
-            return false;
-        }
-        return true;
-    }
-    std::FILE* get() const { return file_; }
-    bool commit(std::string& error) {
-        const bool written = std::ferror(file_) == 0;
-        const bool closed = std::fclose(file_) == 0;
-        file_ = nullptr;
-        std::error_code ec;
-        if (!written || !closed) {
-            error = "output '" + path_ + "': write failed";
-        } else {
-            std::filesystem::rename(tmp_, path_, ec);
-            if (!ec) {
-                tmp_.clear();
-                return true;
-            }
-            error = "output '" + path_ + "': cannot rename the temporary file: " + ec.message();
-        }
-        std::filesystem::remove(tmp_, ec);
-        tmp_.clear();
-        return false;
-    }
-    ~AtomicFile() {
-        if (file_ != nullptr) std::fclose(file_);
-        if (!tmp_.empty()) {
-            std::error_code ec;
-            std::filesystem::remove(tmp_, ec);
-        }
-    }
-
-private:
-    std::string path_, tmp_;
-    std::FILE* file_ = nullptr;
-};
 
 json quantiles(std::vector<double> v) {
     if (v.empty()) return json{{"count", 0}};
@@ -188,9 +141,11 @@ int runOrder(const OrderOptions& o) {
         if (!o.quiet) std::fprintf(stderr, "  %-16s %7.2f s  %s\n", stage, seconds, detail.c_str());
     };
 
-    // Fail fast on an unwritable output before the long work.
-    AtomicFile csv;
-    if (!o.out.empty() && !csv.open(o.out, error)) return fail(error);
+    // Fail fast on an unwritable output (or one of the inputs) before the long work.
+    format::AtomicFile csv;
+    format::OutputOptions output{.replace = true, .inputs = {o.dem, o.rivers}};
+    if (!o.baiTable.empty()) output.inputs.push_back(o.baiTable);
+    if (!o.out.empty() && !csv.open(o.out, output, error)) return fail(error);
 
     ImportanceOptions io;
     io.useBai = !o.noBai;
@@ -322,16 +277,23 @@ int runOrder(const OrderOptions& o) {
 
     if (!o.out.empty()) {
         t = Clock::now();
-        std::FILE* f = csv.get();
-        std::fprintf(f, "rank,id,x,y,z,kind,locked,importance,own_importance,bai_factor\n");
+        // Written in chunks of about 1 MiB: the order of a large DEM is gigabytes of text.
+        std::string chunk = "rank,id,x,y,z,kind,locked,importance,own_importance,bai_factor\n";
+        char line[256];
         for (std::size_t rank = 0; rank < result.order.size(); ++rank) {
             const PointId id = result.order[rank];
             const Point& p = set.points[id];
-            std::fprintf(f, "%zu,%u,%.3f,%.3f,%.3f,%s,%d,%.17g,%.17g,%.9g\n", rank, id, p.x, p.y,
-                         p.z, p.kind == PointKind::Dem ? "dem" : "river", p.locked ? 1 : 0,
-                         result.importance[id], result.ownImportance[id],
-                         static_cast<double>(result.baiFactor[id]));
+            std::snprintf(line, sizeof line, "%zu,%u,%.3f,%.3f,%.3f,%s,%d,%.17g,%.17g,%.9g\n",
+                          rank, id, p.x, p.y, p.z, p.kind == PointKind::Dem ? "dem" : "river",
+                          p.locked ? 1 : 0, result.importance[id], result.ownImportance[id],
+                          static_cast<double>(result.baiFactor[id]));
+            chunk += line;
+            if (chunk.size() >= (1u << 20)) {
+                if (!csv.write(chunk, error)) return fail(error);
+                chunk.clear();
+            }
         }
+        if (!csv.write(chunk, error)) return fail(error);
         if (!csv.commit(error)) return fail(error);
         seconds["csv"] = secondsSince(t);
         progress("write CSV", seconds["csv"], o.out);

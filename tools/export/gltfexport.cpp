@@ -1,12 +1,11 @@
 #include "gltfexport.h"
 
 #include <tiny_gltf.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstring>
-#include <filesystem>
 #include <limits>
+#include <sstream>
 
 #include "jsontext.h"
 
@@ -168,6 +167,11 @@ void addBlock(tinygltf::Model& model, const format::Header& header, const format
 
 bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::string& error) {
     summary = {};
+    // The output first: a bad -o (the input itself, a missing folder) fails before the work.
+    format::AtomicFile out;
+    if (!out.open(options.outPath, {.replace = true, .inputs = {options.path}}, error)) {
+        return false;
+    }
     format::Reader reader;
     if (!reader.open(options.path, error)) return false;
     std::uint32_t metric = 0;
@@ -233,24 +237,14 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
         if (options.progress) options.progress(i + 1, count);
     }
 
-    namespace fs = std::filesystem;
-    const std::string temp = options.outPath + ".tmp-" + std::to_string(getpid());
+    std::ostringstream glb;
     tinygltf::TinyGLTF writer;
-    std::error_code ec;
-    // tinygltf does not report every stream failure: the file must exist and be non-empty too.
-    if (!writer.WriteGltfSceneToFile(&model, temp, false, true, false, true) ||
-        !fs::exists(temp, ec) || fs::file_size(temp, ec) == 0 || ec) {
-        fs::remove(temp, ec);
-        error = "output '" + options.outPath + "': cannot write '" + temp + "'";
+    if (!writer.WriteGltfSceneToStream(&model, glb, false, true) || !glb) {
+        error = options.outPath + ": cannot serialize the glTF model";
         return false;
     }
-    summary.bytes = fs::file_size(temp, ec);
-    fs::rename(temp, options.outPath, ec);
-    if (ec) {
-        fs::remove(temp, ec);
-        error = "output '" + options.outPath + "': cannot move the temporary file into place";
-        return false;
-    }
+    if (!out.write(glb.view(), error) || !out.commit(error)) return false;
+    summary.bytes = out.bytes();  // what landed on disk
     return true;
 }
 

@@ -31,7 +31,7 @@ namespace unilod::exporter {
 
 struct ExportOptions {
     std::string path;     // the .ulod file
-    std::string outPath;  // the .glb to write (atomically: temporary file + rename)
+    std::string outPath;  // the .glb to write (format::AtomicFile; replaced, never the input)
     SelectionOptions selection;
     std::function<void(std::size_t, std::size_t)> progress;  // blocks done, total
 };

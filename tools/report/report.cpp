@@ -1,12 +1,9 @@
 // `unilod report` (report.h): runs the pieces and writes the folder.
 #include "report.h"
 
-#include <unistd.h>
-
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -28,13 +25,12 @@ std::string fmt(const char* f, double v) {
 
 std::string fmtU(std::uint64_t v) { return std::to_string(v); }
 
+// Inside the report's temporary folder (runReport): nothing else writes there.
+const format::OutputOptions kInTempFolder{.replace = true, .inputs = {}};
+
 bool writeText(const fs::path& dir, const std::string& name, const std::string& text,
                ReportSummary& summary, std::string& error) {
-    std::ofstream out(dir / name, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.flush();
-    if (!out) {
-        error = (dir / name).string() + ": cannot write";
+    if (!format::writeFileAtomically((dir / name).string(), text, kInTempFolder, error)) {
         return false;
     }
     summary.files.push_back(name);
@@ -231,12 +227,11 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
     const auto say = [&](const std::string& s) {
         if (o.progress) o.progress(s);
     };
-    std::error_code ec;
-    const fs::path out(o.outDir);
-    if (fs::exists(out, ec) && (!fs::is_directory(out, ec) || !fs::is_empty(out, ec))) {
-        error = "output '" + o.outDir + "': exists and is not an empty folder";
-        return false;
-    }
+    // The folder is written as a temporary folder beside it and moved into place at the end
+    // (AtomicFile::openFolder): an existing non-empty folder is refused now and stays untouched.
+    format::OutputOptions output;
+    output.inputs = {o.path, o.demPath, o.riversPath};
+    if (!format::checkOutputPath(o.outDir, output, true, error)) return false;
     if (o.imageSize < 16 || o.imageSize > 16384) {
         error = "image size must be in 16..16384";
         return false;
@@ -262,24 +257,10 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
         if (!compareRivers(o, buildInfo, summary.rivers, error)) return false;
     }
 
-    // Everything computed: write into a temporary folder, rename at the end.
-    const fs::path parent = out.has_parent_path() ? out.parent_path() : fs::path(".");
-    const fs::path temp =
-        parent / (out.filename().string() + ".tmp-" + std::to_string(getpid()));
-    fs::remove_all(temp, ec);
-    if (!fs::create_directories(temp, ec) || ec) {
-        error = "output '" + o.outDir + "': cannot create '" + temp.string() + "'";
-        return false;
-    }
-    struct Cleanup {
-        fs::path dir;
-        ~Cleanup() {
-            if (!dir.empty()) {
-                std::error_code e;
-                fs::remove_all(dir, e);
-            }
-        }
-    } cleanup{temp};
+    // Everything computed: write into a temporary folder, move it into place at the end.
+    format::AtomicFile folder;
+    if (!folder.openFolder(o.outDir, output, error)) return false;
+    const fs::path temp = folder.tempPath();
 
     std::vector<std::uint8_t> rgba;
     for (double d : o.stats.distances) {
@@ -287,7 +268,8 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
         GridDiagram g;
         if (!renderGrid(o.path, o.stats, d, o.imageSize, rgba, g, error)) return false;
         g.file = gridName(d);
-        if (!engine::writePng((temp / g.file).string(), o.imageSize, o.imageSize, rgba, error))
+        if (!engine::writePng((temp / g.file).string(), o.imageSize, o.imageSize, rgba,
+                              kInTempFolder, error))
             return false;
         summary.files.push_back(g.file);
         summary.grids.push_back(g);
@@ -361,15 +343,7 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
     md << "\n![error vs retention](curves.svg)\n";
     if (!writeText(temp, "report.md", md.str(), summary, error)) return false;
 
-    if (fs::exists(out, ec)) fs::remove(out, ec);  // an empty folder (checked above)
-    fs::rename(temp, out, ec);
-    if (ec) {
-        error = "output '" + o.outDir + "': cannot move '" + temp.string() +
-                "' into place: " + ec.message();
-        return false;
-    }
-    cleanup.dir.clear();
-    return true;
+    return folder.commit(error);
 }
 
 }  // namespace unilod::report

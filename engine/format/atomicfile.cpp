@@ -1,0 +1,331 @@
+// Atomic output files and the input-file check (atomicfile.h).
+#include "atomicfile.h"
+
+#include <dirent.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <utility>
+
+namespace unilod::format {
+
+namespace {
+
+std::string errnoText(int e = errno) {
+    return std::strerror(e);
+}
+
+// The folder holding `path` ("." for a bare name) and the name inside it.
+std::string folderOf(const std::string& path) {
+    const std::size_t slash = path.find_last_of('/');
+    if (slash == std::string::npos) return ".";
+    return slash == 0 ? "/" : path.substr(0, slash);
+}
+std::string nameOf(const std::string& path) {
+    const std::size_t slash = path.find_last_of('/');
+    return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+std::string kindOf(mode_t mode) {
+    if (S_ISDIR(mode)) return "a directory";
+    if (S_ISFIFO(mode)) return "a FIFO (named pipe)";
+    if (S_ISCHR(mode)) return "a character device";
+    if (S_ISBLK(mode)) return "a block device";
+    if (S_ISSOCK(mode)) return "a socket";
+    return "";
+}
+
+// "is a FIFO (named pipe), not a regular file"
+std::string notRegular(mode_t mode) {
+    const std::string kind = kindOf(mode);
+    return kind.empty() ? "is not a regular file" : "is " + kind + ", not a regular file";
+}
+
+// "PATH.tmp-<pid>-": the prefix of every temporary of PATH written by process `pid`.
+std::string tempPrefix(const std::string& name) {
+    return name + ".tmp-";
+}
+
+// Removes the temporaries of `path` whose writer is no longer running. Names that do not parse
+// as PATH.tmp-<pid>-<anything> are not ours and are left alone (so is everything else on error:
+// a stale temporary is only clutter).
+void removeStaleTemporaries(const std::string& path) {
+    const std::string folder = folderOf(path);
+    const std::string prefix = tempPrefix(nameOf(path));
+    DIR* dir = ::opendir(folder.c_str());
+    if (dir == nullptr) return;
+    std::vector<std::string> stale;
+    while (const dirent* e = ::readdir(dir)) {
+        const std::string name = e->d_name;
+        if (name.size() <= prefix.size() || name.compare(0, prefix.size(), prefix) != 0) continue;
+        std::size_t i = prefix.size();
+        long long pid = 0;
+        while (i < name.size() && name[i] >= '0' && name[i] <= '9' && pid < (1LL << 40))
+            pid = pid * 10 + (name[i++] - '0');
+        if (i == prefix.size() || i >= name.size() || name[i] != '-' || pid <= 0) continue;
+        if (pid == ::getpid()) continue;
+        // ESRCH: no such process. EPERM means it runs under another user: still alive.
+        if (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) stale.push_back(name);
+    }
+    ::closedir(dir);
+    for (const std::string& name : stale) {
+        std::error_code ec;
+        std::filesystem::remove_all(std::filesystem::path(folder) / name, ec);
+    }
+}
+
+// A name that no other writer of `path` uses: our pid plus a per-process counter and the clock;
+// O_EXCL / mkdir make it certain.
+std::string newTempName(const std::string& path) {
+    static std::atomic<std::uint64_t> counter{0};
+    const auto now =
+        static_cast<std::uint64_t>(std::chrono::steady_clock::now().time_since_epoch().count());
+    const std::uint64_t mix = (now ^ (counter.fetch_add(1) * 0x9E3779B97F4A7C15ull)) & 0xFFFFFFull;
+    char suffix[16];
+    std::snprintf(suffix, sizeof suffix, "%06llx", static_cast<unsigned long long>(mix));
+    return folderOf(path) + "/" + tempPrefix(nameOf(path)) + std::to_string(::getpid()) + "-" +
+           suffix;
+}
+
+bool sameFile(const struct stat& a, const struct stat& b) {
+    return a.st_dev == b.st_dev && a.st_ino == b.st_ino;
+}
+
+// Makes the directory entries of `folder` (a rename) durable; some file systems refuse fsync
+// on folders, so this is best effort.
+void syncFolder(const std::string& folder) {
+    const int fd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd >= 0) {
+        ::fsync(fd);
+        ::close(fd);
+    }
+}
+
+}  // namespace
+
+bool checkInputFile(const std::string& path, bool folderAllowed, std::string& why) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0) return true;  // the reader reports a missing file
+    if (S_ISREG(st.st_mode) || (folderAllowed && S_ISDIR(st.st_mode))) return true;
+    why = notRegular(st.st_mode);
+    return false;
+}
+
+bool checkOutputPath(const std::string& path, const OutputOptions& options, bool folder,
+                     std::string& error) {
+    auto fail = [&](const std::string& what) {
+        error = path + ": " + what;
+        return false;
+    };
+    if (path.empty()) {
+        error = "no output file given";
+        return false;
+    }
+    struct stat out {};
+    if (::stat(path.c_str(), &out) == 0) {
+        for (const std::string& input : options.inputs) {
+            struct stat in {};
+            if (::stat(input.c_str(), &in) == 0 && sameFile(in, out)) {
+                return fail(input == path ? "is also an input of this command: refusing to "
+                                            "overwrite it"
+                                          : "is the same file as the input '" + input +
+                                                "': refusing to overwrite it");
+            }
+        }
+        if (folder) {
+            if (!S_ISDIR(out.st_mode) || !std::filesystem::is_empty(path)) {
+                return fail("already exists and is not an empty folder");
+            }
+        } else if (S_ISDIR(out.st_mode)) {
+            return fail("is a directory");
+        } else if (!S_ISREG(out.st_mode)) {
+            return fail(notRegular(out.st_mode) + ": refusing to replace it");
+        } else if (!options.replace) {
+            return fail("already exists (use --force to replace it)");
+        }
+    }
+    const std::string dir = folderOf(path);
+    struct stat ds {};
+    if (::stat(dir.c_str(), &ds) != 0 || !S_ISDIR(ds.st_mode) || ::access(dir.c_str(), W_OK) != 0) {
+        return fail("folder '" + dir + "' does not exist or is not writable");
+    }
+    return true;
+}
+
+AtomicFile::~AtomicFile() {
+    abandon();
+}
+
+void AtomicFile::abandon() {
+    if (fd_ >= 0) ::close(std::exchange(fd_, -1));
+    if (!temp_.empty()) {
+        std::error_code ec;
+        if (folder_) {
+            std::filesystem::remove_all(temp_, ec);
+        } else {
+            ::unlink(temp_.c_str());
+        }
+        temp_.clear();
+    }
+}
+
+bool AtomicFile::fail(const std::string& what, std::string& error) {
+    error = path_ + ": " + what;
+    abandon();
+    return false;
+}
+
+bool AtomicFile::open(const std::string& path, const OutputOptions& options, std::string& error) {
+    return openImpl(path, options, Kind::File, error);
+}
+
+bool AtomicFile::openByName(const std::string& path, const OutputOptions& options,
+                            std::string& error) {
+    return openImpl(path, options, Kind::ByName, error);
+}
+
+bool AtomicFile::openFolder(const std::string& path, const OutputOptions& options,
+                            std::string& error) {
+    return openImpl(path, options, Kind::Folder, error);
+}
+
+bool AtomicFile::openImpl(const std::string& path, const OutputOptions& options, Kind kind,
+                          std::string& error) {
+    const bool folder = kind == Kind::Folder;
+    abandon();
+    path_ = path;
+    options_ = options;
+    folder_ = folder;
+    offset_ = bytes_ = 0;
+    if (!checkOutputPath(path, options, folder, error)) return false;
+    removeStaleTemporaries(path);
+    for (int attempt = 0; attempt < 100; ++attempt) {
+        const std::string temp = newTempName(path);
+        // 0666 / 0777 less the umask: an output is ordinary data.
+        const int made = folder
+                             ? ::mkdir(temp.c_str(), 0777)
+                             : ::open(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+        if (made < 0 && errno == EEXIST) continue;
+        if (made < 0) {
+            return fail(std::string("cannot create a temporary ") + (folder ? "folder" : "file") +
+                            " beside it: " + errnoText(),
+                        error);
+        }
+        temp_ = temp;
+        if (kind == Kind::File) fd_ = made;
+        // ByName: the name was unique a moment ago (O_EXCL) and carries our pid; the library
+        // creates the file.
+        if (kind == Kind::ByName && (::close(made) != 0 || ::unlink(temp.c_str()) != 0)) {
+            return fail("cannot prepare a temporary file beside it: " + errnoText(), error);
+        }
+        return true;
+    }
+    return fail("cannot create a temporary file beside it: every name taken", error);
+}
+
+bool AtomicFile::write(const void* data, std::size_t size, std::string& error) {
+    if (!writeAt(data, size, offset_, error)) return false;
+    offset_ += size;
+    return true;
+}
+
+bool AtomicFile::writeAt(const void* data, std::size_t size, std::uint64_t offset,
+                         std::string& error) {
+    if (fd_ < 0) return fail("write failed: the file is not open", error);
+    const auto* p = static_cast<const unsigned char*>(data);
+    while (size > 0) {
+        const ssize_t put = ::pwrite(fd_, p, size, static_cast<off_t>(offset));
+        if (put < 0 && errno == EINTR) continue;
+        // pwrite never returns 0 for size > 0 on a regular file; guard against a loop anyway.
+        if (put <= 0) return fail("write failed: " + errnoText(put < 0 ? errno : EIO), error);
+        p += put;
+        size -= static_cast<std::size_t>(put);
+        offset += static_cast<std::uint64_t>(put);
+    }
+    return true;
+}
+
+bool AtomicFile::commit(std::string& error) {
+    if (temp_.empty()) return fail("nothing to commit (not open or already committed)", error);
+    // Our descriptor first: errors of delayed writes (a full disk) show up in fsync and close.
+    if (fd_ >= 0) {
+        if (::fsync(fd_) != 0) return fail("write failed (fsync): " + errnoText(), error);
+        if (::close(std::exchange(fd_, -1)) != 0) {
+            return fail("write failed (close): " + errnoText(), error);
+        }
+    }
+    // What a library wrote by name (tempPath()) reaches the disk too; the size is what landed.
+    if (folder_) {
+        syncFolder(temp_);
+    } else {
+        const int fd = ::open(temp_.c_str(), O_RDONLY | O_CLOEXEC);
+        struct stat st {};
+        if (fd < 0) return fail("cannot reopen the temporary file: " + errnoText(), error);
+        const bool synced = ::fsync(fd) == 0 && ::fstat(fd, &st) == 0;
+        const int syncError = errno;
+        ::close(fd);
+        if (!synced) return fail("write failed (fsync): " + errnoText(syncError), error);
+        bytes_ = static_cast<std::uint64_t>(st.st_size);
+    }
+
+    // Inputs may have been moved onto PATH while we wrote: check again just before the move.
+    struct stat out {};
+    if (::stat(path_.c_str(), &out) == 0) {
+        for (const std::string& input : options_.inputs) {
+            struct stat in {};
+            if (::stat(input.c_str(), &in) == 0 && sameFile(in, out)) {
+                return fail(
+                    "is the same file as the input '" + input + "': refusing to overwrite it",
+                    error);
+            }
+        }
+    }
+
+    const char* from = temp_.c_str();
+    const char* to = path_.c_str();
+    int moved = -1;
+    if (folder_) {
+        // rename() replaces only an empty folder: a folder that another run filled meanwhile
+        // fails with ENOTEMPTY / EEXIST.
+        moved = ::rename(from, to);
+    } else if (options_.replace) {
+        moved = ::rename(from, to);
+    } else {
+        moved = ::renameat2(AT_FDCWD, from, AT_FDCWD, to, RENAME_NOREPLACE);
+        if (moved != 0 && (errno == EINVAL || errno == ENOSYS || errno == ENOTSUP)) {
+            // No RENAME_NOREPLACE on this file system: link() fails with EEXIST too.
+            moved = ::link(from, to);
+            if (moved == 0) ::unlink(from);
+        }
+    }
+    if (moved != 0) {
+        const int e = errno;
+        if (e == EEXIST || e == ENOTEMPTY) {
+            return fail(folder_ ? "already exists and is not an empty folder (written meanwhile "
+                                  "by another process?)"
+                                : "already exists (created meanwhile by another process?); not "
+                                  "replaced",
+                        error);
+        }
+        return fail("cannot move the temporary " + temp_ + " into place: " + errnoText(e), error);
+    }
+    temp_.clear();
+    syncFolder(folderOf(path_));
+    return true;
+}
+
+bool writeFileAtomically(const std::string& path, std::string_view data,
+                         const OutputOptions& options, std::string& error) {
+    AtomicFile file;
+    return file.open(path, options, error) && file.write(data, error) && file.commit(error);
+}
+
+}  // namespace unilod::format
