@@ -89,8 +89,21 @@ unilod::PointSet readBlockPoints(const std::string& path) {
 // edges between vertices that are not of degree 2) simplified by 3D Douglas-Peucker to each
 // tolerance (the same 3D distance as the model's river error); returns the distinct vertices
 // kept per tolerance (chain ends once).
-std::vector<std::uint64_t> riverDpVertices(const std::string& path,
-                                           const std::vector<double>& tolerances) {
+// Also, per tolerance, a strict lower bound on the triangles of ANY model of the block whose river
+// error is <= e (vertices a subset of the original points, river ends and junctions kept, as in
+// the model): a triangulation of n vertices, h of them on its convex hull, has 2n - h - 2
+// triangles, and adding k vertices adds at most k hull vertices, so 2n - h - 2 over the river
+// vertices alone (h: those on the block's bounding rectangle) bounds it. Per chain the vertex
+// subset minimising 2n - h with every dropped vertex within e (3D) of its replacing segment is
+// found exactly (shortest path over the valid shortcuts, Imai & Iri 1988), not by Douglas-Peucker.
+struct RiverDp {
+    std::uint64_t vertices = 0;  // distinct vertices kept by Douglas-Peucker
+    std::uint64_t boundCost = 0;  // min of 2n - h over river vertex subsets within e
+    std::uint64_t lowerBoundTriangles() const { return boundCost > 2 ? boundCost - 2 : 0; }
+};
+
+std::vector<RiverDp> riverDpVertices(const std::string& path,
+                                     const std::vector<double>& tolerances) {
     unilod::format::Reader reader;
     std::string error;
     if (!reader.open(path, error)) fail(error);
@@ -130,7 +143,12 @@ std::vector<std::uint64_t> riverDpVertices(const std::string& path,
             }
         }
     }
-    std::vector<std::uint64_t> counts;
+    std::int32_t minX = INT32_MAX, maxX = INT32_MIN, minY = INT32_MAX, maxY = INT32_MIN;
+    for (const unilod::format::GridXY& g : b.grid) {
+        minX = std::min(minX, g.x), maxX = std::max(maxX, g.x);
+        minY = std::min(minY, g.y), maxY = std::max(maxY, g.y);
+    }
+    std::vector<RiverDp> counts;
     for (double tol : tolerances) {
         std::vector<std::uint8_t> keep(b.vertices.size(), 0);
         for (const std::vector<std::uint32_t>& c : chains) {
@@ -168,7 +186,55 @@ std::vector<std::uint64_t> riverDpVertices(const std::string& path,
         std::uint64_t n = 0;
         for (std::uint8_t k : keep)
             n += k;
-        counts.push_back(n);
+        // The exact minimum of 2n - h: ends once (2, or 1 on the hull), plus per chain the
+        // cheapest path of valid shortcuts through its interior vertices.
+        const auto cost = [&](std::uint32_t v) -> std::uint64_t {
+            return b.grid[v].x == minX || b.grid[v].x == maxX || b.grid[v].y == minY ||
+                           b.grid[v].y == maxY
+                       ? 1
+                       : 2;
+        };
+        std::vector<std::uint8_t> end(b.vertices.size(), 0);
+        std::uint64_t bound = 0;
+        for (const std::vector<std::uint32_t>& c : chains) {
+            for (std::uint32_t v : {c.front(), c.back()}) {
+                if (!end[v]) bound += cost(v);
+                end[v] = 1;
+            }
+        }
+        for (const std::vector<std::uint32_t>& c : chains) {
+            const std::size_t len = c.size();
+            const auto within = [&](std::size_t i, std::size_t j) {
+                double d[3], len2 = 0;
+                for (int k = 0; k < 3; ++k) {
+                    d[k] = pos(c[j], k) - pos(c[i], k);
+                    len2 += d[k] * d[k];
+                }
+                for (std::size_t m = i + 1; m < j; ++m) {
+                    double w[3], dot = 0;
+                    for (int k = 0; k < 3; ++k) {
+                        w[k] = pos(c[m], k) - pos(c[i], k);
+                        dot += w[k] * d[k];
+                    }
+                    const double t = len2 > 0 ? std::clamp(dot / len2, 0.0, 1.0) : 0.0;
+                    double e2 = 0;
+                    for (int k = 0; k < 3; ++k)
+                        e2 += (w[k] - t * d[k]) * (w[k] - t * d[k]);
+                    if (e2 > tol * tol) return false;
+                }
+                return true;
+            };
+            std::vector<std::uint64_t> best(len, UINT64_MAX);
+            best[0] = 0;
+            for (std::size_t j = 1; j < len; ++j) {
+                const std::uint64_t here = j + 1 == len ? 0 : cost(c[j]);
+                for (std::size_t i = j; i-- > 0;)
+                    if (best[i] != UINT64_MAX && best[i] + here < best[j] && within(i, j))
+                        best[j] = best[i] + here;
+            }
+            bound += best[len - 1];
+        }
+        counts.push_back({n, bound});
     }
     return counts;
 }
@@ -341,16 +407,24 @@ int main(int argc, char** argv) {
                                                table, error)) {
                     fail(error);
                 }
-                const std::vector<std::uint64_t> riverDp =
-                    rivers ? riverDpVertices(o.outPath, errors) : std::vector<std::uint64_t>();
+                const std::vector<RiverDp> riverDp =
+                    rivers ? riverDpVertices(o.outPath, errors) : std::vector<RiverDp>();
                 for (std::size_t i = 0; i < errors.size(); ++i) {
                     const std::uint64_t ours = table.rows[i].exactTriangles;
                     if (rivers) {
                         // What a TIN that must also hold the rivers (each simplified to e by 3D
                         // Douglas-Peucker) needs at least, estimated: the no-river TIN plus two
                         // triangles per river vertex it has to insert.
-                        const std::uint64_t withRivers = tin[i] + 2 * riverDp[i];
-                        extra = {{"river_dp_vertices", riverDp[i]},
+                        const std::uint64_t withRivers = tin[i] + 2 * riverDp[i].vertices;
+                        // A strict bound, no estimate: no model whose river error is <= e has
+                        // fewer triangles than this (RiverDp).
+                        const std::uint64_t bound = riverDp[i].lowerBoundTriangles();
+                        extra = {{"river_dp_vertices", riverDp[i].vertices},
+                                 {"rivers_lower_bound_triangles", bound},
+                                 {"lower_bound_vs_tin",
+                                  tin[i] > 0 ? std::round(double(bound) / double(tin[i]) * 1000.0) /
+                                                   1000.0
+                                             : 0.0},
                                  {"tin_plus_rivers_triangles", withRivers},
                                  {"ratio_vs_tin_plus_rivers",
                                   std::round(double(ours) / double(withRivers) * 1000.0) / 1000.0}};
