@@ -143,6 +143,22 @@ std::vector<RiverDp> riverDpVertices(const std::string& path,
             }
         }
     }
+    // Squared 3D distance of chain vertex m to the segment between chain vertices i and j.
+    const auto deviation2 = [&](const std::vector<std::uint32_t>& c, std::size_t i, std::size_t j,
+                                std::size_t m) {
+        double d[3], w[3], len2 = 0, dot = 0;
+        for (int k = 0; k < 3; ++k) {
+            d[k] = pos(c[j], k) - pos(c[i], k);
+            w[k] = pos(c[m], k) - pos(c[i], k);
+            len2 += d[k] * d[k];
+            dot += w[k] * d[k];
+        }
+        const double t = len2 > 0 ? std::clamp(dot / len2, 0.0, 1.0) : 0.0;
+        double e2 = 0;
+        for (int k = 0; k < 3; ++k)
+            e2 += (w[k] - t * d[k]) * (w[k] - t * d[k]);
+        return e2;
+    };
     std::int32_t minX = INT32_MAX, maxX = INT32_MIN, minY = INT32_MAX, maxY = INT32_MIN;
     for (const unilod::format::GridXY& g : b.grid) {
         minX = std::min(minX, g.x), maxX = std::max(maxX, g.x);
@@ -158,22 +174,10 @@ std::vector<RiverDp> riverDpVertices(const std::string& path,
                 const auto [i, j] = stack.back();
                 stack.pop_back();
                 if (j <= i + 1) continue;
-                double d[3], len2 = 0, worst = -1;
+                double worst = -1;
                 std::size_t at = i;
-                for (int k = 0; k < 3; ++k) {
-                    d[k] = pos(c[j], k) - pos(c[i], k);
-                    len2 += d[k] * d[k];
-                }
                 for (std::size_t m = i + 1; m < j; ++m) {
-                    double w[3], dot = 0;
-                    for (int k = 0; k < 3; ++k) {
-                        w[k] = pos(c[m], k) - pos(c[i], k);
-                        dot += w[k] * d[k];
-                    }
-                    const double t = len2 > 0 ? std::clamp(dot / len2, 0.0, 1.0) : 0.0;
-                    double e2 = 0;
-                    for (int k = 0; k < 3; ++k)
-                        e2 += (w[k] - t * d[k]) * (w[k] - t * d[k]);
+                    const double e2 = deviation2(c, i, j, m);
                     if (e2 > worst) worst = e2, at = m;
                 }
                 if (worst > tol * tol) {
@@ -205,23 +209,8 @@ std::vector<RiverDp> riverDpVertices(const std::string& path,
         for (const std::vector<std::uint32_t>& c : chains) {
             const std::size_t len = c.size();
             const auto within = [&](std::size_t i, std::size_t j) {
-                double d[3], len2 = 0;
-                for (int k = 0; k < 3; ++k) {
-                    d[k] = pos(c[j], k) - pos(c[i], k);
-                    len2 += d[k] * d[k];
-                }
-                for (std::size_t m = i + 1; m < j; ++m) {
-                    double w[3], dot = 0;
-                    for (int k = 0; k < 3; ++k) {
-                        w[k] = pos(c[m], k) - pos(c[i], k);
-                        dot += w[k] * d[k];
-                    }
-                    const double t = len2 > 0 ? std::clamp(dot / len2, 0.0, 1.0) : 0.0;
-                    double e2 = 0;
-                    for (int k = 0; k < 3; ++k)
-                        e2 += (w[k] - t * d[k]) * (w[k] - t * d[k]);
-                    if (e2 > tol * tol) return false;
-                }
+                for (std::size_t m = i + 1; m < j; ++m)
+                    if (deviation2(c, i, j, m) > tol * tol) return false;
                 return true;
             };
             std::vector<std::uint64_t> best(len, UINT64_MAX);
