@@ -404,9 +404,6 @@ bool validateLevelGeometryImpl(const Block& b, std::size_t level, std::string& e
         return std::abs(std::int64_t(b.grid[v].x)) <= kMaxGridCoordinate &&
                std::abs(std::int64_t(b.grid[v].y)) <= kMaxGridCoordinate;
     };
-    // Every directed edge (a -> b) of every triangle; in a valid triangulation each occurs once.
-    std::vector<std::uint64_t> directed;
-    directed.reserve(3 * std::size_t(l.triangleCount));
     for (std::uint32_t i = 0; i < l.triangleCount; ++i) {
         const Triangle& t = b.terrainIndices[l.triangleFirst + i];
         if (!checkTriangle(t, n, where + " terrain", error)) return false;
@@ -427,26 +424,49 @@ bool validateLevelGeometryImpl(const Block& b, std::size_t level, std::string& e
                 return false;
             }
         }
-        directed.push_back(edgeKey(t.a, t.b));
-        directed.push_back(edgeKey(t.b, t.c));
-        directed.push_back(edgeKey(t.c, t.a));
     }
-    std::sort(directed.begin(), directed.end());
-    const auto twice = std::adjacent_find(directed.begin(), directed.end());
-    if (twice != directed.end()) {
-        error = where + ": edge " + std::to_string(*twice >> 32) + "->" +
-                std::to_string(*twice & 0xffffffffu) +
-                " is used by two triangles in the same direction (a duplicated or flipped "
-                "triangle, or more than two triangles on one edge)";
-        return false;
+    // The directed edges a -> b of the triangles, bucketed by a (a counting sort, O(n + t)) and
+    // each bucket sorted (a vertex's degree: a few entries). In a valid triangulation no directed
+    // edge occurs twice.
+    std::vector<std::uint64_t> start(n + 1, 0);
+    auto forEachDirected = [&](auto&& f) {
+        for (std::uint32_t i = 0; i < l.triangleCount; ++i) {
+            const Triangle& t = b.terrainIndices[l.triangleFirst + i];
+            f(t.a, t.b);
+            f(t.b, t.c);
+            f(t.c, t.a);
+        }
+    };
+    forEachDirected([&](std::uint32_t from, std::uint32_t) { ++start[from + 1]; });
+    for (std::uint64_t v = 0; v < n; ++v)
+        start[v + 1] += start[v];
+    std::vector<std::uint32_t> to(start[n]);
+    {
+        std::vector<std::uint64_t> fill(start.begin(), start.end() - 1);
+        forEachDirected([&](std::uint32_t from, std::uint32_t t) { to[fill[from]++] = t; });
     }
+    for (std::uint64_t v = 0; v < n; ++v) {
+        const auto first = to.begin() + std::ptrdiff_t(start[v]);
+        const auto last = to.begin() + std::ptrdiff_t(start[v + 1]);
+        std::sort(first, last);
+        const auto twice = std::adjacent_find(first, last);
+        if (twice != last) {
+            error = where + ": edge " + std::to_string(v) + "->" + std::to_string(*twice) +
+                    " is used by two triangles in the same direction (a duplicated or flipped "
+                    "triangle, or more than two triangles on one edge)";
+            return false;
+        }
+    }
+    auto hasEdge = [&](std::uint32_t from, std::uint32_t t) {
+        return std::binary_search(to.begin() + std::ptrdiff_t(start[from]),
+                                  to.begin() + std::ptrdiff_t(start[from + 1]), t);
+    };
     std::vector<std::uint64_t> rivers;
     rivers.reserve(l.riverCount);
     for (std::uint32_t i = 0; i < l.riverCount; ++i) {
         const Edge& e = b.riverIndices[l.riverFirst + i];
         if (!checkEdge(e, n, where + " river", error)) return false;
-        if (!std::binary_search(directed.begin(), directed.end(), edgeKey(e.a, e.b)) &&
-            !std::binary_search(directed.begin(), directed.end(), edgeKey(e.b, e.a))) {
+        if (!hasEdge(e.a, e.b) && !hasEdge(e.b, e.a)) {
             error = where + ": river edge (" + std::to_string(e.a) + "," + std::to_string(e.b) +
                     ") is not an edge of the level's triangles";
             return false;
