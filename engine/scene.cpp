@@ -260,7 +260,9 @@ bool StreamingScene::open(const Device& device, const std::string& path,
         return false;
     }
 
-    // Levels of every block, and the coarse geometry.
+    // Levels of every block, and the coarse geometry. readGeometry validates the whole block
+    // (checksum, structure, every level's geometry: what `unilod check` trusts), so a damaged
+    // block fails the open with the file and block named, before anything is drawn.
     std::vector<Packed> coarse;
     std::uint64_t largest = 0;
     for (std::size_t i = 0; i < s.reader.blocks().size(); ++i) {

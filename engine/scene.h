@@ -90,9 +90,10 @@ public:
     StreamingScene(const StreamingScene&) = delete;
     StreamingScene& operator=(const StreamingScene&) = delete;
 
-    // Opens the file, reads every block's levels, uploads the coarse set (blocking: startup).
-    // False with a message naming the file (unreadable, no geometry, budget below the coarse
-    // set, unknown metric).
+    // Opens the file, reads and validates every block (format::Reader::readGeometry: checksum,
+    // structure, level geometry), uploads the coarse set (blocking: startup). False with a
+    // message naming the file (unreadable, a block that fails validation, named, no geometry,
+    // budget below the coarse set, unknown metric).
     bool open(const Device& device, const std::string& path, const SceneOptions& options,
               std::string& error);
     // Stops the loader and frees the GPU memory. The device must be idle.
@@ -100,8 +101,9 @@ public:
 
     // Outside a render pass, once per frame: releases the memory of frames <= completedFrame
     // (-1: none yet), chooses the levels for `view`, queues loads, and records into `cmd` the
-    // uploads of blocks the loader has finished. A data error on the loader thread (damaged
-    // block) is reported here: false with a message; the block then stays coarse.
+    // uploads of blocks the loader has finished. A data error on the loader thread (a block
+    // that changed on disk since open) is reported here once: false with a message; the block
+    // then stays coarse, it is never drawn from unvalidated data.
     bool prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int64_t completedFrame,
                  const FrameView& view, std::string& error);
     // Inside the render pass: draws the selection of the last prepare().

@@ -1,5 +1,7 @@
-// `unilod check FILE`: every block's checksum and structure (format::Reader), then the topology
-// invariants (checker.h) at EVERY stored level of every block, on the exact grid coordinates
+// `unilod check FILE`: every block's checksum, structure and level geometry (format::Reader::
+// readBlock, i.e. format::validateBlock and validateLevelGeometry: the same validation every other
+// reader path runs, engine included), then the topology invariants (checker.h) at EVERY stored
+// level of every block, on the exact grid coordinates
 // stored in the file; the records replayed from full resolution must reproduce every stored
 // level's triangles and river edges. With `errors` (`--errors`), also the TRUE `max` model error
 // at every stored level, recomputed from the file's own data (errorcheck.h): a stored bound below

@@ -23,6 +23,8 @@
 #include <set>
 #include <utility>
 
+#include "predicates.h"
+
 namespace unilod::format {
 
 // v1 is defined as little-endian and written by copying the in-memory structs; a big-endian port
@@ -179,6 +181,58 @@ bool metricsValid(std::uint32_t metrics, std::uint32_t defaultMetric, std::strin
     return true;
 }
 
+// The header's values (Reader::open, and Writer::finish before it writes them): every float
+// finite, extents ordered, block size positive. A grid may have cells without a block, but not
+// more cells than the file has bytes: whatever a reader keeps per grid cell then costs at most as
+// much as the file itself (a hostile 2^32 - 1 x 2^32 - 1 grid is rejected).
+bool headerValid(const Header& h, std::uint64_t fileSize, std::string& error) {
+    const std::pair<const char*, double> values[] = {{"originX", h.originX},
+                                                     {"originY", h.originY},
+                                                     {"minX", h.minX},
+                                                     {"minY", h.minY},
+                                                     {"minZ", h.minZ},
+                                                     {"maxX", h.maxX},
+                                                     {"maxY", h.maxY},
+                                                     {"maxZ", h.maxZ},
+                                                     {"blockWidth", h.blockWidth},
+                                                     {"blockHeight", h.blockHeight}};
+    for (const auto& [name, value] : values) {
+        if (!std::isfinite(value)) {
+            error = std::string("header ") + name + " is not finite";
+            return false;
+        }
+    }
+    if (h.minX > h.maxX || h.minY > h.maxY || h.minZ > h.maxZ) {
+        error = "header extents are inverted (a min above its max)";
+        return false;
+    }
+    if (h.blockWidth <= 0 || h.blockHeight <= 0) {
+        error = "block size " + std::to_string(h.blockWidth) + " x " +
+                std::to_string(h.blockHeight) + " m is not positive";
+        return false;
+    }
+    if (std::uint64_t(h.blocksX) * h.blocksY > fileSize) {
+        error = "block grid " + std::to_string(h.blocksX) + "x" + std::to_string(h.blocksY) +
+                " has more cells than the file has bytes (" + std::to_string(fileSize) + ")";
+        return false;
+    }
+    return true;
+}
+
+// A directory entry's bounding box: finite, ordered and inside the header's extents. Exact: the
+// writer's caller sets the extents to the min / max of the same doubles (preprocess/build.cpp),
+// so no rounding lies between them. Comparisons are written so that NaN fails them.
+bool directoryBoxValid(const Header& h, const double box[6], std::string& error) {
+    const double lo[3] = {h.minX, h.minY, h.minZ}, hi[3] = {h.maxX, h.maxY, h.maxZ};
+    for (int a = 0; a < 3; ++a) {
+        if (!(box[a] >= lo[a] && box[a] <= box[a + 3] && box[a + 3] <= hi[a])) {
+            error = "bounding box is not finite, inverted or outside the header's extents";
+            return false;
+        }
+    }
+    return true;
+}
+
 // ---- validation -----------------------------------------------------------------------------
 
 bool checkOffsets(const std::vector<std::uint32_t>& offsets, std::size_t steps,
@@ -255,6 +309,180 @@ bool checkErrors(const std::vector<float>& errors, bool present, std::size_t ste
     return true;
 }
 
+// The block's bounding box finite and ordered, its origin finite and inside it (the builder puts
+// the origin at the centre of the box of the block's points): vertices are drawn relative to the
+// origin, so a far-away origin would place them anywhere.
+bool boxAndOriginValid(const Block& b, std::string& error) {
+    const double lo[3] = {b.minX, b.minY, b.minZ}, hi[3] = {b.maxX, b.maxY, b.maxZ};
+    for (int a = 0; a < 3; ++a) {
+        if (!std::isfinite(lo[a]) || !std::isfinite(hi[a]) || lo[a] > hi[a]) {
+            error = "bounding box is not finite or inverted";
+            return false;
+        }
+    }
+    if (!(b.originX >= b.minX && b.originX <= b.maxX && b.originY >= b.minY &&
+          b.originY <= b.maxY)) {
+        error = "origin (" + std::to_string(b.originX) + ", " + std::to_string(b.originY) +
+                ") is not finite or lies outside the bounding box";
+        return false;
+    }
+    return true;
+}
+
+// True when float coordinate `c`, at double position `at` (origin + c, or c itself for z), lies
+// in [lo, hi] up to the float rounding the format allows (kFloatSlack, kAbsoluteSlack).
+bool insideWithSlack(double at, float c, double lo, double hi) {
+    const double slack = kFloatSlack * std::fabs(double(c)) + kAbsoluteSlack;
+    return at >= lo - slack && at <= hi + slack;
+}
+
+// Vertex i: finite, known flags, inside the block's box; its grid position (if stored) bounded so
+// that orient2d is exact and within a grid unit of its float position, so the orientation proved
+// on the grid is the one drawn (up to slivers thinner than a millimetre).
+bool vertexValid(const Block& b, std::uint64_t i, std::string& error) {
+    const Vertex& v = b.vertices[i];
+    const std::string name = "vertex " + std::to_string(i);
+    if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) {
+        error = name + " has a non-finite coordinate";
+        return false;
+    }
+    if ((v.flags & ~(kVertexRiver | kVertexLocked)) != 0) {
+        error = name + " has unknown flags " + std::to_string(v.flags);
+        return false;
+    }
+    if (!insideWithSlack(b.originX + double(v.x), v.x, b.minX, b.maxX) ||
+        !insideWithSlack(b.originY + double(v.y), v.y, b.minY, b.maxY) ||
+        !insideWithSlack(double(v.z), v.z, b.minZ, b.maxZ)) {
+        error = name + " (" + std::to_string(v.x) + ", " + std::to_string(v.y) + ", " +
+                std::to_string(v.z) + ") lies outside the block's bounding box";
+        return false;
+    }
+    if (b.grid.empty()) return true;
+    const GridXY g = b.grid[i];
+    if (std::abs(std::int64_t(g.x)) > kMaxGridCoordinate ||
+        std::abs(std::int64_t(g.y)) > kMaxGridCoordinate) {
+        error = name + ": grid position (" + std::to_string(g.x) + ", " + std::to_string(g.y) +
+                ") is beyond +-(2^28 - 1)";
+        return false;
+    }
+    const double dx = std::fabs(double(v.x) - double(g.x) * kGridUnit);
+    const double dy = std::fabs(double(v.y) - double(g.y) * kGridUnit);
+    if (dx > kGridUnit + kFloatSlack * std::fabs(double(v.x)) ||
+        dy > kGridUnit + kFloatSlack * std::fabs(double(v.y))) {
+        error = name + ": float position (" + std::to_string(v.x) + ", " + std::to_string(v.y) +
+                ") and grid position (" + std::to_string(g.x) + ", " + std::to_string(g.y) +
+                ") differ by more than a grid unit";
+        return false;
+    }
+    return true;
+}
+
+std::string triangleText(const Triangle& t) {
+    return "(" + std::to_string(t.a) + "," + std::to_string(t.b) + "," + std::to_string(t.c) + ")";
+}
+
+constexpr std::uint64_t edgeKey(std::uint32_t a, std::uint32_t b) {
+    return std::uint64_t(a) << 32 | b;
+}
+
+bool validateLevelGeometryImpl(const Block& b, std::size_t level, std::string& error) {
+    const std::string where = "level " + std::to_string(level);
+    if (level >= b.levels.size()) {
+        error = where + " does not exist";
+        return false;
+    }
+    const Level& l = b.levels[level];
+    if (l.vertexCount > b.vertices.size() ||
+        std::uint64_t(l.triangleFirst) + l.triangleCount > b.terrainIndices.size() ||
+        std::uint64_t(l.riverFirst) + l.riverCount > b.riverIndices.size()) {
+        error = where + ": its vertices or index ranges lie outside the block's arrays";
+        return false;
+    }
+    const std::uint64_t n = l.vertexCount;
+    const bool exact = !b.grid.empty() && b.grid.size() == b.vertices.size();
+    auto gridOk = [&](std::uint32_t v) {
+        return std::abs(std::int64_t(b.grid[v].x)) <= kMaxGridCoordinate &&
+               std::abs(std::int64_t(b.grid[v].y)) <= kMaxGridCoordinate;
+    };
+    for (std::uint32_t i = 0; i < l.triangleCount; ++i) {
+        const Triangle& t = b.terrainIndices[l.triangleFirst + i];
+        if (!checkTriangle(t, n, where + " terrain", error)) return false;
+        if (t.a == t.b || t.b == t.c || t.c == t.a) {
+            error = where + ": triangle " + triangleText(t) + " repeats a vertex";
+            return false;
+        }
+        if (exact) {
+            if (!gridOk(t.a) || !gridOk(t.b) || !gridOk(t.c)) {
+                error = where + ": triangle " + triangleText(t) +
+                        " has a grid position beyond +-(2^28 - 1)";
+                return false;
+            }
+            const GridXY &p = b.grid[t.a], &q = b.grid[t.b], &r = b.grid[t.c];
+            if (orient2d(p.x, p.y, q.x, q.y, r.x, r.y) <= 0) {
+                error = where + ": triangle " + triangleText(t) +
+                        " is not counter-clockwise on the exact grid (flipped or degenerate)";
+                return false;
+            }
+        }
+    }
+    // The directed edges a -> b of the triangles, bucketed by a (a counting sort, O(n + t)) and
+    // each bucket sorted (a vertex's degree: a few entries). In a valid triangulation no directed
+    // edge occurs twice.
+    std::vector<std::uint64_t> start(n + 1, 0);
+    auto forEachDirected = [&](auto&& f) {
+        for (std::uint32_t i = 0; i < l.triangleCount; ++i) {
+            const Triangle& t = b.terrainIndices[l.triangleFirst + i];
+            f(t.a, t.b);
+            f(t.b, t.c);
+            f(t.c, t.a);
+        }
+    };
+    forEachDirected([&](std::uint32_t from, std::uint32_t) { ++start[from + 1]; });
+    for (std::uint64_t v = 0; v < n; ++v)
+        start[v + 1] += start[v];
+    std::vector<std::uint32_t> to(start[n]);
+    {
+        std::vector<std::uint64_t> fill(start.begin(), start.end() - 1);
+        forEachDirected([&](std::uint32_t from, std::uint32_t t) { to[fill[from]++] = t; });
+    }
+    for (std::uint64_t v = 0; v < n; ++v) {
+        const auto first = to.begin() + std::ptrdiff_t(start[v]);
+        const auto last = to.begin() + std::ptrdiff_t(start[v + 1]);
+        std::sort(first, last);
+        const auto twice = std::adjacent_find(first, last);
+        if (twice != last) {
+            error = where + ": edge " + std::to_string(v) + "->" + std::to_string(*twice) +
+                    " is used by two triangles in the same direction (a duplicated or flipped "
+                    "triangle, or more than two triangles on one edge)";
+            return false;
+        }
+    }
+    auto hasEdge = [&](std::uint32_t from, std::uint32_t t) {
+        return std::binary_search(to.begin() + std::ptrdiff_t(start[from]),
+                                  to.begin() + std::ptrdiff_t(start[from + 1]), t);
+    };
+    std::vector<std::uint64_t> rivers;
+    rivers.reserve(l.riverCount);
+    for (std::uint32_t i = 0; i < l.riverCount; ++i) {
+        const Edge& e = b.riverIndices[l.riverFirst + i];
+        if (!checkEdge(e, n, where + " river", error)) return false;
+        if (!hasEdge(e.a, e.b) && !hasEdge(e.b, e.a)) {
+            error = where + ": river edge (" + std::to_string(e.a) + "," + std::to_string(e.b) +
+                    ") is not an edge of the level's triangles";
+            return false;
+        }
+        rivers.push_back(edgeKey(e.a, e.b));
+    }
+    std::sort(rivers.begin(), rivers.end());
+    const auto dup = std::adjacent_find(rivers.begin(), rivers.end());
+    if (dup != rivers.end()) {
+        error = where + ": river edge (" + std::to_string(*dup >> 32) + "," +
+                std::to_string(*dup & 0xffffffffu) + ") appears twice";
+        return false;
+    }
+    return true;
+}
+
 bool validateBlockImpl(const Block& b, std::uint32_t metrics, std::string& error) {
     constexpr std::uint64_t kMax32 = std::numeric_limits<std::uint32_t>::max();
     bool tooBig = false;
@@ -271,16 +499,9 @@ bool validateBlockImpl(const Block& b, std::uint32_t metrics, std::string& error
                 " vertices";
         return false;
     }
+    if (!boxAndOriginValid(b, error)) return false;
     for (std::uint64_t i = 0; i < n; ++i) {
-        const Vertex& v = b.vertices[i];
-        if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) {
-            error = "vertex " + std::to_string(i) + " has a non-finite coordinate";
-            return false;
-        }
-        if ((v.flags & ~(kVertexRiver | kVertexLocked)) != 0) {
-            error = "vertex " + std::to_string(i) + " has unknown flags " + std::to_string(v.flags);
-            return false;
-        }
+        if (!vertexValid(b, i, error)) return false;
     }
 
     // Retention order: the vertices alive before step s are [0, n - s), so step s deletes
@@ -416,18 +637,7 @@ bool validateBlockImpl(const Block& b, std::uint32_t metrics, std::string& error
                     std::to_string(b.riverIndices.size()) + " river edges";
             return false;
         }
-        for (std::uint32_t i = 0; i < level.triangleCount; ++i) {
-            if (!checkTriangle(b.terrainIndices[level.triangleFirst + i], level.vertexCount,
-                               where + " terrain", error)) {
-                return false;
-            }
-        }
-        for (std::uint32_t i = 0; i < level.riverCount; ++i) {
-            if (!checkEdge(b.riverIndices[level.riverFirst + i], level.vertexCount,
-                           where + " river", error)) {
-                return false;
-            }
-        }
+        if (!validateLevelGeometryImpl(b, l, error)) return false;
         // The level's errors are the error table's at its step (what the engine's h_s is).
         const bool maxOk = (metrics & kMetricMax) == 0 || level.errorMax == b.errorMax[level.step];
         const bool paperOk =
@@ -514,6 +724,10 @@ bool validateBlock(const Block& block, std::uint32_t metrics, std::string& error
         return false;
     }
     return true;
+}
+
+bool validateLevelGeometry(const Block& block, std::size_t level, std::string& error) {
+    return validateLevelGeometryImpl(block, level, error);
 }
 
 // ---- writer -----------------------------------------------------------------------------------
@@ -629,6 +843,12 @@ bool Writer::finish(std::string& error) {
     if (expectedStart != w.dataStart) return fail("CRS WKT or build info changed size after open");
     std::string why;
     if (!metricsValid(header.metrics, header.defaultMetric, why)) return fail(why);
+    // What Reader::open checks of the header and directory holds before anything is written.
+    if (!headerValid(header, w.offset, why)) return fail(why);
+    for (const DirEntry& e : w.dir) {
+        const double box[6] = {e.minX, e.minY, e.minZ, e.maxX, e.maxY, e.maxZ};
+        if (!directoryBoxValid(header, box, why)) return fail(blockName(e.col, e.row) + ": " + why);
+    }
 
     FileHeader fh{};
     std::memcpy(fh.magic, kMagic, sizeof(kMagic));
@@ -799,6 +1019,7 @@ bool Reader::open(const std::string& path, std::string& error) {
     h.blockHeight = fh.blockHeight;
     h.metrics = fh.metrics;
     h.defaultMetric = fh.defaultMetric;
+    if (!headerValid(h, actualSize, why)) return fail(why);
 
     r.blocks.resize(fh.blockCount);
     std::set<std::pair<std::uint32_t, std::uint32_t>> seen;
@@ -821,6 +1042,8 @@ bool Reader::open(const std::string& path, std::string& error) {
             return fail(name + ": byte range [" + std::to_string(e.offset) + ", +" +
                         std::to_string(e.size) + ") is out of bounds");
         }
+        const double box[6] = {e.minX, e.minY, e.minZ, e.maxX, e.maxY, e.maxZ};
+        if (!directoryBoxValid(h, box, why)) return fail(name + ": " + why);
         ranges.emplace_back(e.offset, e.size);
         BlockInfo& info = r.blocks[i];
         info.col = e.col;
@@ -925,80 +1148,37 @@ bool Reader::readBlock(std::size_t index, Block& block, std::string& error) cons
 
 bool Reader::readGeometry(std::size_t index, int level, BlockGeometry& geometry,
                           std::string& error) const {
-    assert(impl_->fd >= 0 && "Reader::open() first");
-    assert(index < impl_->blocks.size());
-    const Impl& r = *impl_;
-    const BlockInfo& info = r.blocks[index];
-    auto fail = [&](const std::string& what) {
-        error = r.path + ": " + blockName(info.col, info.row) + ": " + what;
+    // The whole block, validated as readBlock does: its checksum covers every byte, and what the
+    // engine relies on (ranges, indices, level geometry) is what validateBlock proves.
+    Block b;
+    if (!readBlock(index, b, error)) return false;
+    if (level != kLevelsOnly && level != kAllLevels &&
+        (level < 0 || std::size_t(level) >= b.levels.size())) {
+        error =
+            impl_->path + ": " + blockName(b.col, b.row) + ": no level " + std::to_string(level);
         return false;
-    };
-    BlockHeader h;
-    if (info.size < sizeof(h) || !preadAll(r.fd, &h, sizeof(h), info.offset)) {
-        return fail("read failed: " + errnoText());
     }
-    if (h.col != info.col || h.row != info.row) {
-        return fail("block header says " + blockName(h.col, h.row));
-    }
-    if (blockByteSize(h) != info.size || h.vertexCount != info.vertexCount ||
-        h.levelCount != info.levelCount || h.levelCount == 0) {
-        return fail("block header counts differ from the directory");
-    }
-    // Byte offsets of the arrays (the order of the Block struct, each padded to 8).
-    constexpr std::uint64_t kElementSize[16] = {16, 12, 4, 4, 4, 4, 12, 12, 8, 8, 4, 4, 32, 12, 8, 8};
-    std::uint64_t offsets[16];
-    {
-        const std::uint32_t* counts = &h.vertexCount;
-        std::uint64_t at = sizeof(BlockHeader);
-        for (int i = 0; i < 16; ++i) {
-            offsets[i] = info.offset + at;
-            at += alignUp(std::uint64_t(counts[i]) * kElementSize[i]);
-        }
-    }
-    enum { kVertices = 0, kLevels = 12, kTerrain = 13, kRivers = 14 };
     BlockGeometry g;
-    g.col = h.col;
-    g.row = h.row;
-    g.originX = h.originX;
-    g.originY = h.originY;
-    g.minX = h.minX, g.minY = h.minY, g.minZ = h.minZ;
-    g.maxX = h.maxX, g.maxY = h.maxY, g.maxZ = h.maxZ;
-    g.levels.resize(h.levelCount);
-    if (!preadAll(r.fd, g.levels.data(), g.levels.size() * sizeof(Level), offsets[kLevels])) {
-        return fail("read failed: " + errnoText());
+    g.col = b.col;
+    g.row = b.row;
+    g.originX = b.originX;
+    g.originY = b.originY;
+    g.minX = b.minX, g.minY = b.minY, g.minZ = b.minZ;
+    g.maxX = b.maxX, g.maxY = b.maxY, g.maxZ = b.maxZ;
+    g.levels = b.levels;
+    if (level == kAllLevels) {
+        g.vertices = std::move(b.vertices);
+        g.terrainIndices = std::move(b.terrainIndices);
+        g.riverIndices = std::move(b.riverIndices);
+    } else if (level != kLevelsOnly) {
+        // One level: the vertex prefix it uses and its index ranges, rebased to 0.
+        const Level& l = b.levels[std::size_t(level)];
+        g.vertices.assign(b.vertices.begin(), b.vertices.begin() + l.vertexCount);
+        const auto tris = b.terrainIndices.begin() + l.triangleFirst;
+        g.terrainIndices.assign(tris, tris + l.triangleCount);
+        const auto edges = b.riverIndices.begin() + l.riverFirst;
+        g.riverIndices.assign(edges, edges + l.riverCount);
     }
-    for (const Level& l : g.levels) {
-        if (l.vertexCount > h.vertexCount ||
-            std::uint64_t(l.triangleFirst) + l.triangleCount > h.terrainTriangleCount ||
-            std::uint64_t(l.riverFirst) + l.riverCount > h.riverEdgeCount) {
-            return fail("a level's range lies outside the block's arrays");
-        }
-    }
-    if (level == kLevelsOnly) {
-        geometry = std::move(g);
-        return true;
-    }
-    if (level != kAllLevels && (level < 0 || std::size_t(level) >= g.levels.size())) {
-        return fail("no level " + std::to_string(level));
-    }
-    const bool all = level == kAllLevels;
-    const Level whole{0, h.vertexCount, 0, h.terrainTriangleCount, 0, h.riverEdgeCount, 0, 0};
-    const Level& l = all ? whole : g.levels[std::size_t(level)];
-    g.vertices.resize(l.vertexCount);
-    g.terrainIndices.resize(l.triangleCount);
-    g.riverIndices.resize(l.riverCount);
-    const bool read =
-        preadAll(r.fd, g.vertices.data(), g.vertices.size() * sizeof(Vertex), offsets[kVertices]) &&
-        preadAll(r.fd, g.terrainIndices.data(), g.terrainIndices.size() * sizeof(Triangle),
-                 offsets[kTerrain] + std::uint64_t(l.triangleFirst) * sizeof(Triangle)) &&
-        preadAll(r.fd, g.riverIndices.data(), g.riverIndices.size() * sizeof(Edge),
-                 offsets[kRivers] + std::uint64_t(l.riverFirst) * sizeof(Edge));
-    if (!read) return fail("read failed: " + errnoText());
-    const std::uint32_t n = l.vertexCount;
-    for (const Triangle& t : g.terrainIndices)
-        if (t.a >= n || t.b >= n || t.c >= n) return fail("a triangle index is out of range");
-    for (const Edge& e : g.riverIndices)
-        if (e.a >= n || e.b >= n) return fail("a river edge index is out of range");
     geometry = std::move(g);
     return true;
 }

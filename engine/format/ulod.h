@@ -118,11 +118,34 @@ struct BlockInfo {
     std::uint32_t fullTriangles = 0;  // triangles at full resolution
 };
 
-// Structural validation of one block (also run by writeUlod and Reader::readBlock): every
-// vertex index in range, offsets monotone and matching their arrays, step and error counts
-// consistent, errors finite and non-decreasing, levels ascending with ranges inside the index
-// arrays and indices below the level's vertexCount. Returns false with a precise message.
+// Tolerances of the geometric checks (README.md "What the reader validates"). A vertex stores
+// float x, y relative to the block origin and a float z; the block's bounding box holds the
+// double coordinates they were rounded from, so a float coordinate c may lie |c|·2^-24 outside
+// it. The reader allows kFloatSlack·|c| + kAbsoluteSlack (4 times the rounding, plus 1 µm for the
+// double sum origin + x). The grid position of a vertex is its position rounded to kGridUnit:
+// float and grid agree within kGridUnit (twice the rounding) + kFloatSlack·|c|.
+inline constexpr double kFloatSlack = 0x1p-22;
+inline constexpr double kAbsoluteSlack = 1e-6;
+
+// Validation of one block: the one definition of a block every reader path trusts (writeUlod and
+// Writer::writeBlock, Reader::readBlock, hence readGeometry, `unilod check`, export, capture,
+// bench, view). Structure: finite bounding box and origin (the origin inside the box), every
+// vertex finite and inside the box (tolerance above) and, with a grid, its grid position inside
+// kMaxGridCoordinate and within tolerance of the float one; every vertex index in range, offsets
+// monotone and matching their arrays, step and error counts consistent, errors finite and
+// non-decreasing, levels ascending with ranges inside the index arrays; then every stored
+// level's geometry (validateLevelGeometry). Returns false with a message naming the block.
 bool validateBlock(const Block& block, std::uint32_t metrics, std::string& error);
+
+// The geometry of stored level `level` as the engine draws it, on an otherwise structurally
+// checked block (validateBlock calls it for every level; it re-checks what it reads, so it is
+// safe on any block): each index below the level's vertexCount; each triangle has three distinct
+// vertices and, when the block stores grid positions, is strictly counter-clockwise on them
+// (exact orient2d, predicates.h); no directed edge is used twice, i.e. an undirected edge is
+// shared by at most two triangles and with opposite orientations (this rejects duplicated and
+// flipped triangles even without a grid); river edges have a < b, are unique and are edges of the
+// level's triangles. O(t log t) for t triangles. The message names the level, not the block.
+bool validateLevelGeometry(const Block& block, std::size_t level, std::string& error);
 
 // The stored level drawn for a model-error tolerance hLim (paper Eq. 11's h_lim): the level with
 // the largest step whose own stored error (errorMax / errorPaper by `metric`) is <= hLim, or
@@ -163,8 +186,10 @@ private:
 };
 
 // Reads a .ulod file block by block (pread): open() validates magic, version, sizes, the header
-// checksum and the directory; readBlock() validates the block's checksum and its structure
-// (every index and range in bounds, offsets monotone, errors non-decreasing).
+// checksum, the header's values (finite, extents ordered, block size positive, grid bounded by
+// the file size) and the directory (positions, byte ranges, boxes finite, ordered and inside the
+// header's extents); readBlock() validates the block's checksum, its header against the
+// directory and the block itself (validateBlock). README.md lists every check.
 // What the engine streams of a block: its levels and LOD index data, without the topology
 // records (a fraction of the block's bytes).
 struct BlockGeometry {
@@ -193,10 +218,10 @@ public:
     const std::vector<BlockInfo>& blocks() const;
     bool readBlock(std::size_t index, Block& block, std::string& error) const;
     // Reads a block's levels (kLevelsOnly), its whole LOD geometry (kAllLevels) or one level's
-    // geometry (level index). Checks the block header against the directory, the level ranges
-    // against the arrays and every index read against the vertices read, so a damaged file can
-    // never make the renderer read out of bounds; the checksum needs the whole block and is
-    // `unilod check`'s job. Thread-safe (pread), like readBlock.
+    // geometry (level index). The block is read and validated exactly as by readBlock (checksum,
+    // directory, validateBlock: every level's geometry), whatever part is returned, so the engine
+    // trusts what `unilod check` trusts; the cost is one read of the whole block. Thread-safe
+    // (pread), like readBlock.
     bool readGeometry(std::size_t index, int level, BlockGeometry& geometry,
                       std::string& error) const;
     const std::string& path() const;

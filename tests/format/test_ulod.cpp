@@ -47,7 +47,7 @@ Block makeBlock(std::uint32_t col, std::uint32_t row, std::uint32_t metrics, boo
                   {10, 10, 102 + dz, locked | river},
                   {0, 10, 103 + dz, locked},
                   {5, 5, 110 + dz, river},
-                  {2, 3, 104.5f + dz, river}};
+                  {3, 2, 104.5f + dz, river}};
     b.minX = b.originX;
     b.minY = b.originY;
     b.minZ = 100 + dz;
@@ -97,9 +97,10 @@ Block makeBlock(std::uint32_t col, std::uint32_t row, std::uint32_t metrics, boo
     addLevel(0, full, riverFull);
     if (allLevels) addLevel(1, afterStep0, river0);
     addLevel(2, afterStep1, river1);
+    // Grid positions within a grid unit of the float ones (validateBlock), not equal to them.
     for (std::size_t i = 0; i < b.vertices.size(); ++i) {
-        b.grid.push_back({static_cast<std::int32_t>(b.vertices[i].x * 1000) - 7,
-                          static_cast<std::int32_t>(b.vertices[i].y * 1000) + int(i)});
+        b.grid.push_back({static_cast<std::int32_t>(b.vertices[i].x * 1000) - 1,
+                          static_cast<std::int32_t>(b.vertices[i].y * 1000) + int(i % 2)});
     }
     return b;
 }
@@ -110,7 +111,7 @@ Header makeHeader(std::uint32_t metrics) {
     h.originX = 612345.5;
     h.originY = 3678901.25;
     h.minX = 0;
-    h.minY = 0;
+    h.minY = -0.5;  // the row-0 blocks start there (their boxes lie inside the extents)
     h.minZ = 100;
     h.maxX = 2000;
     h.maxY = 4000;
@@ -394,6 +395,10 @@ TEST_F(UlodTest, EveryFlippedBlockByteDetected) {
                                          std::to_string(infos[i].row) + "): checksum mismatch";
             EXPECT_NE(error.find(expected), std::string::npos) << error;
             EXPECT_NE(error.find(bad), std::string::npos) << error;
+            // The engine's path checks the same checksum, whatever part it reads.
+            BlockGeometry g;
+            EXPECT_FALSE(reader.readGeometry(i, kLevelsOnly, g, error)) << "byte " << at;
+            EXPECT_NE(error.find(expected), std::string::npos) << error;
             // The other blocks are untouched and still read.
             for (std::size_t j = 0; j < infos.size(); ++j) {
                 if (j != i) {
@@ -566,6 +571,71 @@ TEST_F(UlodHostile, IndexOutOfRangeInFileRejected) {
     EXPECT_NE(error.find("level 2 river"), std::string::npos) << error;
 }
 
+// The header's values and the directory's boxes (Reader::open), with the header CRC recomputed.
+TEST_F(UlodHostile, NonFiniteOrInvertedHeaderValues) {
+    const std::vector<char> original = bytes;
+    for (std::size_t at : {24, 40, 56, 80, 88, 96}) {  // originX, minX, minZ, maxZ, block size
+        bytes = original;
+        store<double>(bytes, at, std::numeric_limits<double>::quiet_NaN());
+        resealHeader();
+        EXPECT_NE(failure().find("is not finite"), std::string::npos) << at << ": " << failure();
+        bytes = original;
+        store<double>(bytes, at, -std::numeric_limits<double>::infinity());
+        resealHeader();
+        EXPECT_NE(failure().find("is not finite"), std::string::npos) << at << ": " << failure();
+    }
+    bytes = original;
+    store<double>(bytes, 40, 5000.0);  // minX above maxX (2000)
+    resealHeader();
+    EXPECT_NE(failure().find("extents are inverted"), std::string::npos) << failure();
+}
+
+TEST_F(UlodHostile, BlockSizeNotPositive) {
+    for (double width : {0.0, -1000.0}) {
+        store<double>(bytes, 88, width);
+        resealHeader();
+        EXPECT_NE(failure().find("is not positive"), std::string::npos) << failure();
+    }
+}
+
+TEST_F(UlodHostile, GridLargerThanTheFile) {
+    store<std::uint32_t>(bytes, 104, 0xffffffffu);
+    store<std::uint32_t>(bytes, 108, 0xffffffffu);
+    resealHeader();
+    EXPECT_NE(failure().find("4294967295x4294967295 has more cells than the file has bytes"),
+              std::string::npos)
+        << failure();
+}
+
+TEST_F(UlodHostile, DirectoryBoxOutsideTheExtents) {
+    // Entry 2 is block (0,1): y from 1999.5; the header's minY is -0.5. Below it, then NaN.
+    store<double>(bytes, entry(2) + 16, -1.0);
+    resealHeader();
+    EXPECT_NE(failure().find("(block (0,1)): bounding box is not finite, inverted or outside"),
+              std::string::npos)
+        << failure();
+    store<double>(bytes, entry(2) + 16, std::numeric_limits<double>::quiet_NaN());
+    resealHeader();
+    EXPECT_NE(failure().find("bounding box is not finite"), std::string::npos) << failure();
+}
+
+// A block changed with its CRC recomputed: the semantic checks of readBlock and readGeometry.
+TEST_F(UlodHostile, BlockSemanticsCheckedOnEveryReadPath) {
+    const auto offset = load<std::uint64_t>(bytes, entry(0) + 56);
+    store<double>(bytes, offset + 8, std::numeric_limits<double>::quiet_NaN());  // originX
+    resealBlock(0);
+    EXPECT_NE(failure().find("block (1,0): origin"), std::string::npos) << failure();
+    const std::string path = file("hostile.ulod");
+    Reader reader;
+    std::string error;
+    ASSERT_TRUE(reader.open(path, error)) << error;
+    for (int level : {kLevelsOnly, kAllLevels, 0}) {
+        BlockGeometry g;
+        EXPECT_FALSE(reader.readGeometry(0, level, g, error));
+        EXPECT_NE(error.find(path + ": block (1,0): origin"), std::string::npos) << error;
+    }
+}
+
 TEST_F(UlodTest, MissingFileRejected) {
     Reader reader;
     std::string error;
@@ -631,6 +701,16 @@ TEST_F(UlodTest, BadHeaderOrGridRejectedByWriter) {
     blocks[3].row = 0;
     EXPECT_FALSE(writeUlod(path, makeHeader(kMetricMax), blocks, error));
     EXPECT_NE(error.find("twice"), std::string::npos) << error;
+
+    // What the reader would reject is not written either.
+    header = makeHeader(kMetricMax);
+    header.minZ = std::numeric_limits<double>::quiet_NaN();
+    EXPECT_FALSE(writeUlod(path, header, makeBlocks(kMetricMax), error));
+    EXPECT_NE(error.find("header minZ is not finite"), std::string::npos) << error;
+    header = makeHeader(kMetricMax);
+    header.maxX = 1005;  // the blocks of column 1 reach 1010.25
+    EXPECT_FALSE(writeUlod(path, header, makeBlocks(kMetricMax), error));
+    EXPECT_NE(error.find("outside the header's extents"), std::string::npos) << error;
     EXPECT_TRUE(otherFiles().empty());
 }
 
@@ -735,6 +815,99 @@ TEST_F(UlodValidateError, LevelVertexCountAndErrors) {
 TEST_F(UlodValidateError, RiverEdgeNotOrdered) {
     block.riverIndices[0] = {5, 0};
     EXPECT_NE(check(block).find("level 0 river: edge (5,0)"), std::string::npos) << check(block);
+}
+
+// ---- the level geometry and the vertices (validateLevelGeometry, validateBlock) -------------
+
+TEST_F(UlodValidateError, FlippedTriangle) {
+    std::swap(block.terrainIndices[0].b, block.terrainIndices[0].c);  // level 0: (0,1,5)
+    EXPECT_NE(check(block).find("block (1,0): level 0: triangle (0,5,1) is not counter-clockwise"),
+              std::string::npos)
+        << check(block);
+    // Without grid positions the orientation is not proved, but the flipped triangle's edges run
+    // the same way as its neighbours'.
+    block.grid.clear();
+    EXPECT_NE(check(block).find("level 0: edge"), std::string::npos) << check(block);
+    EXPECT_NE(check(block).find("in the same direction"), std::string::npos) << check(block);
+}
+
+TEST_F(UlodValidateError, DuplicatedTriangle) {
+    block.terrainIndices[1] = block.terrainIndices[0];
+    EXPECT_NE(check(block).find("level 0: edge 0->1 is used by two triangles in the same "
+                                "direction"),
+              std::string::npos)
+        << check(block);
+}
+
+TEST_F(UlodValidateError, DegenerateTriangle) {
+    block.terrainIndices[0].c = 1;
+    EXPECT_NE(check(block).find("level 0: triangle (0,1,1) repeats a vertex"), std::string::npos)
+        << check(block);
+    block = makeBlock(1, 0, kMetricMax | kMetricPaper, true);
+    block.grid[5] = block.grid[1];  // vertex 5 moved onto vertex 1: (0,1,5) has no area
+    block.vertices[5].x = float(block.grid[5].x * 1e-3);
+    block.vertices[5].y = float(block.grid[5].y * 1e-3);
+    EXPECT_NE(check(block).find("triangle (0,1,5) is not counter-clockwise"), std::string::npos)
+        << check(block);
+}
+
+TEST_F(UlodValidateError, RiverEdgeNotOnTheLevelsTriangles) {
+    block.riverIndices[0] = {1, 3};  // level 0: the diagonal 1-3 is no edge
+    EXPECT_NE(
+        check(block).find("level 0: river edge (1,3) is not an edge of the level's triangles"),
+        std::string::npos)
+        << check(block);
+    block = makeBlock(1, 0, kMetricMax | kMetricPaper, true);
+    block.riverIndices[1] = block.riverIndices[0];
+    EXPECT_NE(check(block).find("level 0: river edge (0,5) appears twice"), std::string::npos)
+        << check(block);
+}
+
+TEST_F(UlodValidateError, VertexOutsideTheBoxBeyondTheTolerance) {
+    // Vertex 4 holds the maximum z. The box may miss it by the float rounding the format allows
+    // (kFloatSlack * |z| + kAbsoluteSlack), not more.
+    const double z = block.vertices[4].z;
+    const double slack = kFloatSlack * z + kAbsoluteSlack;
+    block.maxZ = z - 0.5 * slack;
+    EXPECT_EQ(check(block), "");
+    block.maxZ = z - 2 * slack;
+    EXPECT_NE(check(block).find("block (1,0): vertex 4 ("), std::string::npos) << check(block);
+    EXPECT_NE(check(block).find("lies outside the block's bounding box"), std::string::npos);
+    block = makeBlock(1, 0, kMetricMax | kMetricPaper, true);
+    block.vertices[2].x = 10.5f;  // the box ends at x = 10
+    EXPECT_NE(check(block).find("vertex 2 ("), std::string::npos) << check(block);
+}
+
+TEST_F(UlodValidateError, BoxAndOrigin) {
+    block.originX = std::numeric_limits<double>::quiet_NaN();
+    EXPECT_NE(check(block).find("block (1,0): origin (nan"), std::string::npos) << check(block);
+    block = makeBlock(1, 0, kMetricMax | kMetricPaper, true);
+    block.originY = block.maxY + 1;
+    EXPECT_NE(check(block).find("lies outside the bounding box"), std::string::npos)
+        << check(block);
+    block = makeBlock(1, 0, kMetricMax | kMetricPaper, true);
+    block.minZ = block.maxZ + 1;
+    EXPECT_NE(check(block).find("bounding box is not finite or inverted"), std::string::npos)
+        << check(block);
+}
+
+TEST_F(UlodValidateError, GridPositionFarFromTheFloatOne) {
+    block.grid[4].x += 3;  // 3 mm: more than a grid unit
+    EXPECT_NE(check(block).find("vertex 4: float position"), std::string::npos) << check(block);
+    block = makeBlock(1, 0, kMetricMax | kMetricPaper, true);
+    block.grid[4].y = 1 << 28;  // beyond the exact range of orient2d
+    EXPECT_NE(check(block).find("vertex 4: grid position"), std::string::npos) << check(block);
+}
+
+TEST_F(UlodValidateError, LevelGeometryOnItsOwn) {
+    std::string error;
+    for (std::size_t l = 0; l < block.levels.size(); ++l)
+        EXPECT_TRUE(validateLevelGeometry(block, l, error)) << error;
+    EXPECT_FALSE(validateLevelGeometry(block, block.levels.size(), error));
+    block.levels[2].triangleFirst = 0xfffffff0u;  // a range outside the arrays: no read
+    EXPECT_FALSE(validateLevelGeometry(block, 2, error));
+    EXPECT_NE(error.find("level 2: its vertices or index ranges lie outside"), std::string::npos)
+        << error;
 }
 
 }  // namespace

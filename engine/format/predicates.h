@@ -7,6 +7,10 @@
 //   incircle: lifted terms dx^2 + dy^2 < 2^59 and 2x2 minors < 2^59 fit int64; their products are
 //             < 2^118 and the sum of three < 2^120                              -> exact in int128.
 // No floating point, no epsilon: the sign is always the true sign.
+//
+// The file lives with the .ulod format because the format owns the exact grid (GridXY, kGridUnit
+// in ulod.h): the reader checks the orientation of every stored triangle with orient2d, and
+// preprocess builds the triangulation with the same predicates (one definition of each).
 #pragma once
 
 #include <cstdint>

@@ -1,0 +1,189 @@
+// Hostile files on every reader path (issue 16, part 1): the bundled model is built, then damaged
+// in targeted ways WITH its checksums recomputed (tests/ulodbytes.h), so that only the semantic
+// checks can catch the damage: NaN and inverted header extents, a block size of 0 or below, a
+// 2^32-1 x 2^32-1 block grid, a NaN block origin, a vertex far above its block's box, a flipped
+// and a duplicated triangle. And once without recomputation: a changed block byte. `unilod check`,
+// `unilod capture` and `unilod export` must each exit 1 with a message naming the file (and the
+// block, for a block's damage) and leave no output behind: capture used to render such blocks and
+// export to skip the topology checks.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+#include <string>
+
+#include "testutil.h"
+#include "tools/cliutil.h"
+#include "ulod.h"
+#include "ulodbytes.h"
+
+using namespace unilod;
+namespace fs = std::filesystem;
+using unilod::test::q;
+using unilod::test::runCli;
+using unilod::test::UlodBytes;
+
+namespace {
+
+const std::string kDem = std::string(UNILOD_ASSETS_DIR) + "/jacksboro_dem.tif";
+const std::string kRivers = std::string(UNILOD_ASSETS_DIR) + "/jacksboro_rivers_grass.geojson";
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+class Hostile : public ::testing::Test {
+protected:
+    static inline test::TempDir* dir = nullptr;
+    static inline std::string model, camera;
+    static inline UlodBytes pristine;
+
+    static void SetUpTestSuite() {
+        dir = new test::TempDir("hostile");
+        model = dir->file("j.ulod");
+        const auto r = runCli("build -q " + q(kDem) + " " + q(kRivers) + " -o " + q(model));
+        ASSERT_EQ(r.code, 0) << r.err;
+        format::Reader reader;
+        std::string error;
+        ASSERT_TRUE(reader.open(model, error)) << error;
+        const format::Header& h = reader.header();
+        char text[160];
+        std::snprintf(text, sizeof text, "%.3f,%.3f,%.3f,0,-90", (h.minX + h.maxX) / 2,
+                      (h.minY + h.maxY) / 2, h.maxZ + 3000);
+        camera = text;
+        pristine = UlodBytes::load(model);
+        ASSERT_GT(pristine.blockCount(), 2u);
+    }
+    static void TearDownTestSuite() {
+        delete dir;
+        dir = nullptr;
+    }
+
+    // A block in the middle of the file, and its name as the messages give it.
+    static std::size_t block() { return pristine.blockCount() / 2; }
+    static std::string blockName(const UlodBytes& f, std::size_t i) {
+        return "block (" + std::to_string(f.get<std::uint32_t>(f.entry(i))) + "," +
+               std::to_string(f.get<std::uint32_t>(f.entry(i) + 4)) + ")";
+    }
+    // Level 0's first triangle of block i (README: Level = u32 step, vertexCount, triangleFirst).
+    static std::uint64_t firstTriangle(const UlodBytes& f, std::size_t i) {
+        const auto first = f.get<std::uint32_t>(f.arrayAt(i, UlodBytes::kLevels) + 8);
+        return f.arrayAt(i, UlodBytes::kTerrainIndices) + 12 * std::uint64_t(first);
+    }
+
+    // Saves `damaged` as NAME.ulod and runs check, capture and export on it: each must exit 1,
+    // name the file, the block (when `where` is not empty) and, for check, `why`; no frame and
+    // no .glb may be left.
+    static void expectRejected(const std::string& name, const UlodBytes& damaged,
+                               const std::string& where, const std::string& why) {
+        SCOPED_TRACE(name);
+        const std::string path = dir->file(name + ".ulod");
+        ASSERT_TRUE(damaged.save(path));
+        auto named = [&](const test::CliResult& r, const char* command) {
+            EXPECT_EQ(r.code, 1) << command << ": " << r.err;
+            EXPECT_NE(r.err.find(path), std::string::npos) << command << ": " << r.err;
+            EXPECT_NE(r.err.find(where), std::string::npos) << command << ": " << r.err;
+        };
+        const auto c = runCli("check -q " + q(path));
+        named(c, "check");
+        EXPECT_NE(c.err.find(why), std::string::npos) << c.err;
+
+        const std::string frames = dir->file(name + "_frames");
+        const auto capture = runCli("capture --validation " + q(path) + " --camera " + camera +
+                                    " --size 64x48 --out " + q(frames));
+        named(capture, "capture");
+        EXPECT_FALSE(fs::exists(fs::path(frames) / "frame_0000.png"));
+
+        const std::string glb = dir->file(name + ".glb");
+        const auto e = runCli("export -q " + q(path) + " --h-lim 1 -o " + q(glb));
+        named(e, "export");
+        EXPECT_FALSE(fs::exists(glb));
+    }
+};
+
+// The undamaged model passes all three: the failures below are the damage's.
+TEST_F(Hostile, PristineModelPasses) {
+    EXPECT_EQ(runCli("check -q " + q(model)).code, 0);
+    const std::string frames = dir->file("pristine_frames");
+    const auto c = runCli("capture --validation " + q(model) + " --camera " + camera +
+                          " --size 64x48 --out " + q(frames));
+    EXPECT_EQ(c.code, 0) << c.err;
+    EXPECT_TRUE(fs::exists(fs::path(frames) / "frame_0000.png"));
+    const auto e = runCli("export -q " + q(model) + " --h-lim 1 -o " + q(dir->file("p.glb")));
+    EXPECT_EQ(e.code, 0) << e.err;
+}
+
+TEST_F(Hostile, NaNHeaderExtents) {
+    UlodBytes f = pristine;
+    f.set<double>(UlodBytes::kMinX, kNaN);
+    f.resealHeader();
+    expectRejected("nan_extents", f, "", "header minX is not finite");
+}
+
+TEST_F(Hostile, InvertedHeaderExtents) {
+    UlodBytes f = pristine;
+    f.set<double>(UlodBytes::kMinY, f.get<double>(UlodBytes::kMaxY) + 1000);
+    f.resealHeader();
+    expectRejected("inverted_extents", f, "", "extents are inverted");
+}
+
+TEST_F(Hostile, BlockWidthZeroOrNegative) {
+    for (double width : {0.0, -1920.0}) {
+        UlodBytes f = pristine;
+        f.set<double>(UlodBytes::kBlockWidth, width);
+        f.resealHeader();
+        expectRejected(width == 0 ? "width_zero" : "width_negative", f, "", "is not positive");
+    }
+}
+
+TEST_F(Hostile, HugeBlockGrid) {
+    UlodBytes f = pristine;
+    f.set<std::uint32_t>(UlodBytes::kBlocksX, 0xffffffffu);
+    f.set<std::uint32_t>(UlodBytes::kBlocksY, 0xffffffffu);
+    f.resealHeader();
+    expectRejected("huge_grid", f, "", "more cells than the file has bytes");
+}
+
+TEST_F(Hostile, NaNBlockOrigin) {
+    UlodBytes f = pristine;
+    f.set<double>(f.blockAt(block()) + UlodBytes::kBlockOriginX, kNaN);
+    f.resealBlock(block());
+    expectRejected("nan_origin", f, blockName(f, block()), "origin");
+}
+
+TEST_F(Hostile, VertexFarAboveItsBox) {
+    UlodBytes f = pristine;
+    const std::uint64_t z = f.arrayAt(block(), UlodBytes::kVertices) + 16 * 3 + 8;  // vertex 3
+    f.set<float>(z, f.get<float>(z) + 5000.0f);
+    f.resealBlock(block());
+    expectRejected("vertex_z", f, blockName(f, block()),
+                   "vertex 3 (");  // "... lies outside the block's bounding box"
+}
+
+TEST_F(Hostile, FlippedTriangle) {
+    UlodBytes f = pristine;
+    const std::uint64_t t = firstTriangle(f, block());
+    const auto b = f.get<std::uint32_t>(t + 4), c = f.get<std::uint32_t>(t + 8);
+    f.set<std::uint32_t>(t + 4, c);
+    f.set<std::uint32_t>(t + 8, b);
+    f.resealBlock(block());
+    expectRejected("flipped", f, blockName(f, block()), "is not counter-clockwise");
+}
+
+TEST_F(Hostile, DuplicatedTriangle) {
+    UlodBytes f = pristine;
+    const std::uint64_t t = firstTriangle(f, block());
+    for (int k = 0; k < 3; ++k)
+        f.set<std::uint32_t>(t + 12 + 4 * k, f.get<std::uint32_t>(t + 4 * k));
+    f.resealBlock(block());
+    expectRejected("duplicated", f, blockName(f, block()), "in the same direction");
+}
+
+// No checksum recomputed: the block's CRC must stop every command, capture included.
+TEST_F(Hostile, ChangedBlockByte) {
+    UlodBytes f = pristine;
+    const std::uint64_t z = f.arrayAt(block(), UlodBytes::kVertices) + 16 * 3 + 8;
+    f.set<float>(z, f.get<float>(z) + 0.5f);  // a plausible altitude: only the CRC can tell
+    expectRejected("crc", f, blockName(f, block()), "checksum mismatch");
+}
+
+}  // namespace
