@@ -508,6 +508,22 @@ double bruteForceMaxError(const PointSet& set, const Cdt& cdt) {
     return worst;
 }
 
+double segmentDistance2(const double a[3], const double c[3], const double m[3]) {
+    double d[3], w[3];
+    double len2 = 0, dot = 0;
+    for (int k = 0; k < 3; ++k) {
+        d[k] = c[k] - a[k];
+        w[k] = m[k] - a[k];
+        len2 += d[k] * d[k];
+        dot += w[k] * d[k];
+    }
+    const double t = len2 > 0 ? std::clamp(dot / len2, 0.0, 1.0) : 0.0;
+    double e2 = 0;
+    for (int k = 0; k < 3; ++k)
+        e2 += (w[k] - t * d[k]) * (w[k] - t * d[k]);
+    return e2;
+}
+
 double bruteForceRiverDeviation(const PointSet& set, const Cdt& cdt) {
     const double u = cdt.gridUnit;
     auto at = [&](PointId v, int axis) {
@@ -522,19 +538,10 @@ double bruteForceRiverDeviation(const PointSet& set, const Cdt& cdt) {
             const PointId a = line[prev], c = line[i];
             for (std::size_t j = prev + 1; j < i; ++j) {
                 const PointId m = line[j];
-                double d[3], w[3];
-                double len2 = 0, dot = 0;
-                for (int k = 0; k < 3; ++k) {
-                    d[k] = at(c, k) - at(a, k);
-                    w[k] = at(m, k) - at(a, k);
-                    len2 += d[k] * d[k];
-                    dot += w[k] * d[k];
-                }
-                const double t = len2 > 0 ? std::clamp(dot / len2, 0.0, 1.0) : 0.0;
-                double e2 = 0;
-                for (int k = 0; k < 3; ++k)
-                    e2 += (w[k] - t * d[k]) * (w[k] - t * d[k]);
-                worst = std::max(worst, std::sqrt(e2));
+                const double pa[3] = {at(a, 0), at(a, 1), at(a, 2)};
+                const double pc[3] = {at(c, 0), at(c, 1), at(c, 2)};
+                const double pm[3] = {at(m, 0), at(m, 1), at(m, 2)};
+                worst = std::max(worst, std::sqrt(segmentDistance2(pa, pc, pm)));
             }
             prev = i;
         }

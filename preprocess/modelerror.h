@@ -137,6 +137,9 @@ double bruteForceMaxError(const PointSet& set, const Cdt& cdt);
 // largest 3D distance from an original vertex to the segment between the alive vertices before
 // and after it; 0 when every river vertex is alive.
 double bruteForceRiverDeviation(const PointSet& set, const Cdt& cdt);
+// Squared 3D distance from m to the segment a-c (a point when a == c); plain doubles, used by
+// bruteForceRiverDeviation and the benchmark's river baselines (tools/bench_order.cpp).
+double segmentDistance2(const double a[3], const double c[3], const double m[3]);
 double bruteForcePaperError(const PointSet& set, const Cdt& cdt);
 
 // Height of the surface of triangle t at original point m's grid position (shared formula).

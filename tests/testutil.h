@@ -1,6 +1,7 @@
 // Small helpers shared by the tests: a portable fixed-seed PRNG and random point sets.
 #pragma once
 
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -14,6 +15,16 @@
 #include "points.h"
 
 namespace unilod::test {
+
+// The pid of a process that has exited (and been reaped): no process has it now (pids are
+// reused only after the range wraps). For stale-temporary tests (atomicfile.h).
+inline pid_t deadPid() {
+    const pid_t child = fork();
+    if (child == 0) _exit(0);
+    int status = 0;
+    waitpid(child, &status, 0);
+    return child;
+}
 
 // A fresh folder under the system temp folder, removed with everything in it at scope exit. The
 // test program's name and the process id keep parallel test programs apart.

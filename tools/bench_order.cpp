@@ -37,6 +37,7 @@
 #include "dem.h"
 #include "greedytin.h"
 #include "jsontext.h"
+#include "modelerror.h"
 #include "stats.h"
 #include "ulod.h"
 
@@ -146,18 +147,10 @@ std::vector<RiverDp> riverDpVertices(const std::string& path,
     // Squared 3D distance of chain vertex m to the segment between chain vertices i and j.
     const auto deviation2 = [&](const std::vector<std::uint32_t>& c, std::size_t i, std::size_t j,
                                 std::size_t m) {
-        double d[3], w[3], len2 = 0, dot = 0;
-        for (int k = 0; k < 3; ++k) {
-            d[k] = pos(c[j], k) - pos(c[i], k);
-            w[k] = pos(c[m], k) - pos(c[i], k);
-            len2 += d[k] * d[k];
-            dot += w[k] * d[k];
-        }
-        const double t = len2 > 0 ? std::clamp(dot / len2, 0.0, 1.0) : 0.0;
-        double e2 = 0;
-        for (int k = 0; k < 3; ++k)
-            e2 += (w[k] - t * d[k]) * (w[k] - t * d[k]);
-        return e2;
+        const double a[3] = {pos(c[i], 0), pos(c[i], 1), pos(c[i], 2)};
+        const double e[3] = {pos(c[j], 0), pos(c[j], 1), pos(c[j], 2)};
+        const double p[3] = {pos(c[m], 0), pos(c[m], 1), pos(c[m], 2)};
+        return unilod::segmentDistance2(a, e, p);
     };
     std::int32_t minX = INT32_MAX, maxX = INT32_MIN, minY = INT32_MAX, maxY = INT32_MIN;
     for (const unilod::format::GridXY& g : b.grid) {

@@ -34,15 +34,7 @@ std::set<std::string> names(const TempDir& dir) {
     return out;
 }
 
-// The pid of a process that has exited (and been reaped): no process has it now (pids are
-// reused only after the range wraps).
-pid_t deadPid() {
-    const pid_t child = fork();
-    if (child == 0) _exit(0);
-    int status = 0;
-    waitpid(child, &status, 0);
-    return child;
-}
+using unilod::test::deadPid;
 
 const OutputOptions kReplace{.replace = true, .inputs = {}};
 const OutputOptions kNoReplace{.replace = false, .inputs = {}};

@@ -63,13 +63,7 @@ protected:
     }
 };
 
-pid_t deadPid() {
-    const pid_t child = fork();
-    if (child == 0) _exit(0);
-    int status = 0;
-    waitpid(child, &status, 0);
-    return child;
-}
+using unilod::test::deadPid;
 
 }  // namespace
 
