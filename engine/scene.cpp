@@ -5,11 +5,13 @@
 
 #include <algorithm>
 #include <cassert>
+#include <cmath>
 #include <condition_variable>
 #include <cstring>
 #include <deque>
 #include <map>
 #include <mutex>
+#include <set>
 #include <thread>
 
 #include "vkcheck.h"
@@ -112,10 +114,40 @@ struct BlockState {
     std::vector<format::Level> levels;
     std::uint64_t terrainTriangles = 0, riverEdges = 0;  // index data the levels use
     std::uint64_t fullBytes = 0;
+    // The `max` error bounds displacements in any direction (engine/lod.h BoxView::horizontal):
+    // a block with rivers, or whose outline may have moved (outlineMoves).
+    bool horizontal = false;
     Allocation coarse, full;  // coarse: the last level only, always resident
     std::uint64_t lastUsedFrame = 0;
     std::uint64_t deniedEpoch = ~0ull;  // space epoch in which an upload did not fit
 };
+
+// Whether a block's outline (cdt.h "Domain") may move between its levels: unless the coarsest
+// level's outline is the block's bounding rectangle. The greedy order deletes an outline vertex
+// only where no other changes sides (deletion.h), and a deleted vertex never returns, so a
+// rectangle at the coarsest level means only straight stretches of it were simplified (no
+// displacement) at every level. `g` holds the coarsest level (readGeometry).
+bool outlineMoves(const format::BlockGeometry& g) {
+    if (g.levels.empty()) return false;
+    std::set<std::pair<std::uint32_t, std::uint32_t>> directed;
+    for (const format::Triangle& t : g.terrainIndices) {
+        directed.insert({t.a, t.b}), directed.insert({t.b, t.c}), directed.insert({t.c, t.a});
+    }
+    // Float vertices relative to the origin; the box in doubles: the reader's tolerance.
+    auto on = [](double v, double side) {
+        return std::fabs(v - side) <= format::kFloatSlack * std::fabs(side) + 2e-3;
+    };
+    const double x0 = g.minX - g.originX, x1 = g.maxX - g.originX;
+    const double y0 = g.minY - g.originY, y1 = g.maxY - g.originY;
+    for (const auto& [u, w] : directed) {
+        if (directed.count({w, u})) continue;
+        const format::Vertex &a = g.vertices[u], &b = g.vertices[w];
+        const bool side = (on(a.x, x0) && on(b.x, x0)) || (on(a.x, x1) && on(b.x, x1)) ||
+                          (on(a.y, y0) && on(b.y, y0)) || (on(a.y, y1) && on(b.y, y1));
+        if (!side) return true;
+    }
+    return false;
+}
 
 struct Loaded {
     std::uint32_t block = 0;
@@ -284,6 +316,7 @@ bool StreamingScene::open(const Device& device, const std::string& path,
                       b.terrainTriangles * sizeof(format::Triangle) +
                       b.riverEdges * sizeof(format::Edge);
         largest = std::max(largest, b.fullBytes);
+        b.horizontal = (!g.levels.empty() && g.levels.front().riverCount > 0) || outlineMoves(g);
         b.levels = std::move(g.levels);
         Packed p;
         pack(g, g.terrainIndices.size(), g.riverIndices.size(), p);
@@ -468,7 +501,7 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
         // selects (the paper's 2D grid diagrams at a view distance).
         sel.distance = blockDistance(s.options.distance, camera.eye, b.boxMin, b.boxMax);
         sel.box = boxView(camera, b.boxMin, b.boxMax);
-        sel.box.horizontal = !b.levels.empty() && b.levels.front().riverCount > 0;
+        sel.box.horizontal = b.horizontal;
         sel.hLim = blockTolerance(tolerance, sel.distance, sel.box);
         sel.wanted = s.options.policy == LodPolicy::Finest
                          ? chooseStoredLevel(b.levels, s.metric, -1.0)

@@ -5,7 +5,6 @@
 #include <cassert>
 #include <cmath>
 
-#include "grid.h"
 
 namespace unilod {
 
@@ -38,30 +37,31 @@ bool BlockSource::init(const DemGrid& dem, const RiverLines& rivers, const Block
                        std::string& error) {
     dem_ = &dem;
     options_ = options;
+    // Messages name the `unilod build` options that set these values. A block size beyond the
+    // DEM gives one block in that direction (borderLines), so only a block narrower than two
+    // sampled cells is refused, where the DEM has more than one.
+    const std::string cells =
+        std::to_string(dem.width) + " x " + std::to_string(dem.height) + " cells";
+    const int smallest = std::min(dem.width, dem.height) - 1;  // between the outer centres
     if (options.stride < 1) {
-        error = "stride must be at least 1 (got " + std::to_string(options.stride) + ")";
+        error = "--stride " + std::to_string(options.stride) + ": must be at least 1";
         return false;
     }
-    if (options.blockSize < 1) {
-        error = "block size must be positive (got " + std::to_string(options.blockSize) + ")";
+    if (options.stride > smallest) {
+        error = "--stride " + std::to_string(options.stride) + " is larger than the DEM (" + cells +
+                (smallest >= 1 ? "); use --stride " + std::to_string(smallest) + " or less"
+                               : "): too small to triangulate");
         return false;
     }
-    const int largest = std::max(dem.width, dem.height) - 1;
-    if (options.blockSize > largest) {
-        error = "block size " + std::to_string(options.blockSize) +
-                " cells is larger than the DEM (" + std::to_string(dem.width) + " x " +
-                std::to_string(dem.height) + " cells)";
-        return false;
-    }
-    if (options.blockSize < 2 * options.stride) {
-        error = "block size " + std::to_string(options.blockSize) +
-                " cells must be at least twice the stride (" + std::to_string(options.stride) + ")";
-        return false;
-    }
-    if ((dem.width - 1) / options.stride < 1 || (dem.height - 1) / options.stride < 1) {
-        error = "the DEM (" + std::to_string(dem.width) + " x " + std::to_string(dem.height) +
-                " cells) is too small to triangulate at stride " + std::to_string(options.stride);
-        return false;
+    for (const int n : {dem.width, dem.height}) {
+        const int last = (n - 1) / options.stride * options.stride;
+        if (options.blockSize < std::min(2 * options.stride, last)) {
+            error = "--block-size " + std::to_string(options.blockSize) +
+                    " is less than twice --stride " + std::to_string(options.stride) +
+                    " (a block needs two sampled cells a side); use --block-size " +
+                    std::to_string(2 * options.stride) + " or more";
+            return false;
+        }
     }
     borderCols_ = borderLines(dem.width, options.stride, options.blockSize);
     borderRows_ = borderLines(dem.height, options.stride, options.blockSize);
@@ -76,7 +76,9 @@ bool BlockSource::init(const DemGrid& dem, const RiverLines& rivers, const Block
     }
 
     // Rivers: pieces on the DEM, then a crossing vertex wherever a segment crosses a border line.
-    const std::vector<RiverPiece> raw = sampleRiverPieces(dem, rivers);
+    nodesX_ = (dem.width - 1) / options.stride + 1;
+    nodesY_ = (dem.height - 1) / options.stride + 1;
+    const std::vector<RiverPiece> raw = cutAtOutline(sampleRiverPieces(dem, rivers));
     stats_ = {};
     stats_.riverPieces = raw.size();
     drop_ = riverClearanceMask(dem, raw, options.riverClearance);
@@ -175,27 +177,107 @@ bool BlockSource::init(const DemGrid& dem, const RiverLines& rivers, const Block
     return true;
 }
 
-PointSet BlockSource::points(std::size_t i) const {
+PointSet BlockSource::points(std::size_t b) const {
     const DemGrid& dem = *dem_;
-    const BlockRect& r = rects_[i];
+    const BlockRect& r = rects_[b];
     const int s = options_.stride;
+    const int i0 = r.cellCol0 / s, i1 = r.cellCol1 / s, j0 = r.cellRow0 / s, j1 = r.cellRow1 / s;
+    const int w = i1 - i0 + 1, h = j1 - j0 + 1;
+    auto local = [&](int i, int j) { return std::size_t(j - j0) * std::size_t(w) + std::size_t(i - i0); };
+    // Squares of this block in the domain (>= 3 valid corners).
+    auto covered = [&](int i, int j) {
+        return i >= i0 && i < i1 && j >= j0 && j < j1 && validCorners(i, j) >= 3;
+    };
+    // The outline: directed lattice edges with the block's domain on the left (world
+    // orientation: lattice (i, j) -> world (x, y) turns counter-clockwise iff cellX * cellY > 0).
+    const bool flipped = dem.cellX * dem.cellY < 0;
+    struct LEdge {
+        std::uint32_t from, to;
+    };
+    std::vector<LEdge> edges;
+    auto addEdge = [&](int ia, int ja, int ib, int jb, int im2, int jm2) {
+        // (im2, jm2): twice the lattice position of a point on the domain side.
+        const long long o = (long long)(ib - ia) * (jm2 - 2 * ja) - (long long)(jb - ja) * (im2 - 2 * ia);
+        const bool left = flipped ? o < 0 : o > 0;
+        if (left) {
+            edges.push_back({std::uint32_t(local(ia, ja)), std::uint32_t(local(ib, jb))});
+        } else {
+            edges.push_back({std::uint32_t(local(ib, jb)), std::uint32_t(local(ia, ja))});
+        }
+    };
+    for (int j = j0; j <= j1; ++j) {
+        for (int i = i0; i <= i1; ++i) {
+            if (!nodeValid(i, j)) continue;
+            if (i < i1 && nodeValid(i + 1, j)) {  // horizontal edge: squares (i, j-1), (i, j)
+                const bool up = covered(i, j - 1), down = covered(i, j);
+                if (up != down) addEdge(i, j, i + 1, j, 2 * i + 1, up ? 2 * j - 1 : 2 * j + 1);
+            }
+            if (j < j1 && nodeValid(i, j + 1)) {  // vertical edge: squares (i-1, j), (i, j)
+                const bool left = covered(i - 1, j), right = covered(i, j);
+                if (left != right) addEdge(i, j, i, j + 1, left ? 2 * i - 1 : 2 * i + 1, 2 * j + 1);
+            }
+        }
+    }
+    for (int j = j0; j < j1; ++j) {
+        for (int i = i0; i < i1; ++i) {
+            if (validCorners(i, j) != 3) continue;
+            const int ci[4] = {i, i + 1, i + 1, i}, cj[4] = {j, j, j + 1, j + 1};
+            int missing = 0;
+            while (nodeValid(ci[missing], cj[missing]))
+                ++missing;
+            const int a = (missing + 1) % 4, c = (missing + 3) % 4, o = (missing + 2) % 4;
+            addEdge(ci[a], cj[a], ci[c], cj[c], 2 * ci[o], 2 * cj[o]);
+        }
+    }
+    // Chain the edges into closed rings (a node with two outgoing edges is a pinch point).
+    std::vector<std::uint32_t> outHead(std::size_t(w) * std::size_t(h), kNoPoint), outNext(edges.size());
+    std::vector<std::uint8_t> outDegree(std::size_t(w) * std::size_t(h), 0), onRing(outDegree.size(), 0);
+    for (std::uint32_t e = std::uint32_t(edges.size()); e-- > 0;) {
+        outNext[e] = outHead[edges[e].from];
+        outHead[edges[e].from] = e;
+        ++outDegree[edges[e].from];
+        onRing[edges[e].from] = onRing[edges[e].to] = 1;
+    }
+    // Points: valid corners of the block's domain squares; ring vertices always kept.
+    std::vector<PointId> id(outDegree.size(), kNoPoint);
     PointSet set;
-    for (int row = r.cellRow0; row <= r.cellRow1; row += s) {
-        for (int col = r.cellCol0; col <= r.cellCol1; col += s) {
+    const bool outer = options_.lockOuterEdge;
+    for (int j = j0; j <= j1; ++j) {
+        for (int i = i0; i <= i1; ++i) {
+            if (!nodeValid(i, j)) continue;
+            if (!(covered(i - 1, j - 1) || covered(i, j - 1) || covered(i - 1, j) || covered(i, j)))
+                continue;
+            const int col = i * s, row = j * s;
             const std::size_t cell = static_cast<std::size_t>(row) * dem.width + col;
-            if (std::isnan(dem.z[cell]) || (!drop_.empty() && drop_[cell])) continue;
-            const bool outer = options_.lockOuterEdge;
+            const std::size_t l = local(i, j);
+            if (!onRing[l] && !drop_.empty() && drop_[cell]) continue;
             const bool border =
                 (row == r.cellRow0 && (outer || row != borderRows_.front())) ||
                 (row == r.cellRow1 && (outer || row != borderRows_.back())) ||
                 (col == r.cellCol0 && (outer || col != borderCols_.front())) ||
                 (col == r.cellCol1 && (outer || col != borderCols_.back()));
-            set.points.push_back(
-                {dem.centreX(col), dem.centreY(row), double(dem.z[cell]), PointKind::Dem, border});
+            id[l] = PointId(set.points.size());
+            set.points.push_back({dem.centreX(col), dem.centreY(row), double(dem.z[cell]),
+                                  PointKind::Dem, border || outDegree[l] > 1});
         }
     }
+    std::vector<std::uint8_t> used(edges.size(), 0);
+    for (std::uint32_t e0 = 0; e0 < edges.size(); ++e0) {
+        if (used[e0]) continue;
+        Polyline ring;
+        std::uint32_t e = e0;
+        while (e != kNoPoint && !used[e]) {
+            used[e] = 1;
+            ring.push_back(id[edges[e].from]);
+            std::uint32_t next = outHead[edges[e].to];
+            while (next != kNoPoint && used[next])
+                next = outNext[next];
+            e = next;
+        }
+        set.boundaries.push_back(std::move(ring));
+    }
     std::vector<RiverPiece> pieces;
-    for (const Run& run : runs_[i]) {
+    for (const Run& run : runs_[b]) {
         const RiverPiece& piece = pieces_[run.piece];
         pieces.emplace_back(piece.begin() + run.first, piece.begin() + run.last + 1);
     }
@@ -211,61 +293,137 @@ PointSet BlockSource::points(std::size_t i) const {
     return set;
 }
 
-bool BlockSource::hasNodataCells(std::size_t i) const {
-    const BlockRect& r = rects_[i];
-    for (int row = r.cellRow0; row <= r.cellRow1; ++row)
-        for (int col = r.cellCol0; col <= r.cellCol1; ++col)
-            if (std::isnan(dem_->at(col, row))) return true;
+bool BlockSource::nodeValid(int i, int j) const {
+    if (i < 0 || j < 0 || i >= nodesX_ || j >= nodesY_) return false;
+    return !std::isnan(dem_->at(i * options_.stride, j * options_.stride));
+}
+
+int BlockSource::validCorners(int i, int j) const {
+    if (i < 0 || j < 0 || i + 1 >= nodesX_ || j + 1 >= nodesY_) return 0;
+    return int(nodeValid(i, j)) + int(nodeValid(i + 1, j)) + int(nodeValid(i + 1, j + 1)) +
+           int(nodeValid(i, j + 1));
+}
+
+bool BlockSource::hasDomain(std::size_t b) const {
+    const BlockRect& r = rects_[b];
+    const int s = options_.stride;
+    for (int j = r.cellRow0 / s; j < r.cellRow1 / s; ++j)
+        for (int i = r.cellCol0 / s; i < r.cellCol1 / s; ++i)
+            if (validCorners(i, j) >= 3) return true;
     return false;
 }
 
-std::vector<std::size_t> BlockSource::bridgedNodataCells(std::size_t i, const PointSet& set) const {
-    std::vector<std::size_t> cells;
+namespace {
+
+// Squared distance between the 2D segments p0-p1 and q0-q1 (0 when they meet).
+double segmentSegmentDistance2(const double p0[2], const double p1[2], const double q0[2],
+                               const double q1[2]) {
+    auto cross = [](const double a[2], const double b[2], const double c[2]) {
+        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+    };
+    const double d1 = cross(p0, p1, q0), d2 = cross(p0, p1, q1);
+    const double d3 = cross(q0, q1, p0), d4 = cross(q0, q1, p1);
+    if (((d1 > 0 && d2 < 0) || (d1 < 0 && d2 > 0)) && ((d3 > 0 && d4 < 0) || (d3 < 0 && d4 > 0)))
+        return 0;
+    auto pointSegment = [](const double m[2], const double a[2], const double c[2]) {
+        const double dx = c[0] - a[0], dy = c[1] - a[1];
+        const double len2 = dx * dx + dy * dy;
+        const double t =
+            len2 > 0 ? std::clamp(((m[0] - a[0]) * dx + (m[1] - a[1]) * dy) / len2, 0.0, 1.0)
+                     : 0.0;
+        const double ex = m[0] - a[0] - t * dx, ey = m[1] - a[1] - t * dy;
+        return ex * ex + ey * ey;
+    };
+    return std::min({pointSegment(p0, q0, q1), pointSegment(p1, q0, q1), pointSegment(q0, p0, p1),
+                     pointSegment(q1, p0, p1)});
+}
+
+}  // namespace
+
+std::vector<RiverPiece> BlockSource::cutAtOutline(const std::vector<RiverPiece>& pieces) const {
     const DemGrid& dem = *dem_;
-    const BlockRect& r = rects_[i];
-    if (set.points.size() < 3) return cells;
-    // Convex hull (monotone chain) on the exact 1 mm grid, counter-clockwise.
-    const Quantizer q = Quantizer::forPoints(set.points);
-    std::vector<GridPoint> pts;
-    pts.reserve(set.points.size());
-    for (const Point& p : set.points)
-        pts.push_back(q(p));
-    std::sort(pts.begin(), pts.end(), [](const GridPoint& a, const GridPoint& b) {
-        return a.x < b.x || (a.x == b.x && a.y < b.y);
-    });
-    pts.erase(std::unique(
-                  pts.begin(), pts.end(),
-                  [](const GridPoint& a, const GridPoint& b) { return a.x == b.x && a.y == b.y; }),
-              pts.end());
-    if (pts.size() < 3) return cells;
-    std::vector<GridPoint> hull(2 * pts.size());
-    std::size_t k = 0;
-    for (std::size_t j = 0; j < pts.size(); ++j) {
-        while (k >= 2 && orient2d(hull[k - 2], hull[k - 1], pts[j]) <= 0)
-            --k;
-        hull[k++] = pts[j];
-    }
-    for (std::size_t j = pts.size() - 1, lower = k + 1; j-- > 0;) {
-        while (k >= lower && orient2d(hull[k - 2], hull[k - 1], pts[j]) <= 0)
-            --k;
-        hull[k++] = pts[j];
-    }
-    hull.resize(k - 1);
-    if (hull.size() < 3) return cells;
-    for (int row = r.cellRow0; row <= r.cellRow1; ++row) {
-        for (int col = r.cellCol0; col <= r.cellCol1; ++col) {
-            if (!std::isnan(dem.at(col, row))) continue;
-            const GridPoint c =
-                q({dem.centreX(col), dem.centreY(row), q.oz, PointKind::Dem, false});
-            bool inside = true;
-            for (std::size_t e = 0; e < hull.size() && inside; ++e) {
-                inside = orient2d(hull[e], hull[(e + 1) % hull.size()], c) > 0;
-            }
-            if (inside)
-                cells.push_back(std::size_t(row) * std::size_t(dem.width) + std::size_t(col));
+    const int s = options_.stride;
+    const double sx = dem.cellX * s, sy = dem.cellY * s;
+    auto lattice = [&](const RiverVertex& v, double& fi, double& fj) {
+        fi = (v.x - dem.originX) / sx;
+        fj = (v.y - dem.originY) / sy;
+    };
+    auto node = [&](int i, int j, double out[2]) {
+        out[0] = dem.centreX(i * s);
+        out[1] = dem.centreY(j * s);
+    };
+    // Inside a full lattice square (the square below-left of the vertex, clamped).
+    auto vertexInside = [&](const RiverVertex& v) {
+        double fi, fj;
+        lattice(v, fi, fj);
+        const int i = std::clamp(int(std::floor(fi)), 0, std::max(0, nodesX_ - 2));
+        const int j = std::clamp(int(std::floor(fj)), 0, std::max(0, nodesY_ - 2));
+        return validCorners(i, j) == 4;
+    };
+    // Whether lattice edge (i0, j0)-(i1, j1) (both valid) is on the outline of the whole domain
+    // and not on the DEM's outer edge.
+    auto outlineEdge = [&](int i0, int j0, int i1, int j1) {
+        if (!nodeValid(i0, j0) || !nodeValid(i1, j1)) return false;
+        if (i0 != i1 && j0 != j1) {  // a diagonal: on the outline iff its square has 3 corners
+            return validCorners(std::min(i0, i1), std::min(j0, j1)) == 3;
         }
+        int a, b;  // the squares on either side
+        if (i0 == i1) {
+            const int j = std::min(j0, j1);
+            if (i0 == 0 || i0 == nodesX_ - 1) return false;
+            a = validCorners(i0 - 1, j), b = validCorners(i0, j);
+        } else {
+            const int i = std::min(i0, i1);
+            if (j0 == 0 || j0 == nodesY_ - 1) return false;
+            a = validCorners(i, j0 - 1), b = validCorners(i, j0);
+        }
+        return (a >= 3) != (b >= 3);
+    };
+    const double margin2 = kOutlineMargin * kOutlineMargin;
+    auto segmentNear = [&](const RiverVertex& p, const RiverVertex& q) {
+        double fi0, fj0, fi1, fj1;
+        lattice(p, fi0, fj0);
+        lattice(q, fi1, fj1);
+        const int ilo = int(std::floor(std::min(fi0, fi1))) - 1,
+                  ihi = int(std::floor(std::max(fi0, fi1))) + 1;
+        const int jlo = int(std::floor(std::min(fj0, fj1))) - 1,
+                  jhi = int(std::floor(std::max(fj0, fj1))) + 1;
+        const double a[2] = {p.x, p.y}, c[2] = {q.x, q.y};
+        for (int j = std::max(0, jlo); j <= std::min(nodesY_ - 1, jhi); ++j) {
+            for (int i = std::max(0, ilo); i <= std::min(nodesX_ - 1, ihi); ++i) {
+                const int cand[4][4] = {
+                    {i, j, i + 1, j}, {i, j, i, j + 1}, {i, j, i + 1, j + 1}, {i + 1, j, i, j + 1}};
+                for (const auto& e : cand) {
+                    if (!outlineEdge(e[0], e[1], e[2], e[3])) continue;
+                    double u[2], w[2];
+                    node(e[0], e[1], u);
+                    node(e[2], e[3], w);
+                    if (segmentSegmentDistance2(a, c, u, w) < margin2) return true;
+                }
+            }
+        }
+        return false;
+    };
+    std::vector<RiverPiece> out;
+    for (const RiverPiece& piece : pieces) {
+        RiverPiece run;
+        auto flush = [&] {
+            if (run.size() >= 2) out.push_back(run);
+            run.clear();
+        };
+        for (std::size_t k = 0; k < piece.size(); ++k) {
+            const RiverVertex& v = piece[k];
+            const bool ok = vertexInside(v) && !segmentNear(v, v);
+            if (!ok) {
+                flush();
+                continue;
+            }
+            if (!run.empty() && segmentNear(run.back(), v)) flush();
+            run.push_back(v);
+        }
+        flush();
     }
-    return cells;
+    return out;
 }
 
 }  // namespace unilod

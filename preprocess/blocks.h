@@ -10,6 +10,17 @@
 // as are river endpoints and junctions (paper §3.1). DEM points closer than the river clearance to
 // any river segment are dropped by one global mask, so both blocks of a shared border drop the
 // same border points.
+//
+// Domain (issue 17). The valid data on the sampled lattice: a lattice square with 4 valid corners
+// is part of the domain, one with 3 the triangle of those corners, others nothing (a valid cell
+// with no such square around it — an isolated cell, a one-cell-wide line — gives no point). A
+// block's domain is the part in its rectangle; its outline (outer rings and holes, the block
+// rectangle's sides included) goes to PointSet::boundaries as closed rings on the domain's left,
+// so no triangle spans nodata by more than half a cell. Ring vertices are never dropped by the
+// river clearance; a vertex where the outline touches itself is locked. Rivers are cut where they
+// leave the domain: a river vertex outside a full lattice square and a river segment closer than
+// kOutlineMargin to an outline edge (not the DEM's outer edge, which no river crosses) are dropped
+// and the river continues as a new piece after them, so no river crosses the outline.
 #pragma once
 
 #include <cstdint>
@@ -24,9 +35,12 @@ namespace unilod {
 
 inline constexpr int kDefaultBlockSize = 256;          // DEM cells per block side
 inline constexpr double kDefaultRiverClearance = 1.0;  // metres
+inline constexpr double kOutlineMargin = 0.01;          // metres (1 cm: ten grid units)
 
 struct BlockOptions {
-    int blockSize = kDefaultBlockSize;  // DEM cells; a multiple of stride is advised
+    // DEM cells; a multiple of stride is advised. Larger than the DEM in a direction: one block
+    // there (the block size is clamped to the DEM).
+    int blockSize = kDefaultBlockSize;
     int stride = 1;                     // take every stride-th cell
     // Lock the DEM's outer edge too (it bounds one block only; the 3ddp order keeps it locked as
     // the paper does, the greedy order lets straight stretches of it simplify).
@@ -49,7 +63,8 @@ struct BlockSourceStats {
 // Produces the point set of each block on demand (thread-safe once initialised).
 class BlockSource {
 public:
-    // Returns false with `error` for invalid options (block size / stride against the DEM).
+    // Returns false with `error` for invalid options (a stride larger than the DEM, a block
+    // narrower than two sampled cells where the DEM is wider); the message names the option.
     bool init(const DemGrid& dem, const RiverLines& rivers, const BlockOptions& options,
               std::string& error);
 
@@ -63,14 +78,17 @@ public:
     // what is locked.
     PointSet points(std::size_t i) const;
 
-    // nodata.h rule 2: the nodata cells (row-major indices) of block i's rectangle whose centres
-    // lie strictly inside the convex hull of `set` (the block's points).
-    std::vector<std::size_t> bridgedNodataCells(std::size_t i, const PointSet& set) const;
-    // Whether block i's rectangle has a nodata cell at all (a cheap scan: without one nothing can
-    // be bridged, and the block's points need not be made for bridgedNodataCells).
-    bool hasNodataCells(std::size_t i) const;
+    // Whether block i holds any of the domain (a lattice square with at least 3 valid corners):
+    // a block without is left out of the model.
+    bool hasDomain(std::size_t i) const;
 
 private:
+    // The domain on the sampled lattice (node (i, j) = cell (i * stride, j * stride)).
+    bool nodeValid(int i, int j) const;
+    int validCorners(int i, int j) const;  // of square (i, j)..(i + 1, j + 1); 0 outside
+    // Cuts river pieces where they come near the outline of the domain (see the file comment).
+    std::vector<RiverPiece> cutAtOutline(const std::vector<RiverPiece>& pieces) const;
+    int nodesX_ = 0, nodesY_ = 0;  // sampled lattice size
     const DemGrid* dem_ = nullptr;
     BlockOptions options_;
     std::uint32_t blocksX_ = 0, blocksY_ = 0;

@@ -11,11 +11,7 @@
 #include <thread>
 
 #include "blockbuild.h"
-#include "dem.h"
 #include "jsontext.h"
-#include "nodata.h"
-#include "rivercleaning.h"
-#include "rivers.h"
 
 namespace unilod {
 
@@ -36,25 +32,14 @@ format::OutputOptions outputOptions(const BuildOptions& o) {
 bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) {
     const auto start = std::chrono::steady_clock::now();
     summary = {};
-    auto warn = [&](const std::string& w) {
-        if (o.warn) o.warn(w);
-    };
     // Fail fast, before the long work; the Writer checks again when it creates the file.
     if (o.outPath.empty()) {
         error = "no output file given (-o OUT.ulod)";
         return false;
     }
     if (!format::checkOutputPath(o.outPath, outputOptions(o), false, error)) return false;
-    if (o.stride < 1) {
-        error = "stride must be at least 1 (got " + std::to_string(o.stride) + ")";
-        return false;
-    }
-    if (o.blockSize < 1) {
-        error = "block size must be positive (got " + std::to_string(o.blockSize) + ")";
-        return false;
-    }
     if (o.threads < 0) {
-        error = "threads must be >= 0 (got " + std::to_string(o.threads) + ")";
+        error = "--threads " + std::to_string(o.threads) + ": must be >= 0";
         return false;
     }
 
@@ -68,146 +53,35 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
         return false;
     }
     if (o.useBai && blockOptions.importance.baiTable.findRow(o.baiRow) < 0) {
-        error = "the BAI table has no row for threshold " + std::to_string(o.baiRow) + " m";
+        error = "--bai-row " + jsonText(nlohmann::json(o.baiRow)) + ": the BAI table" +
+                (o.baiTablePath.empty() ? std::string(" (the paper's Table 1)")
+                                        : " '" + o.baiTablePath + "'") +
+                " has no row for this threshold (metres)";
         return false;
     }
 
-    DemGrid dem;
-    DemLoadOptions demOptions;
-    demOptions.band = o.band;
-    demOptions.targetSrs = o.targetSrs;
-    if (!loadDem(o.demPath, demOptions, dem, error)) return false;
-    // Before the block-size checks, so that a 1 x 1 raster is reported for what it is.
-    if (dem.width < 2 || dem.height < 2) {
-        error = "DEM '" + o.demPath + "': " + std::to_string(dem.width) + " x " +
-                std::to_string(dem.height) + " cells is too small to triangulate (at least 2 x 2)";
-        return false;
-    }
+    Ingested data;
+    if (!ingest(o, data, error)) return false;
+    const DemGrid& dem = data.dem;
     summary.demWidth = dem.width;
     summary.demHeight = dem.height;
     summary.crsName = crsDisplayName(dem.wkt);
-    for (std::size_t i = 0; i < dem.z.size(); ++i) {
-        const float z = dem.z[i];
-        if (std::isnan(z)) {
-            continue;
-        } else if (z < kMinPlausibleZ || z > kMaxPlausibleZ) {
-            const std::size_t col = i % std::size_t(dem.width), row = i / std::size_t(dem.width);
-            error = "DEM '" + o.demPath + "': elevation " + std::to_string(z) + " at cell (" +
-                    std::to_string(col) + ", " + std::to_string(row) +
-                    ") is outside the plausible " + "range [" +
-                    std::to_string(int(kMinPlausibleZ)) + ", " +
-                    std::to_string(int(kMaxPlausibleZ)) + "] m (a wrong nodata value or units?)";
-            return false;
-        }
-    }
-    NodataStats nodata;
-    if (!fillSmallHoles(dem, o.demPath, kDefaultMaxFillCells, nodata, error)) return false;
-    if (nodata.nodataCells > 0) {
-        warn("DEM '" + o.demPath + "': " + std::to_string(nodata.nodataCells) +
-             " nodata cells (nodata value, NaN or infinite); " + std::to_string(nodata.holes) +
-             " small interior holes (" + std::to_string(nodata.filledCells) +
-             " cells) filled from their rims, the rest produce no points");
-    }
+    summary.cleaning = describe(data.cleaning);
+    summary.riverLines = data.rivers.size();
 
-    RiverLines rivers;
-    RiverLoadOptions riverOptions;
-    riverOptions.layer = o.layer;
-    riverOptions.where = o.where;
-    riverOptions.assumeSrs = o.assumeSrs;
-    riverOptions.warn = warn;
-    if (!loadRivers(o.riversPath, riverOptions, dem.wkt, rivers, error)) return false;
-    {
-        // The point set drops repeated consecutive vertices and lines with fewer than two
-        // distinct vertices (pointset.h); say so, since the user's data changes.
-        std::size_t repeated = 0, degenerate = 0;
-        for (const RiverLine& line : rivers) {
-            std::size_t here = 0;
-            for (std::size_t i = 1; i < line.size(); ++i)
-                here += line[i] == line[i - 1];
-            repeated += here;
-            degenerate += line.size() - here < 2;
-        }
-        if (repeated > 0 || degenerate > 0) {
-            warn("rivers '" + o.riversPath + "': dropped " + std::to_string(repeated) +
-                 " repeated vertices and " + std::to_string(degenerate) +
-                 " zero-length lines (fewer than two distinct vertices)");
-        }
-    }
-    if (rivers.empty()) {
-        warn("rivers '" + o.riversPath + "': no line features: building a terrain-only model");
-    } else {
-        bool any = false;
-        for (const RiverLine& line : rivers) {
-            for (const XY& v : line) {
-                if (std::isfinite(dem.sample(v.x, v.y))) {
-                    any = true;
-                    break;
-                }
-            }
-            if (any) break;
-        }
-        if (!any) {
-            error = "rivers '" + o.riversPath + "': no river vertex lies on the DEM '" + o.demPath +
-                    "' (a CRS mistake? try --assume-crs or check the data)";
-            return false;
-        }
-    }
-    // River cleaning (DESIGN.md "Point set"): clip to the DEM, snap, split at crossings, drop
-    // duplicates, zero-length segments and short rivers, so that the constrained triangulation
-    // gets a planar network whose rivers meet only at shared vertices.
-    RiverCleaningOptions cleaning;
-    cleaning.minRiverLength = o.minRiverLength;
-    RiverCleaningStats cleaningStats;
-    rivers = cleanRivers(rivers, dem, cleaning, cleaningStats);
-    summary.cleaning = describe(cleaningStats);
-    if (cleaningStats.crossingsSplit + cleaningStats.selfCrossings + cleaningStats.touchesSplit >
-        0) {
-        warn("rivers '" + o.riversPath +
-             "': crossing or touching rivers were split at the crossing");
-    }
-    if (cleaningStats.duplicateVertices + cleaningStats.zeroLengthSegments > 0) {
-        warn("rivers '" + o.riversPath + "': duplicate vertices and zero-length segments dropped");
-    }
-    summary.riverLines = rivers.size();
-
-    BlockOptions blocks;
-    blocks.blockSize = o.blockSize;
-    blocks.stride = o.stride;
-    blocks.lockOuterEdge = o.order == DeletionOrderKind::ThreeDdp;
-    BlockSource source;
-    if (!source.init(dem, rivers, blocks, error)) {
-        error = "DEM '" + o.demPath + "': " + error;
+    // The block size clamps to the DEM (splitIntoBlocks); the default one also to the exact grid.
+    int blockSize = o.blockSize;
+    if (blockSize == 0) {
+        blockSize = automaticBlockSize(dem, o.stride);
+    } else if (!checkBlockFitsExactGrid(dem, o.stride, blockSize, error)) {
         return false;
     }
-    // nodata.h rule 2: fill the nodata cells a block's hull would bridge (few per block), until
-    // no hull contains a nodata centre; refuse a block with many.
-    for (int round = 0; round < 8; ++round) {
-        std::size_t filled = 0;
-        for (std::size_t i = 0; i < source.blockCount(); ++i) {
-            if (!source.hasNodataCells(i)) continue;
-            const std::vector<std::size_t> cells = source.bridgedNodataCells(i, source.points(i));
-            if (cells.size() > kMaxBridgedCells) {
-                const std::size_t c = cells.front();
-                error = "DEM '" + o.demPath + "': block (" + std::to_string(source.rect(i).col) +
-                        "," + std::to_string(source.rect(i).row) + ") would bridge " +
-                        std::to_string(cells.size()) + " nodata cells (e.g. cell (" +
-                        std::to_string(c % std::size_t(dem.width)) + ", " +
-                        std::to_string(c / std::size_t(dem.width)) +
-                        ")): a nodata bay reaches into the block's convex hull; at most " +
-                        std::to_string(kMaxBridgedCells) + " such cells per block are filled";
-                return false;
-            }
-            filled += fillCells(dem, cells);
-        }
-        nodata.bayCellsFilled += filled;
-        if (filled == 0) break;
-    }
-    if (nodata.bayCellsFilled > 0) {
-        warn("DEM '" + o.demPath + "': " + std::to_string(nodata.bayCellsFilled) +
-             " nodata cells inside blocks' convex hulls filled from their neighbours");
-    }
-    summary.nodataCells = nodata.nodataCells;
-    summary.filledNodataCells = nodata.filledCells + nodata.bayCellsFilled;
+    summary.blockSize = blockSize;
+    BlockSource source;
+    if (!splitIntoBlocks(data, o, blockSize, o.order == DeletionOrderKind::ThreeDdp, source, error))
+        return false;
+    summary.nodataCells = data.nodata.nodataCells;
+    summary.filledNodataCells = data.nodata.filledCells;
     summary.crossings = source.stats().crossings;
     summary.droppedDemPoints = source.stats().droppedDemPoints;
 
@@ -219,30 +93,25 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     header.maxX = header.maxY = header.maxZ = -HUGE_VAL;
     header.blocksX = source.blocksX();
     header.blocksY = source.blocksY();
-    header.blockWidth = o.blockSize * std::fabs(dem.cellX);
-    header.blockHeight = o.blockSize * std::fabs(dem.cellY);
+    // The extent of a whole block, block (0, 0): the block size rounded down to the stride and
+    // clamped to the DEM (the last block of a row or column may be smaller).
+    const BlockRect& first = source.rect(0);
+    header.blockWidth = (first.cellCol1 - first.cellCol0) * std::fabs(dem.cellX);
+    header.blockHeight = (first.cellRow1 - first.cellRow0) * std::fabs(dem.cellY);
     header.metrics = format::kMetricMax | format::kMetricPaper;
     header.defaultMetric = o.defaultMetric;
     // Provenance; nothing here may depend on the thread count or the clock.
     nlohmann::json info = {
         {"generator", "unilod build"},
-        {"dem", o.demPath},
-        {"rivers", o.riversPath},
-        {"band", o.band},
-        {"t_srs", o.targetSrs},
-        {"layer", o.layer},
-        {"where", o.where},
-        {"assume_crs", o.assumeSrs},
-        {"stride", o.stride},
-        {"block_size", o.blockSize},
+        {"block_size", blockSize},
         {"order", deletionOrderName(o.order)},
         {"bai", o.useBai},
         {"bai_row", o.baiRow},
         {"bai_table", o.baiTablePath},
-        {"min_river_length", o.minRiverLength},
         {"lod_triangle_ratio", blockOptions.lodRatio},
         {"grid_unit_m", format::kGridUnit},
     };
+    recordIngestOptions(o, info);
     header.buildInfo = jsonText(info);
 
     // Blocks in parallel, written in grid order by this thread as soon as each is next in line,
@@ -251,7 +120,12 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     // (rivers, relief), so a short window stalls the workers behind one slow block: 16M-point
     // synthetic build, 2 threads, 204 s with 2 blocks per thread, 158 s with 4 (peak RSS 467 ->
     // 554 MB).
-    const std::size_t n = source.blockCount();
+    // Blocks without any of the domain (all nodata) are left out of the model (splitIntoBlocks
+    // refuses a DEM without any).
+    std::vector<std::size_t> present;
+    for (std::size_t i = 0; i < source.blockCount(); ++i)
+        if (source.hasDomain(i)) present.push_back(i);
+    const std::size_t n = present.size();
     format::Writer writer;
     if (!writer.open(o.outPath, header, n, outputOptions(o), error)) return false;
     const unsigned threads =
@@ -274,8 +148,8 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
                 if (failed || next >= n) return;
                 i = next++;
             }
-            const PointSet set = source.points(i);
-            const BlockRect& r = source.rect(i);
+            const PointSet set = source.points(present[i]);
+            const BlockRect& r = source.rect(present[i]);
             const bool ok =
                 buildBlock(set, r.col, r.row, blockOptions, results[i], stats[i], errors[i]);
             {
@@ -336,7 +210,8 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     for (std::size_t i = 0; i < n; ++i) {
         if (!errors[i].empty()) {
             error = "DEM '" + o.demPath + "' + rivers '" + o.riversPath + "': block (" +
-                    std::to_string(source.rect(i).col) + "," + std::to_string(source.rect(i).row) +
+                    std::to_string(source.rect(present[i]).col) + "," +
+                    std::to_string(source.rect(present[i]).row) +
                     "): " + errors[i];
             return false;
         }

@@ -1,11 +1,11 @@
 // `unilod build`: DEM + river network -> one .ulod file (issue 4). The library half of the
 // command, so that tests call runBuild(options) directly (STYLE.md: library plus thin main).
 //
-// Pipeline: load the DEM (GDAL; geographic -> UTM of its centre or --t-srs) and the rivers (OGR,
-// reprojected to the DEM's CRS); check the data; clean the rivers; partition into blocks with
-// locked shared borders (blocks.h); per block, in parallel: importance order, constrained
-// Delaunay, deletion sequence with records and model error, LOD index data (blockbuild.h); write
-// the blocks in grid order, so the file is byte-identical for any thread count.
+// Pipeline: ingestion (ingest.h: load the DEM and the rivers, check the data, fill small nodata
+// holes, clean the rivers); partition into blocks with locked shared borders (blocks.h); per block,
+// in parallel: importance order, constrained Delaunay, deletion sequence with records and model
+// error, LOD index data (blockbuild.h); write the blocks in grid order, so the file is
+// byte-identical for any thread count.
 #pragma once
 
 #include <cstdint>
@@ -15,39 +15,34 @@
 #include "blockbuild.h"
 #include "blocks.h"
 #include "importance.h"
+#include "ingest.h"
 #include "ulod.h"
 
 namespace unilod {
 
-// Elevations outside this range are refused as absurd (a broken nodata value, wrong units...):
-// the lowest and highest points on Earth with a wide margin.
-inline constexpr double kMinPlausibleZ = -12000.0, kMaxPlausibleZ = 10000.0;
-
-struct BuildOptions {
-    std::string demPath, riversPath, outPath;
-    int band = 0;           // 0: the only band
-    std::string targetSrs;  // --t-srs; empty: automatic
-    std::string layer, where, assumeSrs;
-    int stride = 1;
-    int blockSize = kDefaultBlockSize;
+// The inputs and their ingestion options (DEM, rivers, band, CRS, layer, stride, river
+// cleaning, warnings) are IngestOptions, shared with `order` and `report`.
+struct BuildOptions : IngestOptions {
+    std::string outPath;
+    // DEM cells per block side, clamped to the DEM per direction (ingest.h splitIntoBlocks);
+    // 0: automaticBlockSize (kDefaultBlockSize, or less where the exact grid needs it).
+    int blockSize = 0;
     int threads = 0;  // 0: all cores
     DeletionOrderKind order = DeletionOrderKind::Greedy;  // --order greedy|3ddp
     bool useBai = true;
     std::string baiTablePath;  // empty: the paper's Table 1
     double baiRow = kDefaultBaiRow;
     std::uint32_t defaultMetric = format::kMetricMax;
-    double minRiverLength = 0;
     bool force = false;  // overwrite an existing output
     // Progress: blocks done of total (called from the calling thread).
     std::function<void(std::size_t, std::size_t)> progress;
-    // Warnings for accepted-but-odd input (empty river layer, NaN cells...).
-    std::function<void(const std::string&)> warn;
 };
 
 struct BuildSummary {
     int demWidth = 0, demHeight = 0;
     std::string crsName;
     std::size_t demPoints = 0, riverPoints = 0, lockedPoints = 0, riverLines = 0;
+    int blockSize = 0;  // the block size used (cells; automatic or as given)
     std::size_t blocks = 0, steps = 0, kept = 0, deferrals = 0;
     std::size_t fullTriangles = 0, coarsestTriangles = 0, indexTriangles = 0;
     std::size_t crossings = 0, droppedDemPoints = 0;

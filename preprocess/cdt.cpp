@@ -171,7 +171,8 @@ void Cdt::destroyTriangle(std::uint32_t t) {
     const bool ghost = isGhost(t);
     if (journaling_ && !ghost && stamp[t] != step_) {
         journalRemovedSlots.push_back(t);
-        journalRemoved.push_back(canonicalTriangle(tv[3 * t], tv[3 * t + 1], tv[3 * t + 2]));
+        if (!exterior(t))
+            journalRemoved.push_back(canonicalTriangle(tv[3 * t], tv[3 * t + 1], tv[3 * t + 2]));
     }
     if (!ghost) --realTriangleCount;
     if (trial_) saveTriangle(t);
@@ -208,6 +209,60 @@ std::uint32_t Cdt::findEdge(PointId a, PointId b) const {
     return kNone;
 }
 
+void Cdt::assignSides(const std::vector<std::uint32_t>& slots) {
+    if (mark_.size() < triangleSlots()) mark_.resize(triangleSlots() + triangleSlots() / 2, 0);
+    ++markStamp_;
+    const std::uint32_t member = markStamp_;
+    ++markStamp_;
+    const std::uint32_t done = markStamp_;  // member whose side is set
+    auto setSide = [&](std::uint32_t t, bool outside) {
+        if (trial_) saveTriangle(t);
+        tc[t] = std::uint8_t(outside ? (tc[t] | kExterior) : (tc[t] & ~kExterior));
+        mark_[t] = done;
+    };
+    for (std::uint32_t t : slots) {
+        if (triangleAlive(t)) mark_[t] = member;
+    }
+    std::vector<std::uint32_t> queue;
+    for (std::uint32_t t : slots) {
+        if (mark_[t] != member) continue;
+        if (isGhost(t)) {
+            setSide(t, true);
+            queue.push_back(t);
+            continue;
+        }
+        for (std::uint32_t i = 0; i < 3 && mark_[t] == member; ++i) {
+            const std::uint32_t h = 3 * t + i;
+            const PointId u = origin(h), w = destination(h);
+            if (isConstrained(h) && boundaryDirected(u, w)) {
+                setSide(t, false);
+            } else if (isConstrained(h) && boundaryDirected(w, u)) {
+                setSide(t, true);
+            } else {
+                const std::uint32_t g = tn[h] / 3;
+                if (mark_[g] == member || mark_[g] == done) continue;
+                setSide(t, isGhost(g) || exterior(g));
+            }
+        }
+        if (mark_[t] == done) queue.push_back(t);
+    }
+    for (std::size_t q = 0; q < queue.size(); ++q) {
+        const std::uint32_t t = queue[q];
+        for (std::uint32_t i = 0; i < 3; ++i) {
+            const std::uint32_t h = 3 * t + i;
+            if (isConstrained(h) && isBoundaryEdge(origin(h), destination(h))) continue;
+            const std::uint32_t g = tn[h] / 3;
+            if (mark_[g] != member) continue;
+            setSide(g, isGhost(g) || exterior(t));
+            queue.push_back(g);
+        }
+    }
+    for (std::uint32_t t : slots) {
+        assert(!triangleAlive(t) || mark_[t] == done);
+        (void)t;
+    }
+}
+
 void Cdt::flip(std::uint32_t h) {
     const std::uint32_t t = h / 3, i = h % 3;
     const std::uint32_t g = tn[h], n = g / 3, j = g % 3;
@@ -222,8 +277,9 @@ void Cdt::flip(std::uint32_t h) {
         for (std::uint32_t s : {t, n}) {
             if (stamp[s] != step_) {
                 journalRemovedSlots.push_back(s);
-                journalRemoved.push_back(
-                    canonicalTriangle(tv[3 * s], tv[3 * s + 1], tv[3 * s + 2]));
+                if (!exterior(s))
+                    journalRemoved.push_back(
+                        canonicalTriangle(tv[3 * s], tv[3 * s + 1], tv[3 * s + 2]));
             }
             journalCreated.push_back(s);
         }
@@ -236,8 +292,11 @@ void Cdt::flip(std::uint32_t h) {
     // t becomes (a, b, d), n becomes (d, c, a).
     tv[3 * t] = a, tv[3 * t + 1] = b, tv[3 * t + 2] = d;
     tv[3 * n] = d, tv[3 * n + 1] = c, tv[3 * n + 2] = a;
-    tc[t] = std::uint8_t((cbd ? 1u : 0u) | (cab ? 4u : 0u));
-    tc[n] = std::uint8_t((cca ? 1u : 0u) | (cdc ? 4u : 0u));
+    // Both triangles are on one side: only a ring edge (a constraint, never flipped) separates
+    // the domain from the outside.
+    const std::uint8_t side = tc[t] & kExterior;
+    tc[t] = std::uint8_t((cbd ? 1u : 0u) | (cab ? 4u : 0u) | side);
+    tc[n] = std::uint8_t((cca ? 1u : 0u) | (cdc ? 4u : 0u) | side);
     link(3 * t, hbd);
     link(3 * t + 2, hab);
     link(3 * n, hca);
@@ -920,9 +979,71 @@ bool buildCdt(const PointSet& set, const CdtOptions& options, Cdt& cdt, std::str
     std::vector<PointId> vertices;
     if (!quantisePoints(set, options, cdt, vertices, error)) return false;
     const std::size_t n = set.points.size();
-    if (!triangulateVertices(cdt, n, vertices, error)) return false;
-    // River constraints.
+    const bool domain = !set.boundaries.empty();
+    if (domain) {
+        // The frame: a square around every point, twice the points' half extent (at least 1 m
+        // of grid units beyond them), inside the exact grid.
+        std::int64_t half = 0;
+        for (PointId v : vertices)
+            half = std::max<std::int64_t>({half, std::abs(std::int64_t(cdt.gx[v])),
+                                           std::abs(std::int64_t(cdt.gy[v]))});
+        const std::int64_t f = std::min<std::int64_t>(kMaxGridCoordinate, 2 * half + 1000);
+        if (f <= half) {
+            error = "block too large for the exact grid with a domain frame";
+            return false;
+        }
+        cdt.frameFirst = PointId(n);
+        const std::int32_t fx[4] = {-std::int32_t(f), std::int32_t(f), std::int32_t(f),
+                                    -std::int32_t(f)};
+        const std::int32_t fy[4] = {-std::int32_t(f), -std::int32_t(f), std::int32_t(f),
+                                    std::int32_t(f)};
+        for (int k = 0; k < 4; ++k) {
+            const PointId id = PointId(n + std::size_t(k));
+            cdt.gx.push_back(fx[k]);
+            cdt.gy.push_back(fy[k]);
+            cdt.representative.push_back(id);
+            cdt.locked.push_back(1);
+            vertices.push_back(id);
+        }
+    }
+    if (!triangulateVertices(cdt, cdt.gx.size(), vertices, error)) return false;
     std::vector<PointId> path;
+    // Boundary rings first: their edges are constraints with a direction.
+    for (std::size_t r = 0; r < set.boundaries.size(); ++r) {
+        const Polyline& ring = set.boundaries[r];
+        Polyline corners;
+        for (std::size_t s = 0; s < ring.size(); ++s) {
+            if (ring[s] >= n) {
+                error = "boundary ring " + std::to_string(r) + " vertex " + std::to_string(s) +
+                        ": point id " + std::to_string(ring[s]) + " out of range";
+                return false;
+            }
+            const PointId v = cdt.representative[ring[s]];
+            if (corners.empty() || corners.back() != v) corners.push_back(v);
+        }
+        while (corners.size() > 1 && corners.back() == corners.front())
+            corners.pop_back();
+        if (corners.size() < 3) {
+            error = "boundary ring " + std::to_string(r) + " has fewer than 3 distinct vertices";
+            return false;
+        }
+        Polyline out;
+        for (std::size_t s = 0; s < corners.size(); ++s) {
+            const PointId u = corners[s], w = corners[(s + 1) % corners.size()];
+            std::string why;
+            if (!cdt.insertSegment(u, w, path, why)) {
+                error = "boundary ring " + std::to_string(r) + " edge " + std::to_string(s) +
+                        ": " + why;
+                return false;
+            }
+            for (std::size_t k = 0; k + 1 < path.size(); ++k) {
+                cdt.boundary.insert(Cdt::edgeKey(path[k], path[k + 1]));
+                out.push_back(path[k]);
+            }
+        }
+        cdt.boundaryRings.push_back(std::move(out));
+    }
+    // River constraints.
     for (std::size_t r = 0; r < set.rivers.size(); ++r) {
         const Polyline& line = set.rivers[r];
         Polyline out;
@@ -947,6 +1068,12 @@ bool buildCdt(const PointSet& set, const CdtOptions& options, Cdt& cdt, std::str
             out.insert(out.end(), path.begin() + 1, path.end());
         }
         if (out.size() >= 2) cdt.rivers.push_back(std::move(out));
+    }
+    if (domain) {
+        std::vector<std::uint32_t> all;
+        for (std::uint32_t t = 0; t < cdt.triangleSlots(); ++t)
+            if (cdt.triangleAlive(t)) all.push_back(t);
+        cdt.assignSides(all);
     }
     return true;
 }
@@ -980,7 +1107,7 @@ std::vector<TriangleTriple> collectTriangles(const Cdt& cdt) {
     std::vector<TriangleTriple> out;
     out.reserve(cdt.realTriangleCount);
     for (std::uint32_t t = 0; t < cdt.triangleSlots(); ++t) {
-        if (!cdt.triangleAlive(t) || cdt.isGhost(t)) continue;
+        if (!cdt.inDomain(t)) continue;
         out.push_back(canonicalTriangle(cdt.tv[3 * t], cdt.tv[3 * t + 1], cdt.tv[3 * t + 2]));
     }
     std::sort(out.begin(), out.end());
@@ -992,7 +1119,7 @@ std::vector<RiverEdge> collectRiverEdges(const Cdt& cdt) {
     for (std::uint32_t h = 0; h < cdt.tv.size(); ++h) {
         if (!cdt.triangleAlive(h / 3) || !cdt.isConstrained(h)) continue;
         const PointId u = cdt.origin(h), w = cdt.destination(h);
-        if (u < w) out.push_back({u, w});
+        if (u < w && !cdt.isBoundaryEdge(u, w)) out.push_back({u, w});
     }
     std::sort(out.begin(), out.end());
     return out;

@@ -10,9 +10,18 @@
 // becomes the vertex (`representative` maps every point id to its vertex; a merged vertex is
 // locked when any of its points is locked), river polylines are rewritten to representatives.
 //
-// Domain. The convex hull of the block's points. The outside is closed by ghost triangles that
-// share the vertex at infinity (kGhost), so every triangle has three neighbours. Hull vertices
-// are never deleted (deletion.h refuses them), so the domain never changes.
+// Domain. Without boundary rings (PointSet::boundaries empty) the convex hull of the block's
+// points; the outside is closed by ghost triangles that share the vertex at infinity (kGhost),
+// so every triangle has three neighbours, and hull vertices are never deleted (deletion.h).
+// With boundary rings (issue 17: the valid data of a DEM with nodata, holes, a concave outline)
+// the domain is the region the rings enclose: every ring edge is a constraint edge whose
+// direction is recorded (`boundary`: the domain on its left), four frame vertices (ids
+// frameFirst .. frameFirst + 3, locked, outside every ring) make every point an interior vertex
+// of the mesh, and each triangle carries a side bit (exterior()): set from the ring edges it
+// touches and carried across every other edge (assignSides). Exterior triangles are part of the
+// mesh (they keep re-triangulation local and exact) but of no level: collectTriangles, the
+// deletion records and the model error leave them out. A ring vertex may be deleted (the greedy
+// order; deletion.h), which inserts the ring edge A-C as for a river.
 //
 // Constraints. Every river segment is inserted after all points. A vertex lying exactly on a
 // segment splits it (the vertex joins the river, `rivers` holds the split polylines). Two river
@@ -27,6 +36,7 @@
 
 #include <cstdint>
 #include <string>
+#include <unordered_set>
 #include <vector>
 
 #include "points.h"
@@ -77,6 +87,28 @@ public:
     std::vector<std::uint8_t> tc;
     std::vector<std::uint32_t> stamp;  // step that created the triangle (journal, deletion.h)
     std::vector<std::uint32_t> freeSlots;
+
+    // --- Domain (above). Directed ring edges u -> w (the domain on the left) as edgeKey(u, w).
+    std::unordered_set<std::uint64_t> boundary;
+    PointId frameFirst = kGhost;  // first frame vertex id; kGhost: no frame
+    static std::uint64_t edgeKey(PointId u, PointId w) { return (std::uint64_t(u) << 32) | w; }
+    bool boundaryDirected(PointId u, PointId w) const {
+        return !boundary.empty() && boundary.count(edgeKey(u, w)) != 0;
+    }
+    bool isBoundaryEdge(PointId u, PointId w) const {
+        return boundaryDirected(u, w) || boundaryDirected(w, u);
+    }
+    bool isFrame(PointId v) const { return v >= frameFirst && v != kGhost && v != kNone; }
+    static constexpr std::uint8_t kExterior = 8;  // tc bit: the triangle is outside the domain
+    bool exterior(std::uint32_t t) const { return (tc[t] & kExterior) != 0; }
+    // Whether t is a triangle of the domain (alive, no ghost vertex, not exterior).
+    bool inDomain(std::uint32_t t) const { return triangleAlive(t) && !isGhost(t) && !exterior(t); }
+    // Sets the side bit of the alive triangles in `slots` (a ghost triangle is exterior): from a
+    // ring edge of the triangle (its direction says the side), else from a neighbour across a
+    // non-ring edge that is not in `slots`, else carried across non-ring edges within `slots`.
+    void assignSides(const std::vector<std::uint32_t>& slots);
+    // Boundary rings as built (representatives, split at vertices on their edges).
+    std::vector<Polyline> boundaryRings;
 
     std::uint32_t vertexCount = 0;          // alive vertices
     std::uint32_t realTriangleCount = 0;    // alive triangles without the ghost vertex
@@ -255,7 +287,7 @@ private:
 };
 
 // Builds the constrained Delaunay triangulation of the block's points with every river segment
-// as a constraint. Returns false with `error` naming the problem: fewer than 3 distinct points,
+// and every boundary ring edge as a constraint (with rings: the frame and the side bits above). Returns false with `error` naming the problem: fewer than 3 distinct points,
 // all points collinear, a non-finite coordinate, a block too large for the exact grid, a river
 // point id out of range, crossing or overlapping river segments.
 bool buildCdt(const PointSet& set, const CdtOptions& options, Cdt& cdt, std::string& error);

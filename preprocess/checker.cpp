@@ -309,14 +309,47 @@ bool checkCdt(const Cdt& cdt, const CheckReference& ref, const std::vector<River
             return fail("river edge " + edgeName(e.a, e.b) + " is not marked as a constraint");
         }
     }
-    std::uint32_t constrained = 0;
+    std::uint32_t constrained = 0, ringEdges = 0;
     for (std::uint32_t h = 0; h < cdt.tv.size(); ++h) {
-        if (cdt.triangleAlive(h / 3) && cdt.isConstrained(h) && cdt.origin(h) < cdt.destination(h))
+        if (!cdt.triangleAlive(h / 3)) continue;
+        const PointId u = cdt.origin(h), w = cdt.destination(h);
+        if (cdt.isConstrained(h) && u < w) {
             ++constrained;
+            ringEdges += cdt.isBoundaryEdge(u, w);
+        }
     }
-    if (constrained != edges.size()) {
+    if (constrained != edges.size() + ringEdges) {
         return fail("the mesh has " + std::to_string(constrained) + " constraint edges but " +
-                    std::to_string(edges.size()) + " river edges are expected");
+                    std::to_string(edges.size()) + " river edges and " +
+                    std::to_string(ringEdges) + " boundary edges are expected");
+    }
+    // The domain (cdt.h "Domain"): every recorded ring edge is a constraint edge, and the side
+    // bits agree with the outline: a triangle left of a ring edge is inside, right of it outside,
+    // the two triangles of any other edge are on the same side, ghost neighbours are outside.
+    if (ringEdges != cdt.boundary.size()) {
+        return fail(std::to_string(cdt.boundary.size()) + " ring edges recorded but " +
+                    std::to_string(ringEdges) + " in the mesh");
+    }
+    for (std::uint32_t h = 0; h < cdt.tv.size(); ++h) {
+        const std::uint32_t t = h / 3;
+        if (!cdt.triangleAlive(t) || cdt.isGhost(t)) continue;
+        const PointId u = cdt.origin(h), w = cdt.destination(h);
+        const std::uint32_t g = cdt.tn[h] / 3;
+        bool wantExterior;
+        if (cdt.isConstrained(h) && cdt.boundaryDirected(u, w)) {
+            wantExterior = false;
+        } else if (cdt.isConstrained(h) && cdt.boundaryDirected(w, u)) {
+            wantExterior = true;
+        } else if (cdt.isGhost(g)) {
+            wantExterior = cdt.frameFirst != Cdt::kGhost;
+        } else {
+            wantExterior = cdt.exterior(g);
+        }
+        if (cdt.exterior(t) != wantExterior) {
+            return fail("triangle " + std::to_string(t) + " is marked " +
+                        (cdt.exterior(t) ? "outside" : "inside") + " the domain across edge " +
+                        edgeName(u, w));
+        }
     }
     if (constrained != cdt.constraintEdgeCount) {
         return fail("constraintEdgeCount is " + std::to_string(cdt.constraintEdgeCount) +

@@ -122,7 +122,10 @@ private:
     void apply(PointId x, PointId a, PointId c);
     // Records and errors of the change apply() made (step_ becomes step_ + 1).
     void record(PointId x, PointId a, PointId c);
-    double riverDeviation(PointId x) const;
+    // The deviation of the chain (river or ring) at x: deletion.h.
+    double chainDeviation(PointId x) const;
+    void rollback(PointId x, PointId a, PointId c);
+    void setBoundary(PointId x, PointId a, PointId c, bool deleted);
     void block(PointId x, std::initializer_list<PointId> blockers);
     void handle(PointId x);
     void drain();
@@ -149,11 +152,17 @@ private:
                         std::vector<std::pair<std::uint32_t, PointId>>, std::greater<>>
         retry_;
     std::uint32_t step_ = 0;
-    // Rivers as built: every river vertex of degree 2 has a position in the flattened polylines;
-    // riverPrev_ / riverNext_ link each position to the previous / next alive vertex's position.
+    // Chains as built: rivers (Cdt::rivers) and boundary rings (Cdt::boundaryRings). Every river
+    // vertex of degree 2 and every ring vertex has a position in the flattened chains;
+    // riverPrev_ / riverNext_ link each position to the previous / next alive vertex's position,
+    // riverSucc_ to the original next position (rings wrap around), ring_ marks ring positions.
     std::vector<std::uint32_t> riverPos_;  // per vertex id; kNil: none
     std::vector<PointId> riverVertex_;     // per position
-    std::vector<std::uint32_t> riverPrev_, riverNext_;
+    std::vector<std::uint32_t> riverPrev_, riverNext_, riverSucc_;
+    std::vector<std::uint8_t> ring_;
+    bool greedy_ = false;        // ring vertices are candidates (the greedy order only)
+    bool boundaryStep_ = false;  // classify() accepted a ring vertex (a, c: its ring neighbours)
+    std::uint32_t domainTriangles_ = 0, riverEdges_ = 0;  // alive, for the records
     // Greedy.
     const std::vector<float>* weight_ = nullptr;
     KeyHeap heap_;
@@ -166,6 +175,7 @@ private:
     std::vector<PointId> corners_;
     std::vector<std::pair<std::uint32_t, std::uint32_t>> planOrder_;
     std::vector<PointId> path_, touched_, woken_;
+    std::vector<std::uint32_t> sideSlots_;
     Cdt::Trace trace_;
     std::vector<TriangleTriple> removedT_, addedT_;
 };
@@ -201,6 +211,8 @@ void Sequence::start(std::size_t expectedSteps) {
     riverVertex_.clear();
     riverPrev_.clear();
     riverNext_.clear();
+    riverSucc_.clear();
+    ring_.clear();
     for (const Polyline& line : cdt_.rivers) {
         const std::uint32_t base = std::uint32_t(riverVertex_.size());
         for (std::size_t i = 0; i < line.size(); ++i) {
@@ -208,15 +220,32 @@ void Sequence::start(std::size_t expectedSteps) {
             riverVertex_.push_back(line[i]);
             riverPrev_.push_back(i == 0 ? kNil : p - 1);
             riverNext_.push_back(i + 1 == line.size() ? kNil : p + 1);
+            riverSucc_.push_back(riverNext_.back());
+            ring_.push_back(0);
             if (i > 0 && i + 1 < line.size() && riverPos_[line[i]] == kNil)
                 riverPos_[line[i]] = p;
         }
     }
+    for (const Polyline& ring : cdt_.boundaryRings) {
+        const std::uint32_t base = std::uint32_t(riverVertex_.size());
+        const std::uint32_t len = std::uint32_t(ring.size());
+        for (std::uint32_t i = 0; i < len; ++i) {
+            const std::uint32_t p = base + i;
+            riverVertex_.push_back(ring[i]);
+            riverPrev_.push_back(base + (i + len - 1) % len);
+            riverNext_.push_back(base + (i + 1) % len);
+            riverSucc_.push_back(riverNext_.back());
+            ring_.push_back(1);
+            if (ring[i] < n && riverPos_[ring[i]] == kNil) riverPos_[ring[i]] = p;
+        }
+    }
+    domainTriangles_ = std::uint32_t(collectTriangles(cdt_).size());
+    riverEdges_ = std::uint32_t(collectRiverEdges(cdt_).size());
 }
 
 bool Sequence::run(const std::vector<PointId>& order, std::string& error) {
     const std::size_t n = set_.points.size();
-    assert(cdt_.vertexTriangle.size() == n);
+    assert(cdt_.vertexTriangle.size() >= n);  // frame vertices after the points
     orderPos_.assign(n, kNil);
     for (std::uint32_t i = 0; i < order.size(); ++i) {
         const PointId v = order[i];
@@ -305,6 +334,7 @@ Outcome Sequence::classify(PointId x, KeptReason& reason, PointId& a, PointId& c
         return Outcome::Refused;
     }
     hullStar_ = false;
+    boundaryStep_ = false;
     if (!cdt_.star(x, link_, tris_)) {
         // The greedy order also deletes a hull vertex on a straight stretch of the hull.
         if (straightHull_ && cdt_.straightHullStar(x, link_, tris_)) {
@@ -317,20 +347,56 @@ Outcome Sequence::classify(PointId x, KeptReason& reason, PointId& a, PointId& c
     // River edges at x: in triangle (x, link[k], link[k+1]) the edge x -> link[k] is the
     // half-edge opposite link[k+1].
     PointId river[2] = {kNil, kNil};
-    std::uint32_t degree = 0;
+    std::uint32_t degree = 0, boundaryIn = 0, boundaryOut = 0;
+    PointId ringA = kNil, ringC = kNil;
     for (std::size_t k = 0; k < tris_.size(); ++k) {
         const std::uint32_t h = tris_[k], t = h / 3, i = h % 3;
         if (cdt_.isConstrained(3 * t + (i + 2) % 3)) {
-            if (degree < 2) river[degree] = link_[k];
-            ++degree;
+            if (cdt_.boundaryDirected(link_[k], x)) {
+                ++boundaryIn, ringA = link_[k];
+            } else if (cdt_.boundaryDirected(x, link_[k])) {
+                ++boundaryOut, ringC = link_[k];
+            } else {
+                if (degree < 2) river[degree] = link_[k];
+                ++degree;
+            }
         }
     }
-    if (degree == 0) return Outcome::Deleted;
-    if (degree != 2) {
+    if (boundaryIn + boundaryOut > 0) {
+        // A ring vertex: a candidate of the greedy order when it joins exactly two ring edges
+        // and no river (a pinch point of the outline, or a river reaching the outline, stays).
+        if (!greedy_ || degree != 0 || boundaryIn != 1 || boundaryOut != 1) {
+            reason = KeptReason::Hull;
+            return Outcome::Refused;
+        }
+        // A corner moves the outline to A-C: the triangle (A, x, C) changes sides. Every
+        // triangle in it must be one this step re-creates (their sides are then set anew), which
+        // holds exactly when no vertex lies strictly inside it; and one would, if any did, among
+        // x's neighbours (a vertex inside, not adjacent to x, would lie in a triangle of x's
+        // star). So a neighbour strictly inside defers x until it (or A or C) is gone.
+        const std::int64_t turn = cdt_.orient(ringA, x, ringC);
+        if (turn != 0) {
+            const int sign = turn > 0 ? 1 : -1;
+            auto sgn = [](std::int64_t v) { return v > 0 ? 1 : (v < 0 ? -1 : 0); };
+            for (PointId l : link_) {
+                if (l == ringA || l == ringC) continue;
+                if (sgn(cdt_.orient(ringA, x, l)) == sign && sgn(cdt_.orient(x, ringC, l)) == sign &&
+                    sgn(cdt_.orient(ringC, ringA, l)) == sign) {
+                    block(x, {ringA, ringC, l});
+                    return Outcome::Deferred;
+                }
+            }
+        }
+        boundaryStep_ = true;
+        a = ringA, c = ringC;
+    } else if (degree == 0) {
+        return Outcome::Deleted;
+    } else if (degree != 2) {
         reason = KeptReason::RiverEnd;
         return Outcome::Refused;
+    } else {
+        a = river[0], c = river[1];
     }
-    a = river[0], c = river[1];
     const std::uint32_t existing = cdt_.findEdge(a, c);
     if (existing != Cdt::kNone && cdt_.isConstrained(existing)) {
         block(x, {a, c});
@@ -363,6 +429,14 @@ void Sequence::apply(PointId x, PointId a, PointId c) {
         const bool ok = cdt_.insertSegment(a, c, path_, why);
         assert(ok && path_.size() == 2);
         (void)ok;
+        if (boundaryStep_) setBoundary(x, a, c, true);
+    }
+    if (cdt_.frameFirst != Cdt::kGhost) {
+        // The side of every new triangle (a ring step moves the outline to A-C).
+        sideSlots_.clear();
+        for (std::uint32_t t : cdt_.journalCreated)
+            if (cdt_.triangleAlive(t) && cdt_.stamp[t] == step_ + 1) sideSlots_.push_back(t);
+        cdt_.assignSides(sideSlots_);
     }
     cdt_.endJournal();
     // Created slots still alive, once each.
@@ -376,22 +450,43 @@ void Sequence::apply(PointId x, PointId a, PointId c) {
     }
 }
 
-double Sequence::riverDeviation(PointId x) const {
+void Sequence::setBoundary(PointId x, PointId a, PointId c, bool deleted) {
+    auto& b = cdt_.boundary;
+    if (deleted) {
+        b.erase(Cdt::edgeKey(a, x));
+        b.erase(Cdt::edgeKey(x, c));
+        b.insert(Cdt::edgeKey(a, c));
+    } else {
+        b.erase(Cdt::edgeKey(a, c));
+        b.insert(Cdt::edgeKey(a, x));
+        b.insert(Cdt::edgeKey(x, c));
+    }
+}
+
+void Sequence::rollback(PointId x, PointId a, PointId c) {
+    cdt_.rollbackTrial();
+    if (boundaryStep_) setBoundary(x, a, c, false);
+}
+
+double Sequence::chainDeviation(PointId x) const {
     const std::uint32_t p = riverPos_[x];
     if (p == kNil) return 0;
     const std::uint32_t pa = riverPrev_[p], pc = riverNext_[p];
     assert(pa != kNil && pc != kNil);
     const PointId a = riverVertex_[pa], c = riverVertex_[pc];
+    // Rings: the planimetric deviation (the outline is drawn on the surface); rivers: 3D.
+    const bool flat = ring_[p] != 0;
     const double u = cdt_.gridUnit;
-    const double ax = double(cdt_.gx[a]) * u, ay = double(cdt_.gy[a]) * u, az = set_.points[a].z;
+    const double ax = double(cdt_.gx[a]) * u, ay = double(cdt_.gy[a]) * u,
+                 az = flat ? 0.0 : set_.points[a].z;
     const double dx = double(cdt_.gx[c]) * u - ax, dy = double(cdt_.gy[c]) * u - ay,
-                 dz = set_.points[c].z - az;
+                 dz = flat ? 0.0 : set_.points[c].z - az;
     const double len2 = dx * dx + dy * dy + dz * dz;
     double worst = 0;
-    for (std::uint32_t q = pa + 1; q < pc; ++q) {
+    for (std::uint32_t q = riverSucc_[pa]; q != pc; q = riverSucc_[q]) {
         const PointId m = riverVertex_[q];
         const double mx = double(cdt_.gx[m]) * u - ax, my = double(cdt_.gy[m]) * u - ay,
-                     mz = set_.points[m].z - az;
+                     mz = flat ? 0.0 : set_.points[m].z - az;
         double t = len2 > 0 ? (mx * dx + my * dy + mz * dz) / len2 : 0.0;
         t = std::clamp(t, 0.0, 1.0);
         const double ex = mx - t * dx, ey = my - t * dy, ez = mz - t * dz;
@@ -402,7 +497,8 @@ double Sequence::riverDeviation(PointId x) const {
 
 void Sequence::record(PointId x, PointId a, PointId c) {
     ++step_;
-    if (a != kNil) {
+    if (a != kNil && !boundaryStep_) {
+        --riverEdges_;
         rec_.removedEdges.push_back(makeRiverEdge(a, x));
         rec_.removedEdges.push_back(makeRiverEdge(x, c));
         rec_.addedEdges.push_back(makeRiverEdge(a, c));
@@ -411,9 +507,11 @@ void Sequence::record(PointId x, PointId a, PointId c) {
     removedT_ = cdt_.journalRemoved;
     addedT_.clear();
     for (std::uint32_t t : added_) {
+        if (cdt_.exterior(t)) continue;  // outside the domain: in no level
         addedT_.push_back(
             canonicalTriangle(cdt_.tv[3 * t], cdt_.tv[3 * t + 1], cdt_.tv[3 * t + 2]));
     }
+    domainTriangles_ = std::uint32_t(domainTriangles_ + addedT_.size() - removedT_.size());
     std::sort(removedT_.begin(), removedT_.end());
     std::sort(addedT_.begin(), addedT_.end());
     {
@@ -428,14 +526,14 @@ void Sequence::record(PointId x, PointId a, PointId c) {
             }
         }
     }
-    rec_.steps.push_back({x, cdt_.realTriangleCount, cdt_.constraintEdgeCount});
+    rec_.steps.push_back({x, domainTriangles_, riverEdges_});
     rec_.removedTriangleOffset.push_back(std::uint32_t(rec_.removedTriangles.size()));
     rec_.addedTriangleOffset.push_back(std::uint32_t(rec_.addedTriangles.size()));
     rec_.removedEdgeOffset.push_back(std::uint32_t(rec_.removedEdges.size()));
     rec_.addedEdgeOffset.push_back(std::uint32_t(rec_.addedEdges.size()));
     if (options_.maxError) {
         const double vertical = error_.updateMax(cdt_, cdt_.journalRemovedSlots, added_);
-        const double stepError = std::max(vertical, riverDeviation(x));
+        const double stepError = std::max(vertical, chainDeviation(x));
         runningMax_ = std::max(runningMax_, stepError);
         rec_.stepErrorMax.push_back(stepError);
         rec_.errorMax.push_back(runningMax_);
@@ -461,8 +559,8 @@ double Sequence::trialError(PointId x, PointId a, PointId c) {
     // Only x's star changed (no flip outside it for A-C): the key depends on nothing else, and
     // every change to the star evaluates x again.
     local_[x] = cdt_.journalRemovedSlots.size() == tris_.size() ? 1 : 0;
-    cdt_.rollbackTrial();
-    return std::max(vertical, riverDeviation(x));
+    rollback(x, a, c);
+    return std::max(vertical, chainDeviation(x));
 }
 
 void Sequence::evaluate(PointId x) {
@@ -504,16 +602,19 @@ void Sequence::evaluate(PointId x) {
                 corners_.push_back(link_[plan_[3 * j + std::size_t(i)]]);
         }
         local_[x] = 1;
-        heap_.set(x, error_.evaluatePlannedMax(cdt_, starSlots_, corners_));
+        // No ring edge at x: its whole star lies on one side of the outline.
+        heap_.set(x, error_.evaluatePlannedMax(cdt_, starSlots_, corners_,
+                                               cdt_.exterior(tris_.front() / 3)));
         return;
     }
-    const double w = weight_ && !weight_->empty() ? double((*weight_)[x]) : 1.0;
+    const double w =
+        weight_ && !weight_->empty() && !boundaryStep_ ? double((*weight_)[x]) : 1.0;
     heap_.set(x, trialError(x, a, c) * w);
 }
 
 bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
     const std::size_t n = set_.points.size();
-    assert(cdt_.vertexTriangle.size() == n);
+    assert(cdt_.vertexTriangle.size() >= n);  // frame vertices after the points
     if (!options_.maxError) {
         error = "the greedy order needs the max metric";
         return false;
@@ -525,6 +626,7 @@ bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
     }
     weight_ = &weight;
     straightHull_ = true;
+    greedy_ = true;
     start(cdt_.vertexCount);
     heap_.reset(n);
     local_.assign(n, 0);
@@ -564,13 +666,14 @@ bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
             // delete for real on a trial and keep it only when it causes exactly the key.
             cdt_.beginTrial();
             apply(x, a, c);
-            const double w = a != kNil && !weight.empty() ? double(weight[x]) : 1.0;
+            const double w =
+                a != kNil && !boundaryStep_ && !weight.empty() ? double(weight[x]) : 1.0;
             const double now =
                 std::max(error_.evaluateMax(cdt_, cdt_.journalRemovedSlots, added_),
-                         riverDeviation(x)) *
+                         chainDeviation(x)) *
                 w;
             if (now != key) {
-                cdt_.rollbackTrial();
+                rollback(x, a, c);
                 local_[x] = cdt_.journalRemovedSlots.size() == tris_.size() ? 1 : 0;
                 heap_.set(x, now);
                 continue;
@@ -592,6 +695,7 @@ bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
         std::sort(touched_.begin(), touched_.end());
         touched_.erase(std::unique(touched_.begin(), touched_.end()), touched_.end());
         for (PointId v : touched_) {
+            if (v >= n) continue;  // a frame vertex (cdt.h "Domain")
             if (v == x || state_[v] == State::Deleted || state_[v] == State::Kept) continue;
             // A deferred vertex stays blocked until one of its blockers goes (then it is woken).
             if (state_[v] == State::Deferred &&

@@ -140,7 +140,7 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
     }
     int band = options.band;
     if (band < 0 || band > bands) {
-        error = "DEM '" + path + "': band " + std::to_string(band) +
+        error = "DEM '" + path + "': --band " + std::to_string(band) +
                 " out of range (the file has " + std::to_string(bands) + " band" +
                 (bands == 1 ? "" : "s") + ")";
         return false;
@@ -167,17 +167,18 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
     bool warp = false;
     if (!options.targetSrs.empty()) {
         if (target.SetFromUserInput(options.targetSrs.c_str()) != OGRERR_NONE) {
-            error = "DEM '" + path + "': cannot parse the target CRS '" + options.targetSrs + "'";
+            error = "DEM '" + path + "': cannot parse the target CRS '" + options.targetSrs +
+                    "' (--t-srs)";
             return false;
         }
         if (!target.IsProjected()) {
             error = "DEM '" + path + "': the target CRS '" + options.targetSrs +
-                    "' is not a projected (metric) CRS";
+                    "' is not a projected (metric) CRS (--t-srs)";
             return false;
         }
         if (srcSrs == nullptr) {
             error = "DEM '" + path + "': the raster has no CRS, cannot reproject it to '" +
-                    options.targetSrs + "'";
+                    options.targetSrs + "' (leave out --t-srs)";
             return false;
         }
         warp = !srcSrs->IsSame(&target);

@@ -4,7 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <set>
 
+#include "modelerror.h"
 #include "predicates.h"
 
 namespace unilod {
@@ -119,12 +121,40 @@ double segmentDistance(const format::Block& b, std::uint32_t a, std::uint32_t c,
 bool verticalError(const format::Block& b, const std::vector<TriangleTriple>& triangles,
                    LevelMaxError& result, std::string& error) {
     const TriangleBuckets buckets(b, triangles);
+    // The level's outline (edges of one triangle only), built when a vertex lies outside.
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> outline;
     for (std::uint32_t i = 0; i < b.vertices.size(); ++i) {
         const std::int64_t x = b.grid[i].x, y = b.grid[i].y;
         const std::uint32_t t = buckets.locate(x, y);
         if (t == kNotFound) {
-            error = "vertex " + std::to_string(i) + " lies in no triangle";
-            return false;
+            // Outside the simplified domain (an outline vertex deleted, deletion.h): its
+            // horizontal distance to the level's outline is the outline's deviation there.
+            if (outline.empty()) {
+                std::set<std::pair<std::uint32_t, std::uint32_t>> directed;
+                for (const TriangleTriple& tri : triangles)
+                    for (int k = 0; k < 3; ++k)
+                        directed.insert({tri.v[k], tri.v[(k + 1) % 3]});
+                for (const auto& [u, w] : directed)
+                    if (!directed.count({w, u})) outline.push_back({u, w});
+            }
+            const double u = format::kGridUnit;
+            double best = INFINITY;
+            for (const auto& [ea, ec] : outline) {
+                const double a[3] = {double(b.grid[ea].x) * u, double(b.grid[ea].y) * u, 0.0};
+                const double c[3] = {double(b.grid[ec].x) * u, double(b.grid[ec].y) * u, 0.0};
+                const double m[3] = {double(x) * u, double(y) * u, 0.0};
+                best = std::min(best, segmentDistance2(a, c, m));
+            }
+            if (outline.empty()) {
+                error = "vertex " + std::to_string(i) + " lies in no triangle";
+                return false;
+            }
+            const double e = std::sqrt(best);
+            if (e > result.river) {
+                result.river = e;
+                result.riverVertex = i;
+            }
+            continue;
         }
         const double e = std::fabs(double(b.vertices[i].z) - surfaceHeight(b, triangles[t], x, y));
         if (e > result.vertical) {

@@ -41,9 +41,11 @@ namespace unilod {
 double maxErrorTolerance(const format::Block& block);
 
 struct LevelMaxError {
+    // river: the largest river deviation, or horizontal distance of a vertex outside the level's
+    // (simplified) domain to its outline (blocks.h "Domain").
     double vertical = 0, river = 0;
     std::uint32_t verticalVertex = 0;  // the vertex with the largest vertical distance
-    std::uint32_t riverVertex = 0;     // the chain vertex with the largest river distance
+    std::uint32_t riverVertex = 0;     // the vertex with the largest river / outline distance
     double value() const { return vertical > river ? vertical : river; }
 };
 

@@ -33,16 +33,20 @@ inline double distance2Of(std::int64_t dgx, std::int64_t dgy, double dz, double 
     return dx * dx + dy * dy + dz * dz;
 }
 
-// A real (non-ghost) triangle at vertex v.
+// A triangle of the domain at vertex v (cdt.h inDomain; every vertex of the full
+// triangulation has one).
 std::uint32_t realTriangleAt(const Cdt& cdt, PointId v) {
-    std::uint32_t t = cdt.vertexTriangle[v];
-    while (cdt.isGhost(t)) {
+    const std::uint32_t t0 = cdt.vertexTriangle[v];
+    std::uint32_t t = t0;
+    do {
+        if (cdt.inDomain(t)) return t;
         std::uint32_t i = 0;
         while (cdt.tv[3 * t + i] != v)
             ++i;
         t = cdt.tn[3 * t + (i + 1) % 3] / 3;
-    }
-    return t;
+    } while (t != t0);
+    assert(false && "a vertex without a triangle of the domain");
+    return t0;
 }
 
 std::uint64_t mortonKey(std::uint32_t x, std::uint32_t y) {
@@ -156,16 +160,20 @@ void ModelError::loadAddedTriangles(const Cdt& cdt, const std::vector<std::uint3
     // orientations are the barycentric weights of the height (same arithmetic as heightGrid).
     addedTris_.clear();
     for (std::uint32_t t : addedSlots)
-        loadTriangle(cdt, cdt.tv[3 * t], cdt.tv[3 * t + 1], cdt.tv[3 * t + 2], t);
+        loadTriangle(cdt, cdt.tv[3 * t], cdt.tv[3 * t + 1], cdt.tv[3 * t + 2], t,
+                     cdt.exterior(t));
 }
 
 void ModelError::loadTriangle(const Cdt& cdt, PointId a, PointId b, PointId c,
-                              std::uint32_t slot) {
+                              std::uint32_t slot, bool exterior) {
+    // An exterior triangle (cdt.h "Domain") may have frame corners, which have no height.
+    auto z = [&](PointId v) { return exterior ? 0.0 : set_->points[v].z; };
     addedTris_.push_back({{cdt.gx[a], cdt.gx[b], cdt.gx[c]},
                           {cdt.gy[a], cdt.gy[b], cdt.gy[c]},
-                          {set_->points[a].z, set_->points[b].z, set_->points[c].z},
+                          {z(a), z(b), z(c)},
                           double(cdt.orient(a, b, c)),
-                          slot});
+                          slot,
+                          exterior});
 }
 
 double ModelError::locateError(const PoolPoint& p, std::size_t& last, std::uint32_t& slot) const {
@@ -173,6 +181,7 @@ double ModelError::locateError(const PoolPoint& p, std::size_t& last, std::uint3
     // usually fall in the same created triangle: try the previous hit first. Points on a shared
     // edge may be claimed by either triangle; the height there is the same (exact weights).
     const std::size_t count = addedTris_.size();
+    std::size_t outside = count;  // an exterior triangle holding p (closed)
     for (std::size_t k = 0; k < count; ++k) {
         const std::size_t j = k == 0 ? last : (k <= last ? k - 1 : k);
         const AddedTri& q = addedTris_[j];
@@ -182,11 +191,23 @@ double ModelError::locateError(const PoolPoint& p, std::size_t& last, std::uint3
         if (wa < 0) continue;
         const std::int64_t wb = orient2d(q.x[2], q.y[2], q.x[0], q.y[0], p.gx, p.gy);
         if (wb < 0) continue;
+        // A point on the outline lies in the closure of a triangle on either side: it belongs to
+        // the domain's. Only a point outside the domain (no domain triangle holds it) goes to an
+        // exterior triangle, with no vertical error: its distance to the domain is the outline's
+        // planimetric deviation, which the deletion sequence bounds (deletion.h).
+        if (q.exterior) {
+            if (outside == count) outside = j;
+            continue;
+        }
         slot = q.slot;
         last = j;
         const double height =
             (double(wa) * q.z[0] + double(wb) * q.z[1] + double(wc) * q.z[2]) / q.den;
         return std::fabs(p.z - height);
+    }
+    if (outside != count) {
+        slot = addedTris_[outside].slot;
+        return 0.0;
     }
     slot = kNil;
     assert(false && "a point of the changed region lies in no new triangle");
@@ -201,11 +222,11 @@ double ModelError::evaluateMax(const Cdt& cdt, const std::vector<std::uint32_t>&
 }
 
 double ModelError::evaluatePlannedMax(const Cdt& cdt, const std::vector<std::uint32_t>& removedSlots,
-                                      const std::vector<PointId>& corners) {
+                                      const std::vector<PointId>& corners, bool exterior) {
     if (!maxMetric_) return 0;
     addedTris_.clear();
     for (std::size_t j = 0; j + 2 < corners.size(); j += 3)
-        loadTriangle(cdt, corners[j], corners[j + 1], corners[j + 2], kNil);
+        loadTriangle(cdt, corners[j], corners[j + 1], corners[j + 2], kNil, exterior);
     return evaluateLoaded(removedSlots);
 }
 
@@ -497,12 +518,15 @@ double bruteForceMaxError(const PointSet& set, const Cdt& cdt) {
     double worst = 0;
     for (PointId m = 0; m < set.points.size(); ++m) {
         std::uint32_t found = kNil;
-        for (std::uint32_t t = 0; t < cdt.triangleSlots() && found == kNil; ++t) {
+        for (std::uint32_t t = 0; t < cdt.triangleSlots(); ++t) {
             if (cdt.triangleAlive(t) && !cdt.isGhost(t) &&
-                containsGrid(cdt, t, cdt.gx[m], cdt.gy[m]))
-                found = t;
+                containsGrid(cdt, t, cdt.gx[m], cdt.gy[m])) {
+                if (found == kNil || cdt.exterior(found)) found = t;
+                if (!cdt.exterior(found)) break;
+            }
         }
-        if (found == kNil) return INFINITY;  // outside the domain: cannot happen
+        if (found == kNil) return INFINITY;  // outside the frame or the hull: cannot happen
+        if (cdt.exterior(found)) continue;   // outside the domain: the outline's deviation
         worst = std::max(worst, std::fabs(set.points[m].z - surfaceHeight(set, cdt, found, m)));
     }
     return worst;

@@ -52,8 +52,9 @@ public:
                        const std::vector<std::uint32_t>& addedSlots);
     // The same for triangles not in the mesh: `corners` holds 3 vertex ids per triangle
     // (counter-clockwise), e.g. Cdt::planHole's plan for the hole of `removedSlots`.
+    // `exterior`: the planned triangles lie outside the domain (cdt.h "Domain").
     double evaluatePlannedMax(const Cdt& cdt, const std::vector<std::uint32_t>& removedSlots,
-                              const std::vector<PointId>& corners);
+                              const std::vector<PointId>& corners, bool exterior = false);
     // After vertex v left the triangulation.
     void removeVertex(PointId v);
 
@@ -89,7 +90,8 @@ private:
     static_assert(sizeof(Entry) == 24);
     void buildGrid();
     void loadAddedTriangles(const Cdt& cdt, const std::vector<std::uint32_t>& addedSlots);
-    void loadTriangle(const Cdt& cdt, PointId a, PointId b, PointId c, std::uint32_t slot);
+    void loadTriangle(const Cdt& cdt, PointId a, PointId b, PointId c, std::uint32_t slot,
+                      bool exterior);
     double evaluateLoaded(const std::vector<std::uint32_t>& removedSlots);
     // Locates p among the added triangles (exact, closed; `last`: the previous hit, tried first)
     // and returns its vertical error; `slot` receives the triangle.
@@ -109,6 +111,7 @@ private:
         double z[3];
         double den;
         std::uint32_t slot;
+        bool exterior;  // a triangle outside the domain: points in it have no vertical error
     };
     std::vector<AddedTri> addedTris_;
     double runningMax_ = 0;

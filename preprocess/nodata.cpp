@@ -44,6 +44,7 @@ std::size_t fillCells(DemGrid& dem, std::vector<std::size_t> left) {
 
 bool fillSmallHoles(DemGrid& dem, const std::string& path, std::size_t maxFillCells,
                     NodataStats& stats, std::string& error) {
+    (void)path, (void)error;
     stats = {};
     const int w = dem.width, h = dem.height;
     auto at = [&](int c, int r) { return std::size_t(r) * std::size_t(w) + std::size_t(c); };
@@ -77,14 +78,10 @@ bool fillSmallHoles(DemGrid& dem, const std::string& path, std::size_t maxFillCe
         }
         if (border) continue;  // outside the data (rule 2)
         ++stats.holes;
-        if (region.size() > maxFillCells) {
-            const std::size_t i = region.front();
-            error = "DEM '" + path + "': a nodata hole of " + std::to_string(region.size()) +
-                    " cells inside the data (e.g. cell (" + std::to_string(i % std::size_t(w)) +
-                    ", " + std::to_string(i / std::size_t(w)) + ")); holes of more than " +
-                    std::to_string(maxFillCells) +
-                    " cells are not filled and triangles must not bridge them";
-            return false;
+        if (region.size() > maxFillCells) {  // a hole of the domain (blocks.h "Domain")
+            ++stats.keptHoles;
+            stats.keptHoleCells += region.size();
+            continue;
         }
         stats.filledCells += fillCells(dem, region);
     }

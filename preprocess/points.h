@@ -30,6 +30,10 @@ using Polyline = std::vector<PointId>;
 struct PointSet {
     std::vector<Point> points;
     std::vector<Polyline> rivers;
+    // The outline of the valid domain (issue 17): closed rings of point ids (the first id is not
+    // repeated at the end), the domain on the left of every edge. Each edge is a constraint of
+    // the triangulation (cdt.h "Domain"). Empty: the domain is the convex hull of the points.
+    std::vector<Polyline> boundaries;
 };
 
 }  // namespace unilod

@@ -1,9 +1,10 @@
 // The merged point set of paper §3 from a loaded DEM and river lines (DESIGN.md "Point set").
 //
-// This is the plain assembly used by `unilod order`: cell centres, river vertices with bilinear
-// DEM altitudes, junctions as shared ids, endpoints and junctions locked. Full river cleaning
-// (snapping endpoints within a tolerance, splitting lines where they touch or cross, dropping
-// rivers shorter than a minimum length) comes with `unilod build` later; lines are taken as given.
+// buildPointSet is the plain assembly of an in-memory DEM and lines taken as given (the synthetic
+// data of benchmarks and tests): cell centres, river vertices with bilinear DEM altitudes,
+// junctions as shared ids, endpoints and junctions locked. Files go through ingest.h instead
+// (`build`, `order`, `report`: river cleaning, nodata, the block point sets of blocks.h), which
+// shares the building blocks below.
 #pragma once
 
 #include <cstdint>

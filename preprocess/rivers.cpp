@@ -66,12 +66,12 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
     if (!options.layer.empty()) {
         layer = ds->GetLayerByName(options.layer.c_str());
         if (layer == nullptr) {
-            error = what + ": no layer named '" + options.layer + "'";
+            error = what + ": no layer named '" + options.layer + "' (--layer)";
             return false;
         }
         const OGRwkbGeometryType t = layer->GetGeomType();
         if (!isLineType(t) && !(wkbFlatten(t) == wkbUnknown && hasLineFeature(layer))) {
-            error = what + ": layer '" + options.layer + "' has no line geometry";
+            error = what + ": layer '" + options.layer + "' has no line geometry (--layer)";
             return false;
         }
     } else {
@@ -102,7 +102,7 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
     const std::string layerName = layer->GetName();
 
     if (!options.where.empty() && layer->SetAttributeFilter(options.where.c_str()) != OGRERR_NONE) {
-        error = what + ": invalid where clause '" + options.where + "'" + gdalErrorSuffix();
+        error = what + ": invalid --where clause '" + options.where + "'" + gdalErrorSuffix();
         return false;
     }
 
@@ -114,7 +114,8 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
             src = *declared;
         } else if (!options.assumeSrs.empty()) {
             if (src.SetFromUserInput(options.assumeSrs.c_str()) != OGRERR_NONE) {
-                error = what + ": cannot parse the assumed CRS '" + options.assumeSrs + "'";
+                error = what + ": cannot parse the assumed CRS '" + options.assumeSrs +
+                        "' (--assume-crs)";
                 return false;
             }
         } else {
@@ -199,7 +200,7 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
     if (out.empty() && options.where.empty() && layer->GetFeatureCount(TRUE) == 0) return true;
     if (out.empty()) {
         error = what + ": layer '" + layerName + "' has no line features" +
-                (options.where.empty() ? "" : " matching the where clause");
+                (options.where.empty() ? "" : " matching the --where clause");
         return false;
     }
     return true;

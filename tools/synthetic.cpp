@@ -603,8 +603,6 @@ PointSet generateSyntheticTerrain(const SyntheticOptions& options) {
 
 // --- Writing ---------------------------------------------------------------------------------
 
-namespace {
-
 bool writeDemFile(const DemGrid& dem, const OGRSpatialReference& srs, const std::string& path,
                   std::string& error) {
     GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
@@ -637,6 +635,8 @@ bool writeDemFile(const DemGrid& dem, const OGRSpatialReference& srs, const std:
     }
     return true;
 }
+
+namespace {
 
 bool writeRiverFile(const SyntheticData& data, const OGRSpatialReference& srs,
                     const std::string& path, std::string& error) {

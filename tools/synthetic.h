@@ -4,6 +4,8 @@
 // functions (own sine), and the library is compiled with -ffp-contract=off (no FMA contraction).
 #pragma once
 
+#include <ogr_spatialref.h>
+
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -55,5 +57,9 @@ PointSet generateSyntheticTerrain(const SyntheticOptions& options);
 // a rename. Creates `dir` when missing. Returns false with `error` naming the file on failure and
 // leaves no temporary file behind.
 bool writeSyntheticData(const SyntheticData& data, const std::string& dir, std::string& error);
+
+// Writes `dem` to `path` as a GeoTIFF (Float32, NaN = nodata) in `srs`. False with `error`.
+bool writeDemFile(const DemGrid& dem, const OGRSpatialReference& srs, const std::string& path,
+                  std::string& error);
 
 }  // namespace unilod

@@ -5,6 +5,7 @@
 // with h_s <= h_lim (paper §3.4); (c) the image is not blank; (d) rivers are visible;
 // (e) a bad file or camera exits != 0 and leaves no frame behind. There is no skip when no
 // Vulkan device exists: CI installs lavapipe, so a missing device is a failure.
+#include <gdal_priv.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -16,8 +17,10 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "dem.h"
 #include "lod.h"
 #include "shared.h"
+#include "synthetic.h"
 #include "pngread.h"
 #include "tools/cliutil.h"
 #include "ulod.h"
@@ -248,3 +251,86 @@ TEST_F(Capture, BadInputExitsNonZeroWithoutOutput) {
 }
 
 }  // namespace
+
+// Issue 17: a DEM with a round nodata hole in its middle that covers the middle block of a 3 x 3
+// grid (left out of the file) and a bay of nodata along one side builds, passes `check --errors`,
+// exports, gives stats, and the engine draws nothing over the hole: looking straight down on its
+// centre, the image is empty (the clear colour) well inside the hole's outline and terrain all
+// around it (read back from the PNG).
+TEST_F(Capture, NodataHoleIsNotDrawn) {
+    DemGrid dem;
+    dem.width = dem.height = 121;
+    dem.cellX = 30, dem.cellY = -30;
+    dem.originX = 500015, dem.originY = 4000015;
+    const double hole = 30;  // cells: covers block (1,1) of 40-cell blocks, which is left out
+    for (int r = 0; r < dem.height; ++r) {
+        for (int c = 0; c < dem.width; ++c) {
+            const double x = c - 60, y = r - 60;
+            const bool inHole = x * x + y * y < hole * hole;
+            const bool bay = c > 112 && r > 20 && r < 40;
+            dem.z.push_back(inHole || bay ? NAN
+                                          : float(300 + 15 * std::sin(c / 7.0) * std::cos(r / 9.0)));
+        }
+    }
+    GDALAllRegister();
+    OGRSpatialReference srs;
+    srs.importFromEPSG(32616);
+    std::string error;
+    const std::string demPath = (dir_ / "hole_dem.tif").string();
+    ASSERT_TRUE(writeDemFile(dem, srs, demPath, error)) << error;
+    const std::string rivers = (dir_ / "hole_rivers.geojson").string();
+    std::ofstream(rivers) << "{\"type\": \"FeatureCollection\", \"features\": []}\n";
+    const std::string file = (dir_ / "hole.ulod").string();
+    auto r = runCli("build -q " + q(demPath) + " " + q(rivers) + " --block-size 40 -o " + q(file));
+    ASSERT_EQ(r.code, 0) << r.err;
+    r = runCli("check --errors " + q(file));
+    EXPECT_EQ(r.code, 0) << r.err;
+    r = runCli("export -q " + q(file) + " --h-lim 5 -o " + q((dir_ / "hole.glb").string()));
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_GT(fs::file_size(dir_ / "hole.glb"), 1000u);
+    format::Reader reader;
+    ASSERT_TRUE(reader.open(file, error)) << error;
+    EXPECT_EQ(reader.blocks().size(), 8u);  // 3 x 3 grid, the middle block all nodata
+    r = runCli("stats " + q(file) + " --error 5,20 --json");
+    EXPECT_EQ(r.code, 0) << r.err;
+    r = runCli("report " + q(file) + " -o " + q((dir_ / "hole_report").string()));
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_TRUE(fs::exists(dir_ / "hole_report" / "report.md"));
+
+    // Camera 2800 m above the top, straight down on the hole's centre (cell (60, 60)).
+    const double d = 2800, top = 315;
+    char camera[256];
+    std::snprintf(camera, sizeof camera, "%.3f,%.3f,%.3f,0,-90", dem.centreX(60),
+                  dem.centreY(60), top + d);
+    const fs::path out = dir_ / "hole_capture";
+    r = runCli("capture " + q(file) + " --validation --camera " + camera +
+               " --size 640x480 --pixels 1 --fov 60 --out " + q(out.string()));
+    ASSERT_EQ(r.code, 0) << r.err;
+    Image image;
+    ASSERT_TRUE(readPng((out / "frame_0000.png").string(), image));
+    ASSERT_EQ(image.width, 640u);
+    // The hole's radius on screen: R * f / distance, f = 240 px / tan(30 deg); the terrain lies
+    // 0-30 m below the top, so its distance is d to d + 30.
+    const double f = 240.0 / std::tan(30.0 * 3.14159265358979 / 180.0);
+    const double radiusPx = hole * 30.0 * f / (d + 30.0);
+    std::size_t inside = 0, insideDrawn = 0, around = 0, aroundEmpty = 0;
+    for (std::uint32_t y = 0; y < image.height; ++y) {
+        for (std::uint32_t x = 0; x < image.width; ++x) {
+            const double rx = x + 0.5 - 320.0, ry = y + 0.5 - 240.0;
+            const double rr = std::hypot(rx, ry);
+            const std::uint8_t* p = &image.rgba[(std::size_t(y) * image.width + x) * 4];
+            const bool drawn = p[0] || p[1] || p[2];
+            if (rr < 0.85 * radiusPx) {
+                ++inside;
+                insideDrawn += drawn;
+            } else if (rr > 1.2 * radiusPx * (d + 30.0) / d && rr < 230) {
+                ++around;
+                aroundEmpty += !drawn;
+            }
+        }
+    }
+    EXPECT_GT(inside, 10000u);
+    EXPECT_EQ(insideDrawn, 0u);  // nothing drawn over the hole
+    EXPECT_GT(around, 5000u);
+    EXPECT_EQ(aroundEmpty, 0u);  // terrain all around it
+}

@@ -18,6 +18,7 @@
 #include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -272,6 +273,7 @@ protected:
         double maxOverBound = 0;  // largest (deviation - allowed)
         std::size_t checked = 0, total = 0, coarseBlocks = 0;
         std::size_t unlocated = 0;        // points not found in their block's level (a failure)
+        std::size_t outside = 0;          // points outside their level's (moved) outline
         double maxMetresOverHs = -1e300;  // largest vertical distance minus the block's h_s
         // Original river vertices against the drawn river edge that replaced them.
         double riverMaxPixels = 0;
@@ -308,10 +310,13 @@ protected:
                 ++out.total;
                 const double s = d.surfaces[i]->zGrid(block.grid[k].x, block.grid[k].y);
                 if (std::isnan(s)) {
-                    if (++out.unlocated <= 5)
+                    // Outside the level's domain (its outline moved, cdt.h "Domain"): the
+                    // segment to the nearest point of the level's outline in 3D, projected.
+                    if (!outlineDeviation(cam, block, level, k, hs, pixels, out) &&
+                        ++out.unlocated <= 5)
                         ADD_FAILURE()
                             << "point (" << v.x << ", " << v.y << ") of block " << block.col << ","
-                            << block.row << " is outside its level's triangulation";
+                            << block.row << " is farther than h_s from its level's outline";
                     continue;
                 }
                 const double h = std::abs(s - double(v.z));
@@ -335,6 +340,54 @@ protected:
             riverDeviation(cam, block, level, pixels, out);
         }
         return out;
+    }
+
+    // Vertex k of `block`, outside `level`'s domain (its outline moved), against the nearest
+    // point of the level's outline (edges of one triangle) horizontally: false when that is
+    // farther than hs (1 mm slack); else the horizontal segment to it at the vertex's height,
+    // projected, counts like a point's segment to its surface (the outline's planimetric
+    // deviation is part of the `max` error, deletion.h; a horizontal displacement gets no sin phi
+    // factor, engine/lod.h).
+    static bool outlineDeviation(const Projector& cam, const format::Block& block,
+                                 const format::Level& level, std::size_t k, double hs,
+                                 double pixels, Deviation& out) {
+        std::set<std::pair<std::uint32_t, std::uint32_t>> directed;
+        for (std::uint32_t t = 0; t < level.triangleCount; ++t) {
+            const format::Triangle& tri = block.terrainIndices[level.triangleFirst + t];
+            directed.insert({tri.a, tri.b}), directed.insert({tri.b, tri.c}),
+                directed.insert({tri.c, tri.a});
+        }
+        auto world = [&](std::uint32_t v, double w[2]) {
+            w[0] = block.originX + double(block.grid[v].x) * format::kGridUnit;
+            w[1] = block.originY + double(block.grid[v].y) * format::kGridUnit;
+        };
+        double p[2], best[2] = {0, 0}, bestD2 = INFINITY;
+        world(std::uint32_t(k), p);
+        for (const auto& [u, w] : directed) {
+            if (directed.count({w, u})) continue;
+            double a[2], c[2];
+            world(u, a), world(w, c);
+            const double dx = c[0] - a[0], dy = c[1] - a[1], d2 = dx * dx + dy * dy;
+            const double t =
+                d2 > 0 ? std::clamp(((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / d2, 0.0, 1.0)
+                       : 0.0;
+            const double q[2] = {a[0] + t * dx, a[1] + t * dy};
+            const double e2 = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]);
+            if (e2 < bestD2) bestD2 = e2, best[0] = q[0], best[1] = q[1];
+        }
+        const double metres = std::sqrt(bestD2);
+        if (!(metres <= hs + 1e-3)) return false;
+        ++out.outside;
+        const double z = block.vertices[k].z;
+        const auto sp = cam.project(p[0], p[1], z);
+        const auto sq = cam.project(best[0], best[1], z);
+        if (!(sp.inside || sq.inside) || !(sp.depth >= 1.0 && sq.depth >= 1.0)) return true;
+        ++out.checked;
+        const double dev = std::hypot(sp.x - sq.x, sp.y - sq.y);
+        const double slack = metres > 0 ? dev / metres * 1e-3 : 0;
+        out.maxPixels = std::max(out.maxPixels, dev);
+        out.maxOverBound = std::max(out.maxOverBound, dev - (pixels * (1 + 1e-6) + slack));
+        return true;
     }
 
     // Every original river vertex deleted at the drawn level against the drawn river edge A-C

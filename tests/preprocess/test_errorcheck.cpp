@@ -89,11 +89,16 @@ TEST(ErrorCheck, Refusals) {
     // The alive chain vertices A and C are not joined by a river edge.
     EXPECT_FALSE(levelMaxError(b, 1, kStep1, {}, chainAXC(), e, error));
     EXPECT_NE(error.find("no river edge"), std::string::npos) << error;
-    // A triangle missing: X lies in no triangle.
+    // A triangle missing: X lies in no triangle, outside the level's domain (an outline vertex
+    // deleted, blocks.h "Domain"): its horizontal distance to the level's outline counts.
     std::vector<TriangleTriple> holed = kStep1;
     holed.erase(holed.begin() + 3);
-    EXPECT_FALSE(levelMaxError(b, 1, holed, {makeRiverEdge(4, 5)}, chainAXC(), e, error));
-    EXPECT_NE(error.find("vertex 6 lies in no triangle"), std::string::npos) << error;
+    ASSERT_TRUE(levelMaxError(b, 1, holed, {makeRiverEdge(4, 5)}, chainAXC(), e, error)) << error;
+    EXPECT_EQ(e.riverVertex, 6u);
+    EXPECT_GT(e.river, 0.0);
+    // No triangle at all: nothing to measure against.
+    EXPECT_FALSE(levelMaxError(b, 1, {}, {}, {}, e, error));
+    EXPECT_NE(error.find("lies in no triangle"), std::string::npos) << error;
 }
 
 }  // namespace

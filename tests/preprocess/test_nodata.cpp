@@ -1,15 +1,28 @@
-// Nodata handling (nodata.h): small interior holes filled, large ones refused, border-connected
-// nodata left alone; bays reaching into a block's hull filled when few, refused when many; the
-// built model passes the full check.
+// Nodata handling and the domain (nodata.h, blocks.h "Domain"; issues 4 and 17): small interior
+// holes filled, large ones kept as holes, border-connected nodata left alone; models of DEMs with
+// bays, holes, a crescent, an annulus, a coastline and an all-nodata block cover exactly the
+// valid data at full resolution, stay within their error of it at every level and pass the full
+// check (which recomputes the error of every level).
 #include <gdal_priv.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <set>
 
+#include "blocks.h"
 #include "build.h"
+#include "cdt.h"
+#include "checker.h"
+#include "deletion.h"
+#include "modelerror.h"
 #include "nodata.h"
+#include "stats.h"
+#include "ulod.h"
+#include "pngread.h"
+#include "tools/cliutil.h"
 #include "ulodcheck.h"
 
 using namespace unilod;
@@ -90,14 +103,17 @@ TEST(Nodata, SmallInteriorHoleIsFilled) {
     EXPECT_FLOAT_EQ(d.at(8, 9), float(100 + 2 * 7 + 3 * 9));
 }
 
-TEST(Nodata, LargeHoleIsRefusedAndBorderNodataLeftAlone) {
+TEST(Nodata, LargeHoleIsKeptAndBorderNodataLeftAlone) {
     DemGrid d = plane(30, 30);
-    punch(d, 5, 5, 14, 14);  // 100 interior cells
+    punch(d, 5, 5, 14, 14);  // 100 interior cells: a hole of the domain, not filled
     NodataStats s;
     std::string err;
-    EXPECT_FALSE(fillSmallHoles(d, "big.tif", 16, s, err));
-    EXPECT_NE(err.find("big.tif"), std::string::npos) << err;
-    EXPECT_NE(err.find("100 cells"), std::string::npos) << err;
+    ASSERT_TRUE(fillSmallHoles(d, "big.tif", 16, s, err)) << err;
+    EXPECT_EQ(s.holes, 1u);
+    EXPECT_EQ(s.keptHoles, 1u);
+    EXPECT_EQ(s.keptHoleCells, 100u);
+    EXPECT_EQ(s.filledCells, 0u);
+    EXPECT_TRUE(std::isnan(d.at(9, 9)));
 
     DemGrid e = plane(30, 30);
     punch(e, 0, 0, 29, 3);  // a strip along the top border: outside the data
@@ -107,34 +123,266 @@ TEST(Nodata, LargeHoleIsRefusedAndBorderNodataLeftAlone) {
     EXPECT_TRUE(std::isnan(e.at(10, 2)));
 }
 
-TEST(Nodata, BaysInsideABlockHullAreFilledWhenFewRefusedWhenMany) {
-    const std::string rivers = riverFile("nodata_rivers.geojson");
-    // A 3-cell wide, 3-cell deep notch from the top border: inside the hull of the block's
-    // points (the cells beside it are valid) -> filled, and the model passes the full check.
-    DemGrid small = plane(40, 40);
-    punch(small, 18, 0, 20, 2);
+// Twice the area of the domain (blocks.h "Domain") in grid units^2 (1 mm): every lattice square
+// with 4 valid corners counts whole, one with 3 valid corners half.
+std::int64_t doubleDomainArea(const DemGrid& d) {
+    const std::int64_t cell = std::llround(std::fabs(d.cellX) / format::kGridUnit) *
+                              std::llround(std::fabs(d.cellY) / format::kGridUnit);
+    std::int64_t twice = 0;
+    for (int r = 0; r + 1 < d.height; ++r) {
+        for (int c = 0; c + 1 < d.width; ++c) {
+            const int valid = int(!std::isnan(d.at(c, r))) + int(!std::isnan(d.at(c + 1, r))) +
+                              int(!std::isnan(d.at(c, r + 1))) +
+                              int(!std::isnan(d.at(c + 1, r + 1)));
+            twice += valid == 4 ? 2 * cell : (valid == 3 ? cell : 0);
+        }
+    }
+    return twice;
+}
+
+// Builds `dem` (default options but the block size) and checks the model: `unilod check` with
+// the error recomputation passes (every vertex within the level's error of the drawn domain), the
+// full-resolution triangles cover exactly the domain (areas sum to the domain's area: holes, bays
+// and a concave outline are never bridged), every coarser level's area is within the outline
+// length times its error of it, and blocks without data are left out.
+// `filled`: the DEM after the small-hole fill (nodata.h), whose domain the model covers.
+void expectDomainModel(const DemGrid& dem, const std::string& name, int blockSize,
+                       std::size_t expectedBlocks, const DemGrid* filled = nullptr) {
+    SCOPED_TRACE(name);
     BuildOptions o;
-    o.demPath = writeTiff(small, "nodata_small_bay.tif");
-    o.riversPath = rivers;
-    o.outPath = testing::TempDir() + "nodata_small_bay.ulod";
-    o.blockSize = 39;
+    o.demPath = writeTiff(dem, name + ".tif");
+    o.riversPath = riverFile(name + "_rivers.geojson");
+    o.outPath = testing::TempDir() + name + ".ulod";
+    o.blockSize = blockSize;
     o.force = true;
     BuildSummary summary;
     std::string err;
     ASSERT_TRUE(runBuild(o, summary, err)) << err;
-    EXPECT_EQ(summary.nodataCells, 9u);
-    EXPECT_GE(summary.filledNodataCells, 6u);  // at least the two rows strictly inside the hull
+    UlodCheckOptions co;
+    co.errors = true;
     UlodCheckSummary cs;
-    ASSERT_TRUE(checkUlod(o.outPath, {}, cs, err)) << err;
+    ASSERT_TRUE(checkUlod(o.outPath, co, cs, err)) << err;
+    format::Reader reader;
+    ASSERT_TRUE(reader.open(o.outPath, err)) << err;
+    EXPECT_EQ(reader.blocks().size(), expectedBlocks);
+    ErrorStatsTable stats;  // `unilod stats` over the blocks present
+    ASSERT_TRUE(computeErrorStats(o.outPath, {5, 20}, format::kMetricMax, stats, err)) << err;
+    EXPECT_EQ(stats.blocks, expectedBlocks);
+    std::vector<std::int64_t> perLevel;  // summed over blocks, by level index (coarse levels
+                                         // of blocks with fewer levels count their last one)
+    std::size_t maxLevels = 0;
+    std::vector<format::Block> blocks(reader.blocks().size());
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+        ASSERT_TRUE(reader.readBlock(i, blocks[i], err)) << err;
+        maxLevels = std::max(maxLevels, blocks[i].levels.size());
+    }
+    // Per block and level: twice the area, and the outline length at full resolution (edges of
+    // one triangle only), in grid units.
+    auto doubleArea = [](const format::Block& b, const format::Level& level) {
+        std::int64_t twice = 0;
+        for (std::uint32_t k = 0; k < level.triangleCount; ++k) {
+            const format::Triangle& t = b.terrainIndices[level.triangleFirst + k];
+            const format::GridXY p = b.grid[t.a], q = b.grid[t.b], r = b.grid[t.c];
+            twice += (std::int64_t(q.x) - p.x) * (std::int64_t(r.y) - p.y) -
+                     (std::int64_t(q.y) - p.y) * (std::int64_t(r.x) - p.x);
+        }
+        return twice;
+    };
+    auto outlineLength = [](const format::Block& b) {
+        const format::Level& level = b.levels.front();
+        std::set<std::pair<std::uint32_t, std::uint32_t>> directed;
+        for (std::uint32_t k = 0; k < level.triangleCount; ++k) {
+            const format::Triangle& t = b.terrainIndices[level.triangleFirst + k];
+            directed.insert({t.a, t.b}), directed.insert({t.b, t.c}), directed.insert({t.c, t.a});
+        }
+        double length = 0;
+        for (const auto& [u, w] : directed)
+            if (!directed.count({w, u}))
+                length += std::hypot(double(b.grid[u].x) - b.grid[w].x,
+                                     double(b.grid[u].y) - b.grid[w].y);
+        return length;
+    };
+    std::size_t coarser = 0, moved = 0;
+    for (std::size_t l = 0; l < maxLevels; ++l) {
+        std::int64_t twice = 0;
+        double slack = 0;  // twice the area the outline may sweep at this level's error
+        for (const format::Block& b : blocks) {
+            const format::Level& level = b.levels[std::min(l, b.levels.size() - 1)];
+            twice += doubleArea(b, level);
+            slack += 2.0 * outlineLength(b) * double(level.errorMax) / format::kGridUnit;
+            coarser += l > 0 && l < b.levels.size();
+        }
+        const std::int64_t domain = doubleDomainArea(filled ? *filled : dem);
+        if (l == 0) {
+            EXPECT_EQ(twice, domain);  // full resolution: exactly the valid data
+        } else {
+            // The outline moves by at most the level's error (its planimetric deviation).
+            EXPECT_LE(std::fabs(double(twice - domain)), slack) << "level " << l;
+            moved += twice != domain;
+        }
+    }
+    EXPECT_GT(moved, 0u);  // outline corners are simplified too
 
-    // A 10-cell wide, 20-cell deep bay: 200 cells inside the hull -> refused, no output.
-    DemGrid big = plane(40, 40);
-    punch(big, 15, 0, 24, 19);
-    o.demPath = writeTiff(big, "nodata_big_bay.tif");
-    o.outPath = testing::TempDir() + "nodata_big_bay.ulod";
+    // It exports, and the engine draws it (validation on) with nothing over the nodata: looking
+    // down on the whole DEM, the pixels drawn are the valid area's share of those the unmasked
+    // DEM (same relief, same camera) draws. A bridged hole or bay would add its whole area.
+    auto r = unilod::test::runCli("export -q " + unilod::test::q(o.outPath) + " --h-lim 1 -o " +
+                                  unilod::test::q(testing::TempDir() + name + ".glb"));
+    EXPECT_EQ(r.code, 0) << r.err;
+    const DemGrid full = plane(dem.width, dem.height);
+    BuildOptions fo = o;
+    fo.demPath = writeTiff(full, name + "_unmasked.tif");
+    fo.outPath = testing::TempDir() + name + "_unmasked.ulod";
+    ASSERT_TRUE(runBuild(fo, summary, err)) << err;
+    const double cx = full.centreX(0) + 0.5 * (full.width - 1) * full.cellX;
+    const double cy = full.centreY(0) + 0.5 * (full.height - 1) * full.cellY;
+    const double half = 0.5 * std::max(full.width - 1, full.height - 1) * std::fabs(full.cellX);
+    const double f = 240.0 / std::tan(30.0 * 3.14159265358979 / 180.0);
+    double top = 0;
+    for (float z : full.z) top = std::max(top, double(z));
+    const double height = top + 3.0 * half * f / 240.0;  // the DEM within a third of the view
+    char camera[256];
+    std::snprintf(camera, sizeof camera, "%.3f,%.3f,%.3f,0,-90", cx, cy, height);
+    auto drawnPixels = [&](const std::string& file, const std::string& tag) -> double {
+        const std::string out = testing::TempDir() + name + "_" + tag;
+        const auto c = unilod::test::runCli("capture " + unilod::test::q(file) +
+                                            " --validation --camera " + camera +
+                                            " --size 640x480 --pixels 1 --fov 60 --out " +
+                                            unilod::test::q(out));
+        EXPECT_EQ(c.code, 0) << c.err;
+        unilod::test::Image image;
+        EXPECT_TRUE(unilod::test::readPng(out + "/frame_0000.png", image));
+        double drawn = 0;
+        for (std::size_t i = 0; i + 3 < image.rgba.size(); i += 4)
+            drawn += image.rgba[i] || image.rgba[i + 1] || image.rgba[i + 2];
+        return drawn;
+    };
+    const double masked = drawnPixels(o.outPath, "masked");
+    const double unmasked = drawnPixels(fo.outPath, "unmasked");
+    const double share =
+        double(doubleDomainArea(filled ? *filled : dem)) / double(doubleDomainArea(full));
+    ASSERT_GT(unmasked, 5000.0);
+    EXPECT_NEAR(masked / unmasked, share, 0.08 * share) << masked << " of " << unmasked;
+    EXPECT_GT(coarser, 0u);  // the model does simplify
+}
+
+TEST(Nodata, DomainFollowsTheValidData) {
+    // A bay from the top border (it used to be filled or refused), a 100-cell interior hole,
+    // a 1-cell hole (filled), a crescent, an annulus, a coastline (sea as nodata) and an
+    // all-nodata block in the middle of a 3 x 3 block grid.
+    DemGrid bay = plane(40, 40);
+    punch(bay, 15, 0, 24, 19);
+    punch(bay, 5, 25, 14, 34);  // 100 cells
+    const DemGrid unfilled = bay;
+    punch(bay, 30, 30, 30, 30);  // 1 cell: filled
+    expectDomainModel(bay, "nodata_bay_holes", 39, 1, &unfilled);
+
+    auto mask = [](DemGrid d, auto inside) {
+        for (int r = 0; r < d.height; ++r)
+            for (int c = 0; c < d.width; ++c)
+                if (!inside(c - d.width / 2.0 + 0.5, r - d.height / 2.0 + 0.5))
+                    d.z[std::size_t(r) * std::size_t(d.width) + std::size_t(c)] = NAN;
+        return d;
+    };
+    const DemGrid crescent = mask(plane(48, 48), [](double x, double y) {
+        return x * x + y * y < 22.0 * 22.0 && (x - 9) * (x - 9) + y * y > 16.0 * 16.0;
+    });
+    expectDomainModel(crescent, "nodata_crescent", 47, 1);
+    const DemGrid annulus = mask(plane(48, 48), [](double x, double y) {
+        const double r2 = x * x + y * y;
+        return r2 < 22.0 * 22.0 && r2 > 9.0 * 9.0;
+    });
+    expectDomainModel(annulus, "nodata_annulus", 16, 9);
+    const DemGrid coast = mask(plane(60, 40), [](double x, double y) {
+        return y < 6.0 * std::sin(x / 5.0) + 0.3 * x;  // sea above a wavy coastline
+    });
+    expectDomainModel(coast, "nodata_coast", 20, 5);  // one block all sea
+    DemGrid big = plane(150, 150);
+    punch(big, 25, 25, 124, 124);  // a 10 000-cell hole
+    expectDomainModel(big, "nodata_big_hole", 256, 1);
+    DemGrid middle = plane(49, 49);
+    punch(middle, 15, 15, 33, 33);  // covers block (1,1) of 16-cell blocks and its borders
+    expectDomainModel(middle, "nodata_middle_block", 16, 8);
+}
+
+// The greedy order on a block with a concave outline and a hole, with relief: the invariants
+// (checker.h: the side of every triangle agrees with the outline) hold after every step while
+// outline corners are deleted, and the stored error bounds the vertical error of every point the
+// domain still covers.
+TEST(Nodata, OutlineCornersSimplifyWithInvariantsAfterEveryStep) {
+    DemGrid d = plane(36, 36);
+    for (int r = 0; r < d.height; ++r) {
+        for (int c = 0; c < d.width; ++c) {
+            const double x = c - 17.5, y = r - 17.5;
+            float& z = d.z[std::size_t(r) * std::size_t(d.width) + std::size_t(c)];
+            z += float(20.0 * std::sin(c / 4.0) * std::cos(r / 5.0));
+            const bool disc = x * x + y * y < 16.5 * 16.5;
+            const bool bite = (x - 8) * (x - 8) + y * y < 8.0 * 8.0;
+            const bool hole = (x + 7) * (x + 7) + (y - 2) * (y - 2) < 3.2 * 3.2;
+            if (!disc || bite || hole) z = NAN;
+        }
+    }
+    BlockSource source;
+    BlockOptions bo;
+    bo.blockSize = 35;
+    bo.lockOuterEdge = false;
+    std::string err;
+    ASSERT_TRUE(source.init(d, {}, bo, err)) << err;
+    ASSERT_EQ(source.blockCount(), 1u);
+    const PointSet set = source.points(0);
+    ASSERT_GE(set.boundaries.size(), 2u);  // the outer ring and the hole
+    Cdt cdt;
+    ASSERT_TRUE(buildCdt(set, {}, cdt, err)) << err;
+    auto domainArea = [&] {
+        std::int64_t twice = 0;
+        for (std::uint32_t t = 0; t < cdt.triangleSlots(); ++t)
+            if (cdt.inDomain(t))
+                twice += cdt.orient(cdt.tv[3 * t], cdt.tv[3 * t + 1], cdt.tv[3 * t + 2]);
+        return twice;
+    };
+    const std::int64_t initialArea = domainArea();
+    const CheckReference ref = captureCheckReference(cdt);
+    DeletionRecords rec;
+    DeletionOptions options;
+    std::uint32_t failures = 0, moved = 0;
+    options.afterStep = [&](std::uint32_t step) {
+        std::string m;
+        if (!checkCdt(cdt, ref, nullptr, m) && failures++ < 3)
+            ADD_FAILURE() << "after step " << step << ": " << m;
+        const double brute = bruteForceMaxError(set, cdt);
+        if (brute > rec.errorMax[step - 1] + 1e-9 && failures++ < 3)
+            ADD_FAILURE() << "step " << step << ": vertical " << brute << " > stored "
+                          << rec.errorMax[step - 1];
+        moved += domainArea() != initialArea;
+    };
+    ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, err)) << err;
+    EXPECT_EQ(failures, 0u);
+    EXPECT_GT(moved, 0u);                    // outline corners were deleted
+    EXPECT_GT(rec.steps.size(), set.points.size() / 2);
+}
+
+// Valid cells that hold no triangle (every other cell of every other row: no 2 x 2 cells with 3
+// valid; the nodata between them reaches the border, so it is not filled) are refused by build
+// and order alike, naming the DEM, with no output.
+TEST(Nodata, NoTriangulableDataIsRefused) {
+    DemGrid d = plane(12, 12);
+    for (int r = 0; r < d.height; ++r)
+        for (int c = 0; c < d.width; ++c)
+            if (r % 2 || c % 2) d.z[std::size_t(r) * std::size_t(d.width) + std::size_t(c)] = NAN;
+    BuildOptions o;
+    o.demPath = writeTiff(d, "nodata_checker.tif");
+    o.riversPath = testing::TempDir() + "nodata_checker_rivers.geojson";
+    std::ofstream(o.riversPath) << "{\"type\": \"FeatureCollection\", \"features\": []}\n";
+    o.outPath = testing::TempDir() + "nodata_checker.ulod";
     std::filesystem::remove(o.outPath);
+    BuildSummary summary;
+    std::string err;
     EXPECT_FALSE(runBuild(o, summary, err));
-    EXPECT_NE(err.find("nodata_big_bay.tif"), std::string::npos) << err;
-    EXPECT_NE(err.find("would bridge"), std::string::npos) << err;
+    EXPECT_NE(err.find("nodata_checker.tif"), std::string::npos) << err;
+    EXPECT_NE(err.find("no valid data to triangulate"), std::string::npos) << err;
     EXPECT_FALSE(std::filesystem::exists(o.outPath));
+    const auto r = unilod::test::runCli("order " + unilod::test::q(o.demPath) + " " +
+                                        unilod::test::q(o.riversPath) + " --json");
+    EXPECT_NE(r.code, 0);
+    EXPECT_NE(r.err.find("no valid data to triangulate"), std::string::npos) << r.err;
 }

@@ -23,6 +23,7 @@
 #include <set>
 #include <sstream>
 
+#include "ingest.h"
 #include "ulod.h"
 
 namespace fs = std::filesystem;
@@ -51,13 +52,13 @@ double terrain(int col, int row) {
 // Writes a Float32 GeoTIFF, north-up, cell (0, 0) at the north-west corner.
 void writeTiff(const std::string& path, int w, int h, int bands,
                const std::function<double(int, int)>& z, int epsg = kEpsg,
-               const double* noData = nullptr) {
+               const double* noData = nullptr, double cell = kCell) {
     GDALAllRegister();
     GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
     ASSERT_NE(driver, nullptr);
     GDALDatasetUniquePtr ds(driver->Create(path.c_str(), w, h, bands, GDT_Float32, nullptr));
     ASSERT_TRUE(ds);
-    double gt[6] = {kX0, kCell, 0, kY0, 0, -kCell};
+    double gt[6] = {kX0, cell, 0, kY0, 0, -cell};
     ds->SetGeoTransform(gt);
     if (epsg != 0) {
         OGRSpatialReference srs;
@@ -503,9 +504,14 @@ TEST(CliBuildBad, BlockSize) {
                              " -o " + q(c.out()) + " --block-size " + bad);
         expectRejected(c, r, 2, "", "--block-size");
     }
+    // Larger than the DEM: clamped, one block (issue 17).
     const Result r = run("build -q " + q(c.in("dem.tif")) + " " + q(c.in("rivers.geojson")) +
                          " -o " + q(c.out()) + " --block-size 500");
-    expectRejected(c, r, 1, c.in("dem.tif"), "larger than the DEM");
+    expectAcceptedAndChecked(c, r);
+    format::Reader reader;
+    std::string error;
+    ASSERT_TRUE(reader.open(c.out(), error)) << error;
+    EXPECT_EQ(reader.blocks().size(), 1u);
 }
 
 // --order: greedy by default, 3ddp on request, recorded in the build info; anything else is a
@@ -583,6 +589,241 @@ TEST(CliBuildBad, LateFailureLeavesNoFile) {
     EXPECT_EQ(r.code, 1);
     EXPECT_EQ(slurp(c.out()), "precious");
     EXPECT_EQ(c.outEntries().size(), 1u);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Any DEM (issue 17): defaults never refuse a valid DEM; options that cannot work are named.
+
+// A river inside the hull of the cell centres of a w x h DEM (cell units), a few vertices long.
+Line riverInside(int w, int h) {
+    Line l;
+    for (int i = 0; i <= 4; ++i) {
+        const double t = i / 4.0;
+        l.push_back({0.2 + 0.6 * (w - 1) * t, 0.1 + 0.8 * (h - 1) * t});
+    }
+    return l;
+}
+
+// `export` of the whole model at full resolution works (exit 0, a file).
+void expectExports(const Case& c) {
+    const std::string glb = c.out("model.glb");
+    const Result r = run("export -q " + q(c.out()) + " --h-lim 0 -o " + q(glb));
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_TRUE(fs::exists(glb));
+}
+
+// The model at `path` has a bx x by block grid.
+void expectBlockGrid(const std::string& path, std::uint32_t bx, std::uint32_t by) {
+    format::Reader reader;
+    std::string error;
+    ASSERT_TRUE(reader.open(path, error)) << error;
+    EXPECT_EQ(reader.header().blocksX, bx);
+    EXPECT_EQ(reader.header().blocksY, by);
+}
+
+TEST(CliBuildAnyDem, TinyDemsBuildWithDefaults) {
+    for (auto [w, h] : {std::pair{2, 2}, std::pair{3, 3}, std::pair{2, 200}, std::pair{200, 2}}) {
+        for (const char* order : {"greedy", "3ddp"}) {
+            const std::string name =
+                std::to_string(w) + "x" + std::to_string(h) + "_" + std::string(order);
+            SCOPED_TRACE(name);
+            Case c("tiny_" + name);
+            writeTiff(c.in("dem.tif"), w, h, 1, terrain);
+            writeText(c.in("rivers.geojson"), geoJson({lineString(riverInside(w, h))}));
+            writeText(c.in("empty.geojson"), geoJson({}));
+            const std::string extra = std::string("--order ") + order;
+            const Result r = run("build -q " + q(c.in("dem.tif")) + " " +
+                                 q(c.in("rivers.geojson")) + " -o " + q(c.out()) + " " + extra);
+            expectAcceptedAndChecked(c, r);
+            EXPECT_EQ(run("check -q --errors " + q(c.out())).code, 0);
+            format::Reader reader;
+            std::string error;
+            ASSERT_TRUE(reader.open(c.out(), error)) << error;
+            EXPECT_EQ(reader.blocks().size(), 1u);
+            // The header describes the block as it is: the DEM's extent between its outer
+            // cell centres.
+            EXPECT_EQ(reader.header().blockWidth, (w - 1) * kCell);
+            EXPECT_EQ(reader.header().blockHeight, (h - 1) * kCell);
+            expectExports(c);
+            // Terrain only, too.
+            fs::remove(c.out());
+            expectAcceptedAndChecked(
+                c, run("build -q " + q(c.in("dem.tif")) + " " + q(c.in("empty.geojson")) + " -o " +
+                       q(c.out()) + " " + extra));
+        }
+    }
+}
+
+TEST(CliBuildAnyDem, BlockSizeClampsPerDirection) {
+    // 40 x 40 cells (< 256): one block with the default block size.
+    Case c("clamp");
+    c.writeGood();
+    const Result r = run("build -q " + q(c.in("dem.tif")) + " " + q(c.in("rivers.geojson")) +
+                         " -o " + q(c.out()));
+    expectAcceptedAndChecked(c, r);
+    EXPECT_NE(r.out.find("block size 256 cells"), std::string::npos) << r.out;
+    expectBlockGrid(c.out(), 1, 1);
+
+    // 70 x 20 cells with --block-size 32: three blocks across, one down (the block size is larger
+    // than the DEM in y only).
+    Case wide("clamp_wide");
+    writeTiff(wide.in("dem.tif"), 70, 20, 1, terrain);
+    writeText(wide.in("rivers.geojson"), geoJson({lineString(riverInside(70, 20))}));
+    expectAcceptedAndChecked(
+        wide, run("build -q " + q(wide.in("dem.tif")) + " " + q(wide.in("rivers.geojson")) +
+                  " -o " + q(wide.out()) + " --block-size 32"));
+    expectBlockGrid(wide.out(), 3, 1);
+    format::Reader reader;
+    std::string error;
+    ASSERT_TRUE(reader.open(wide.out(), error)) << error;
+    EXPECT_EQ(reader.header().blockWidth, 32 * kCell);
+    EXPECT_EQ(reader.header().blockHeight, 19 * kCell);
+}
+
+TEST(CliBuildAnyDem, OptionsThatCannotWorkAreNamed) {
+    Case c("named");
+    writeTiff(c.in("dem2.tif"), 2, 2, 1, terrain);
+    writeText(c.in("rivers2.geojson"), geoJson({lineString(riverInside(2, 2))}));
+    c.writeGood();
+    const std::string dem2 = c.in("dem2.tif"), rivers2 = c.in("rivers2.geojson");
+    const std::string dem = c.in("dem.tif"), rivers = c.in("rivers.geojson");
+    auto args = [&](const std::string& d, const std::string& r, const std::string& extra) {
+        return "build -q " + q(d) + " " + q(r) + " -o " + q(c.out()) + " " + extra;
+    };
+    expectRejected(c, run(args(dem2, rivers2, "--stride 5")), 1, dem2,
+                   "--stride 5 is larger than the DEM (2 x 2 cells); use --stride 1");
+    expectRejected(c, run(args(dem, rivers, "--stride 40")), 1, dem,
+                   "--stride 40 is larger than the DEM (40 x 40 cells); use --stride 39");
+    expectRejected(c, run(args(dem, rivers, "--block-size 1")), 1, dem,
+                   "--block-size 1 is less than twice --stride 1");
+    expectRejected(c, run(args(dem, rivers, "--block-size 5 --stride 3")), 1, dem,
+                   "--block-size 5 is less than twice --stride 3");
+    // On a DEM one cell wide, one sampled cell is all a block can have: accepted.
+    expectAcceptedAndChecked(c, run(args(dem2, rivers2, "--block-size 1")));
+    fs::remove(c.out());
+    // The same for `order`.
+    const std::string csv = c.out("order.csv");
+    const Result o = run("order -q " + q(dem2) + " " + q(rivers2) + " --stride 5 --out " + q(csv));
+    EXPECT_EQ(o.code, 1);
+    EXPECT_NE(o.err.find("--stride 5 is larger than the DEM"), std::string::npos) << o.err;
+    EXPECT_TRUE(c.outEntries().empty());
+}
+
+TEST(CliBuildAnyDem, DefaultBlockSizeFitsTheExactGrid) {
+    // 200 x 3 cells of 3 km: 597 km across, more than one block's exact 1 mm grid holds (537 km).
+    // The default block size shrinks to fit; an explicit one that does not fit is named.
+    Case c("coarse");
+    writeTiff(c.in("dem.tif"), 200, 3, 1, terrain, kEpsg, nullptr, 3000);
+    writeText(c.in("empty.geojson"), geoJson({}));
+    const std::string args =
+        "build -q " + q(c.in("dem.tif")) + " " + q(c.in("empty.geojson")) + " -o " + q(c.out());
+    expectRejected(c, run(args + " --block-size 256"), 1, "",
+                   "--block-size 256: blocks 597 km wide are too large for the exact 1 mm grid "
+                   "(at most 537 km); use --block-size 178 or less");
+    const Result r = run(args);
+    expectAcceptedAndChecked(c, r);
+    EXPECT_NE(r.out.find("block size 178 cells"), std::string::npos) << r.out;
+    expectBlockGrid(c.out(), 2, 1);
+}
+
+// `order` ingests exactly as `build` does: on a DEM that is one block, it ranks the points of
+// the `build --order 3ddp` model, in the same order.
+TEST(CliBuildAnyDem, OrderRanksThePointsBuildRanks) {
+    Case c("order_equal");
+    // A small nodata hole (filled by ingestion), the good rivers (a junction, meanders).
+    writeTiff(c.in("dem.tif"), kSize, kSize, 1, [](int col, int row) {
+        return col >= 30 && col <= 31 && row == 8 ? std::nan("") : terrain(col, row);
+    });
+    writeText(c.in("rivers.geojson"),
+              geoJson({lineString(Case::mainRiver()),
+                       lineString({{20.3, 38.2}, {21.1, 30.4}, {20.5, 25.2}, {20.2, 20.1}})}));
+    const std::string dem = c.in("dem.tif"), rivers = c.in("rivers.geojson");
+    const Result b =
+        run("build -q " + q(dem) + " " + q(rivers) + " -o " + q(c.out()) + " --order 3ddp");
+    expectAcceptedAndChecked(c, b);
+    const std::string csv = c.out("order.csv");
+    const Result o = run("order -q " + q(dem) + " " + q(rivers) + " --json --out " + q(csv));
+    ASSERT_EQ(o.code, 0) << o.err;
+    const nlohmann::json s = nlohmann::json::parse(o.out);
+    EXPECT_EQ(s["input"]["riverClearance"].get<double>(), 1.0);
+
+    test::Model model;
+    std::string error;
+    ASSERT_TRUE(test::readModel(c.out(), model, error)) << error;
+    ASSERT_EQ(model.blocks.size(), 1u);
+    const format::Block& block = model.blocks[0];
+    ASSERT_EQ(block.grid.size(), block.vertices.size());
+    std::size_t fileRiver = 0, fileLocked = 0;
+    for (const format::Vertex& v : block.vertices) {
+        fileRiver += (v.flags & format::kVertexRiver) != 0;
+        fileLocked += (v.flags & format::kVertexLocked) != 0;
+    }
+    EXPECT_EQ(s["points"]["river"].get<std::size_t>(), fileRiver);
+    EXPECT_EQ(s["points"]["dem"].get<std::size_t>(), block.vertices.size() - fileRiver);
+    EXPECT_EQ(s["points"]["locked"].get<std::size_t>(), fileLocked);
+
+    // The library's point set (ingest.h), which ids refer to.
+    IngestOptions in;
+    in.demPath = dem;
+    in.riversPath = rivers;
+    Ingested data;
+    BlockSource source;
+    ASSERT_TRUE(ingest(in, data, error)) << error;
+    ASSERT_TRUE(splitIntoBlocks(data, in, kWholeDem, true, source, error)) << error;
+    const PointSet set = source.points(0);
+    ASSERT_EQ(set.points.size(), block.vertices.size());
+
+    // Every ranked point (CSV, in rank order) is an unlocked vertex of the file with the same
+    // coordinates (1 mm grid) and kind, and the same point of the library's set.
+    std::vector<std::size_t> vertexOfRank;
+    std::vector<int> rankOfVertex(block.vertices.size(), -1);
+    std::ifstream rows(csv);
+    std::string line;
+    ASSERT_TRUE(std::getline(rows, line));
+    while (std::getline(rows, line)) {
+        double x = 0, y = 0, z = 0;
+        unsigned long rank = 0, id = 0;
+        char kind[16] = {};
+        int locked = -1;
+        ASSERT_EQ(std::sscanf(line.c_str(), "%lu,%lu,%lf,%lf,%lf,%15[a-z],%d", &rank, &id, &x, &y,
+                              &z, kind, &locked),
+                  7)
+            << line;
+        const bool river = std::string(kind) == "river";
+        ASSERT_LT(id, set.points.size());
+        const Point& p = set.points[id];
+        EXPECT_NEAR(p.x, x, 1e-3);
+        EXPECT_NEAR(p.y, y, 1e-3);
+        EXPECT_EQ(p.kind == PointKind::River, river);
+        EXPECT_FALSE(p.locked);
+        EXPECT_EQ(locked, 0);
+        std::size_t match = SIZE_MAX;
+        for (std::size_t v = 0; v < block.vertices.size(); ++v) {
+            const double fx = block.originX + block.grid[v].x * format::kGridUnit;
+            const double fy = block.originY + block.grid[v].y * format::kGridUnit;
+            if (std::abs(fx - x) <= 1.5e-3 && std::abs(fy - y) <= 1.5e-3) {
+                EXPECT_EQ(match, SIZE_MAX) << "two vertices at " << line;
+                match = v;
+            }
+        }
+        ASSERT_NE(match, SIZE_MAX) << "no vertex of the model at " << line;
+        EXPECT_EQ((block.vertices[match].flags & format::kVertexRiver) != 0, river) << line;
+        EXPECT_EQ(block.vertices[match].flags & format::kVertexLocked, 0u) << line;
+        EXPECT_EQ(rankOfVertex[match], -1) << line;
+        rankOfVertex[match] = int(vertexOfRank.size());
+        vertexOfRank.push_back(match);
+    }
+    EXPECT_EQ(vertexOfRank.size(), block.vertices.size() - fileLocked);
+    // The model deleted its vertices in importance order: the ranks of its steps ascend (ranked
+    // points it kept, such as hull corners, are skipped).
+    ASSERT_FALSE(block.steps.empty());
+    int previous = -1;
+    for (std::size_t k = 0; k < block.steps.size(); ++k) {
+        const int rank = rankOfVertex[block.steps[k].vertex];
+        ASSERT_GE(rank, 0) << "step " << k << " deletes a vertex `order` did not rank";
+        EXPECT_GT(rank, previous) << "step " << k;
+        previous = rank;
+    }
 }
 
 // ---------------------------------------------------------------------------------------------

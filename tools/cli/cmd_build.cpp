@@ -8,6 +8,7 @@
 
 #include "build.h"
 #include "commands.h"
+#include "ingestopts.h"
 #include "numbers.h"
 
 namespace unilod::cli {
@@ -75,8 +76,8 @@ int run(BuildCli& c) {
         "  points           %zu DEM + %zu river (%zu locked, %zu border crossings, "
         "%zu DEM points dropped next to rivers)\n",
         s.demPoints, s.riverPoints, s.lockedPoints, s.crossings, s.droppedDemPoints);
-    std::printf("  blocks           %zu (block size %d cells, stride %d)\n", s.blocks,
-                c.o.blockSize, c.o.stride);
+    std::printf("  blocks           %zu (block size %d cells, stride %d)\n", s.blocks, s.blockSize,
+                c.o.stride);
     std::printf("  deletion steps   %zu (%zu ranked points kept, %zu deferred deletions)\n",
                 s.steps, s.kept, s.deferrals);
     std::printf("  triangles        %zu full resolution, %zu coarsest; index data %.2fx full\n",
@@ -97,22 +98,12 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
     auto c = std::make_shared<BuildCli>();
     CLI::App* sub = app.add_subcommand(
         "build", "Build the unified LOD model (.ulod) of a DEM and a river network");
-    sub->add_option("DEM", c->o.demPath, "DEM raster (any single-band raster GDAL reads)")
-        ->required();
-    sub->add_option("RIVERS", c->o.riversPath, "river lines (any OGR line layer)")->required();
+    addIngestOptions(*sub, c->o);
     sub->add_option("-o,--output", c->o.outPath, "output .ulod file")->required();
     sub->add_flag("--force", c->o.force, "overwrite an existing output file");
-    sub->add_option("--band", c->o.band, "raster band (1-based) for multi-band rasters")
-        ->check(positive());
-    sub->add_option("--t-srs", c->o.targetSrs,
-                    "working CRS (default: a projected DEM's own, a geographic DEM's UTM zone)");
-    sub->add_option("--layer", c->o.layer, "river layer name (default: the first line layer)");
-    sub->add_option("--where", c->o.where, "OGR SQL attribute filter for the rivers");
-    sub->add_option("--assume-crs", c->o.assumeSrs, "CRS of a river layer that declares none");
-    sub->add_option("--stride", c->o.stride, "take every k-th DEM cell (default 1)")
-        ->check(CLI::Range(1, 1 << 20));
     sub->add_option("--block-size", c->o.blockSize,
-                    "block side in DEM cells (default " + std::to_string(kDefaultBlockSize) + ")")
+                    "block side in DEM cells (default " + std::to_string(kDefaultBlockSize) +
+                        "; clamped to the DEM: one block where it is larger)")
         ->check(CLI::Range(1, 1 << 24));
     sub->add_option("--threads", c->o.threads, "worker threads (default: all cores)")
         ->check(CLI::Range(0, 1024));
@@ -126,9 +117,6 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
         ->check(finite());
     sub->add_option("--metric", c->metric, "default error metric recorded in the file")
         ->check(CLI::IsMember({"max", "paper"}));
-    sub->add_option("--min-river-length", c->o.minRiverLength,
-                    "drop rivers shorter than this (metres)")
-        ->check(nonNegative());
     sub->add_flag("-q,--quiet", c->quiet, "no progress output");
     sub->callback([c, &exitCode] { exitCode = run(*c); });
 }

@@ -1,6 +1,7 @@
 // `unilod order DEM RIVERS`: the importance order of the improved 3D_DP (paper §2, §3.1) on real
-// data: load the DEM and the rivers (GDAL/OGR, reprojected to one metric CRS), build the point
-// set, rank it, print a summary (text or JSON) and optionally the deletion order as CSV.
+// data: ingest the DEM and the rivers exactly as `unilod build` does (preprocess/ingest.h), take
+// the point set of ONE block covering the DEM as `build --order 3ddp` makes it (the DEM's outer
+// edge locked), rank it, print a summary (text or JSON) and optionally the deletion order as CSV.
 //
 // Errors name the file and the problem on stderr and exit with 1; the CSV goes through a
 // format::AtomicFile moved into place only after everything succeeded, so a failed run leaves no
@@ -19,12 +20,11 @@
 #include "atomicfile.h"
 #include "bai.h"
 #include "commands.h"
-#include "dem.h"
 #include "importance.h"
+#include "ingest.h"
+#include "ingestopts.h"
 #include "jsontext.h"
 #include "numbers.h"
-#include "pointset.h"
-#include "rivers.h"
 
 namespace unilod::cli {
 
@@ -34,11 +34,7 @@ using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
 struct OrderOptions {
-    std::string dem, rivers;
-    int band = 0;
-    std::string targetSrs;
-    std::string layer, where, riversSrs;
-    int stride = 1;
+    IngestOptions in;  // shared with `build` (ingestopts.h)
     bool noBai = false;
     double baiRow = kDefaultBaiRow;
     std::string baiTable;
@@ -46,10 +42,6 @@ struct OrderOptions {
     bool json = false;
     bool quiet = false;
 };
-
-// DEM points closer than this fraction of a cell to a river segment are dropped (DESIGN.md: they
-// make slivers); 1% keeps every point that is not practically on the river.
-constexpr double kRiverClearanceCells = 0.01;
 
 double secondsSince(Clock::time_point t) {
     return std::chrono::duration<double>(Clock::now() - t).count();
@@ -143,7 +135,7 @@ int runOrder(const OrderOptions& o) {
 
     // Fail fast on an unwritable output (or one of the inputs) before the long work.
     format::AtomicFile csv;
-    format::OutputOptions output{.replace = true, .inputs = {o.dem, o.rivers}};
+    format::OutputOptions output{.replace = true, .inputs = {o.in.demPath, o.in.riversPath}};
     if (!o.baiTable.empty()) output.inputs.push_back(o.baiTable);
     if (!o.out.empty() && !csv.open(o.out, output, error)) return fail(error);
 
@@ -161,50 +153,41 @@ int runOrder(const OrderOptions& o) {
 
     json seconds;
     Clock::time_point t = Clock::now();
-    DemGrid dem;
-    DemLoadOptions dlo;
-    dlo.band = o.band;
-    dlo.targetSrs = o.targetSrs;
-    if (!loadDem(o.dem, dlo, dem, error)) return fail(error);
-    seconds["dem"] = secondsSince(t);
+    IngestOptions in = o.in;
+    in.warn = [](const std::string& w) {
+        std::fprintf(stderr, "unilod order: warning: %s\n", w.c_str());
+    };
+    Ingested data;
+    if (!ingest(in, data, error)) return fail(error);
+    const DemGrid& dem = data.dem;
+    seconds["ingest"] = secondsSince(t);
     const std::string crs =
         dem.wkt.empty() ? "none (coordinates used as they are)" : crsDisplayName(dem.wkt);
     char cells[160];
     std::snprintf(cells, sizeof cells, "%d x %d cells of %.2f x %.2f, ", dem.width, dem.height,
                   std::abs(dem.cellX), std::abs(dem.cellY));
-    progress("load DEM", seconds["dem"], cells + crs);
+    progress("ingest", seconds["ingest"],
+             cells + crs + ", " + std::to_string(data.rivers.size()) + " river lines");
 
+    // One block covering the DEM, its outer edge locked: the point set `build --order 3ddp`
+    // ranks when the DEM is one block.
     t = Clock::now();
-    RiverLines lines;
-    RiverLoadOptions rlo;
-    rlo.layer = o.layer;
-    rlo.where = o.where;
-    rlo.assumeSrs = o.riversSrs;
-    if (!loadRivers(o.rivers, rlo, dem.wkt, lines, error)) return fail(error);
-    seconds["rivers"] = secondsSince(t);
-    progress("load rivers", seconds["rivers"], std::to_string(lines.size()) + " lines");
-
-    t = Clock::now();
-    PointSetOptions pso;
-    pso.stride = o.stride;
-    pso.riverClearance = kRiverClearanceCells * std::min(std::abs(dem.cellX), std::abs(dem.cellY));
-    const PointSet set = buildPointSet(dem, lines, pso);
+    BlockSource source;
+    if (!splitIntoBlocks(data, in, kWholeDem, true, source, error)) return fail(error);
+    const PointSet set = source.points(0);
     seconds["pointSet"] = secondsSince(t);
     std::size_t demPoints = 0, riverPoints = 0, locked = 0, unlocked = 0;
     for (const Point& p : set.points) {
         (p.kind == PointKind::Dem ? demPoints : riverPoints) += 1;
         (p.locked ? locked : unlocked) += 1;
     }
-    std::size_t demValid = 0;
-    for (int r = 0; r < dem.height; r += o.stride) {
-        for (int c = 0; c < dem.width; c += o.stride)
-            demValid += !std::isnan(dem.at(c, r));
-    }
     progress("point set", seconds["pointSet"],
              std::to_string(demPoints) + " DEM + " + std::to_string(riverPoints) +
                  " river points, " + std::to_string(set.rivers.size()) + " polylines, " +
                  std::to_string(locked) + " locked");
-    if (unlocked == 0) return fail("DEM '" + o.dem + "': no point to rank (all points locked)");
+    if (unlocked == 0) {
+        return fail("DEM '" + o.in.demPath + "': no point to rank (all points locked)");
+    }
 
     t = Clock::now();
     ImportanceResult result;
@@ -239,12 +222,20 @@ int runOrder(const OrderOptions& o) {
     progress("bends", seconds["bends"], std::to_string(bends.size()) + " bends");
 
     json summary;
-    summary["input"] = {{"dem", o.dem},       {"rivers", o.rivers},   {"crs", crs},
-                        {"width", dem.width}, {"height", dem.height}, {"stride", o.stride},
-                        {"cellX", dem.cellX}, {"cellY", dem.cellY}};
-    summary["points"] = {{"dem", demPoints},     {"demDroppedNearRivers", demValid - demPoints},
-                         {"river", riverPoints}, {"polylines", set.rivers.size()},
-                         {"locked", locked},     {"ranked", result.order.size()}};
+    summary["input"] = {{"dem", o.in.demPath},
+                        {"rivers", o.in.riversPath},
+                        {"crs", crs},
+                        {"width", dem.width},
+                        {"height", dem.height},
+                        {"stride", o.in.stride},
+                        {"cellX", dem.cellX},
+                        {"cellY", dem.cellY},
+                        {"riverClearance", o.in.riverClearance},
+                        {"riverCleaning", describe(data.cleaning)}};
+    summary["points"] = {
+        {"dem", demPoints},     {"demDroppedNearRivers", source.stats().droppedDemPoints},
+        {"river", riverPoints}, {"polylines", set.rivers.size()},
+        {"locked", locked},     {"ranked", result.order.size()}};
     summary["basePlane"] = {{"O", pointJson(set, result.origin)},
                             {"A", pointJson(set, result.anchor)},
                             {"B", pointJson(set, result.floating)}};
@@ -319,20 +310,7 @@ void addOrderCommand(CLI::App& app, int& exitCode) {
     auto opts = std::make_shared<OrderOptions>();
     CLI::App* sub = app.add_subcommand(
         "order", "Importance order of a DEM + river network (improved 3D_DP with BAI)");
-    sub->add_option("DEM", opts->dem, "DEM raster (any single-band raster GDAL reads)")->required();
-    sub->add_option("RIVERS", opts->rivers, "River lines (any OGR line layer)")->required();
-    sub->add_option("--band", opts->band, "DEM band (1-based; needed for multi-band rasters)")
-        ->check(positive());
-    sub->add_option("--target-srs", opts->targetSrs,
-                    "Working CRS (default: the DEM's projected CRS, or the UTM zone of its centre "
-                    "for a geographic DEM)");
-    sub->add_option("--layer", opts->layer, "River layer (default: the first line layer)");
-    sub->add_option("--where", opts->where, "OGR SQL attribute filter on the river layer");
-    sub->add_option("--rivers-srs", opts->riversSrs,
-                    "CRS of the rivers when their layer declares none");
-    sub->add_option("--stride", opts->stride, "Use every K-th DEM row and column")
-        ->check(CLI::Range(1, 1000000))
-        ->capture_default_str();
+    addIngestOptions(*sub, opts->in);
     sub->add_flag("--no-bai", opts->noBai, "Plain 3D_DP without the bending adjustment index");
     CLI::Option* table =
         sub->add_option("--bai-table", opts->baiTable, "BAI constants table file (Table 1 format)");

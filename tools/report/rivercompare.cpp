@@ -6,20 +6,16 @@
 #include <nlohmann/json.hpp>
 
 #include "bai.h"
-#include "dem.h"
 #include "cdt.h"
 #include "deletion.h"
 #include "importance.h"
-#include "pointset.h"
-#include "rivercleaning.h"
+#include "ingest.h"
 #include "report.h"
 
 namespace unilod::report {
 
 namespace {
 
-// Same as `unilod order` / `unilod build`: DEM points closer than 1 % of a cell to a river go.
-constexpr double kRiverClearanceCells = 0.01;
 // Samples per segment for the Hausdorff supremum (error bound: segment length / 32).
 constexpr int kHausdorffSamples = 16;
 
@@ -84,43 +80,27 @@ bool compareRivers(const ReportOptions& options, const std::string& buildInfo,
     const auto say = [&](const std::string& s) {
         if (options.progress) options.progress(s);
     };
+    // The build's own ingestion (ingest.h) with the options it recorded, and the point set of
+    // one block covering the DEM as the build's order makes it (3ddp locks the outer edge).
     const nlohmann::json info = nlohmann::json::parse(buildInfo, nullptr, false);
-    const std::string demPath =
-        options.demPath.empty() ? infoValue<std::string>(info, "dem", "") : options.demPath;
-    const std::string riversPath = options.riversPath.empty()
-                                       ? infoValue<std::string>(info, "rivers", "")
-                                       : options.riversPath;
-    if (demPath.empty() || riversPath.empty()) {
+    IngestOptions in = ingestOptionsFromInfo(info);
+    if (!options.demPath.empty()) in.demPath = options.demPath;
+    if (!options.riversPath.empty()) in.riversPath = options.riversPath;
+    if (in.demPath.empty() || in.riversPath.empty()) {
         error = options.path +
                 ": its build info names no DEM / rivers; give --dem and --rivers (or --no-rivers)";
         return false;
     }
-    DemLoadOptions dlo;
-    dlo.band = infoValue<int>(info, "band", 0);
-    dlo.targetSrs = infoValue<std::string>(info, "t_srs", "");
-    DemGrid dem;
-    if (!loadDem(demPath, dlo, dem, error)) {
-        error += " (the DEM named by the build info of " + options.path + "; override with --dem)";
+    // The file's own order (a file without the key predates the greedy order: 3ddp).
+    const bool greedy = infoValue<std::string>(info, "order", "3ddp") == "greedy";
+    Ingested data;
+    BlockSource source;
+    if (!ingest(in, data, error) || !splitIntoBlocks(data, in, kWholeDem, !greedy, source, error)) {
+        error += " (the inputs named by the build info of " + options.path +
+                 "; override with --dem / --rivers)";
         return false;
     }
-    RiverLoadOptions rlo;
-    rlo.layer = infoValue<std::string>(info, "layer", "");
-    rlo.where = infoValue<std::string>(info, "where", "");
-    rlo.assumeSrs = infoValue<std::string>(info, "assume_crs", "");
-    RiverLines lines;
-    if (!loadRivers(riversPath, rlo, dem.wkt, lines, error)) {
-        error += " (the rivers named by the build info of " + options.path +
-                 "; override with --rivers)";
-        return false;
-    }
-    RiverCleaningOptions cleaning;
-    cleaning.minRiverLength = infoValue<double>(info, "min_river_length", 0.0);
-    RiverCleaningStats cleaningStats;
-    lines = cleanRivers(lines, dem, cleaning, cleaningStats);
-    PointSetOptions pso;
-    pso.stride = std::max(1, infoValue<int>(info, "stride", 1));
-    pso.riverClearance = kRiverClearanceCells * std::min(std::abs(dem.cellX), std::abs(dem.cellY));
-    const PointSet set = buildPointSet(dem, lines, pso);
+    const PointSet set = source.points(0);
     say("rivers: " + std::to_string(set.rivers.size()) + " polylines, " +
         std::to_string(set.points.size()) + " points; importance with and without BAI");
 
@@ -130,8 +110,6 @@ bool compareRivers(const ReportOptions& options, const std::string& buildInfo,
     withBai.baiRow = infoValue<double>(info, "bai_row", kDefaultBaiRow);
     ImportanceOptions plain = withBai;
     plain.useBai = false;
-    // The file's own order (a file without the key predates the greedy order: 3ddp).
-    const bool greedy = infoValue<std::string>(info, "order", "3ddp") == "greedy";
     std::vector<std::size_t> posBai, posPlain;
     if (greedy) {
         const int row = withBai.baiTable.findRow(withBai.baiRow);

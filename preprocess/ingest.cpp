@@ -1,0 +1,218 @@
+// Ingestion (ingest.h): the one path from a DEM + river files to block point sets.
+#include "ingest.h"
+
+#include <algorithm>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "predicates.h"
+#include "ulod.h"
+
+namespace unilod {
+
+namespace {
+
+bool checkElevations(const DemGrid& dem, const std::string& path, std::string& error) {
+    for (std::size_t i = 0; i < dem.z.size(); ++i) {
+        const float z = dem.z[i];
+        if (std::isnan(z) || (z >= kMinPlausibleZ && z <= kMaxPlausibleZ)) continue;
+        const std::size_t col = i % std::size_t(dem.width), row = i / std::size_t(dem.width);
+        error = "DEM '" + path + "': elevation " + std::to_string(z) + " at cell (" +
+                std::to_string(col) + ", " + std::to_string(row) + ") is outside the plausible " +
+                "range [" + std::to_string(int(kMinPlausibleZ)) + ", " +
+                std::to_string(int(kMaxPlausibleZ)) + "] m (a wrong nodata value or units?)";
+        return false;
+    }
+    return true;
+}
+
+// The point set drops repeated consecutive vertices and lines with fewer than two distinct
+// vertices (pointset.h); say so, since the user's data changes.
+void warnDegenerateLines(const RiverLines& rivers, const IngestOptions& o) {
+    std::size_t repeated = 0, degenerate = 0;
+    for (const RiverLine& line : rivers) {
+        std::size_t here = 0;
+        for (std::size_t i = 1; i < line.size(); ++i)
+            here += line[i] == line[i - 1];
+        repeated += here;
+        degenerate += line.size() - here < 2;
+    }
+    if ((repeated > 0 || degenerate > 0) && o.warn) {
+        o.warn("rivers '" + o.riversPath + "': dropped " + std::to_string(repeated) +
+               " repeated vertices and " + std::to_string(degenerate) +
+               " zero-length lines (fewer than two distinct vertices)");
+    }
+}
+
+bool anyVertexOnDem(const RiverLines& rivers, const DemGrid& dem) {
+    for (const RiverLine& line : rivers) {
+        for (const XY& v : line) {
+            if (std::isfinite(dem.sample(v.x, v.y))) return true;
+        }
+    }
+    return false;
+}
+
+std::string cells(const DemGrid& dem) {
+    return std::to_string(dem.width) + " x " + std::to_string(dem.height) + " cells";
+}
+
+}  // namespace
+
+bool ingest(const IngestOptions& o, Ingested& data, std::string& error) {
+    data = Ingested{};
+    auto warn = [&](const std::string& w) {
+        if (o.warn) o.warn(w);
+    };
+    DemLoadOptions demOptions;
+    demOptions.band = o.band;
+    demOptions.targetSrs = o.targetSrs;
+    DemGrid& dem = data.dem;
+    if (!loadDem(o.demPath, demOptions, dem, error)) return false;
+    if (dem.width < 2 || dem.height < 2) {
+        error = "DEM '" + o.demPath + "': " + cells(dem) +
+                " is too small to triangulate (at least 2 x 2)";
+        return false;
+    }
+    if (!checkElevations(dem, o.demPath, error)) return false;
+    if (!fillSmallHoles(dem, o.demPath, kDefaultMaxFillCells, data.nodata, error)) return false;
+    if (data.nodata.nodataCells > 0) {
+        warn("DEM '" + o.demPath + "': " + std::to_string(data.nodata.nodataCells) +
+             " nodata cells (nodata value, NaN or infinite); " + std::to_string(data.nodata.holes) +
+             " interior holes of at most " + std::to_string(kDefaultMaxFillCells) + " cells (" +
+             std::to_string(data.nodata.filledCells) +
+             " cells) filled from their rims; the rest is outside the domain (" +
+             std::to_string(data.nodata.keptHoles) + " larger holes)");
+    }
+
+    RiverLoadOptions riverOptions;
+    riverOptions.layer = o.layer;
+    riverOptions.where = o.where;
+    riverOptions.assumeSrs = o.assumeSrs;
+    riverOptions.warn = warn;
+    RiverLines rivers;
+    if (!loadRivers(o.riversPath, riverOptions, dem.wkt, rivers, error)) return false;
+    warnDegenerateLines(rivers, o);
+    if (rivers.empty()) {
+        warn("rivers '" + o.riversPath + "': no line features: building a terrain-only model");
+    } else if (!anyVertexOnDem(rivers, dem)) {
+        error = "rivers '" + o.riversPath + "': no river vertex lies on the DEM '" + o.demPath +
+                "' (a CRS mistake? try --assume-crs or check the data)";
+        return false;
+    }
+    // River cleaning (DESIGN.md "Point set"): clip to the DEM, snap, split at crossings, drop
+    // duplicates, zero-length segments and short rivers, so that the constrained triangulation
+    // gets a planar network whose rivers meet only at shared vertices.
+    RiverCleaningOptions cleaning;
+    cleaning.minRiverLength = o.minRiverLength;
+    data.rivers = cleanRivers(rivers, dem, cleaning, data.cleaning);
+    const RiverCleaningStats& s = data.cleaning;
+    if (s.crossingsSplit + s.selfCrossings + s.touchesSplit > 0) {
+        warn("rivers '" + o.riversPath +
+             "': crossing or touching rivers were split at the crossing");
+    }
+    if (s.duplicateVertices + s.zeroLengthSegments > 0) {
+        warn("rivers '" + o.riversPath + "': duplicate vertices and zero-length segments dropped");
+    }
+    return true;
+}
+
+bool splitIntoBlocks(Ingested& data, const IngestOptions& o, int blockSize, bool lockOuterEdge,
+                     BlockSource& source, std::string& error) {
+    DemGrid& dem = data.dem;
+    BlockOptions blocks;
+    blocks.blockSize = blockSize;
+    blocks.stride = o.stride;
+    blocks.lockOuterEdge = lockOuterEdge;
+    blocks.riverClearance = o.riverClearance;
+    if (!source.init(dem, data.rivers, blocks, error)) {
+        error = "DEM '" + o.demPath + "': " + error;
+        return false;
+    }
+    bool any = false;
+    for (std::size_t i = 0; i < source.blockCount() && !any; ++i)
+        any = source.hasDomain(i);
+    if (!any) {
+        error = "DEM '" + o.demPath + "': no valid data to triangulate (no 2 x 2 cells" +
+                (o.stride > 1 ? " of the --stride " + std::to_string(o.stride) + " lattice" : "") +
+                " with at least 3 valid)";
+        return false;
+    }
+    return true;
+}
+
+namespace {
+
+// Metres a block may span in one direction: the exact grid holds |c| <= kMaxGridCoordinate units
+// from the block centre (cdt.cpp), one unit spare for the rounding.
+constexpr double kExactSpan = 2.0 * double(kMaxGridCoordinate - 1) * format::kGridUnit;
+
+int largestExactBlock(const DemGrid& dem) {
+    const double cell = std::max(std::fabs(dem.cellX), std::fabs(dem.cellY));
+    return int(std::min(std::floor(kExactSpan / cell), double(kWholeDem)));
+}
+
+}  // namespace
+
+int automaticBlockSize(const DemGrid& dem, int stride) {
+    return std::max(1, std::min(largestExactBlock(dem), std::max(kDefaultBlockSize, 2 * stride)));
+}
+
+bool checkBlockFitsExactGrid(const DemGrid& dem, int stride, int blockSize, std::string& error) {
+    // The block grid's step: the block size rounded down to the stride (blocks.cpp borderLines),
+    // at most the DEM's sampled extent in that direction.
+    const int step = std::max(stride, blockSize / stride * stride);
+    for (const auto& [n, cell] :
+         {std::pair{dem.width, dem.cellX}, std::pair{dem.height, dem.cellY}}) {
+        const int extent = std::min(step, (n - 1) / stride * stride);
+        const double metres = extent * std::fabs(cell);
+        if (metres <= kExactSpan) continue;
+        error = "--block-size " + std::to_string(blockSize) + ": blocks " +
+                std::to_string(std::lround(metres / 1000)) +
+                " km wide are too large for the exact 1 mm grid (at most " +
+                std::to_string(std::lround(kExactSpan / 1000)) + " km); use --block-size " +
+                std::to_string(largestExactBlock(dem)) + " or less";
+        return false;
+    }
+    return true;
+}
+
+void recordIngestOptions(const IngestOptions& o, nlohmann::json& info) {
+    info["dem"] = o.demPath;
+    info["rivers"] = o.riversPath;
+    info["band"] = o.band;
+    info["t_srs"] = o.targetSrs;
+    info["layer"] = o.layer;
+    info["where"] = o.where;
+    info["assume_crs"] = o.assumeSrs;
+    info["stride"] = o.stride;
+    info["min_river_length"] = o.minRiverLength;
+    info["river_clearance_m"] = o.riverClearance;
+}
+
+IngestOptions ingestOptionsFromInfo(const nlohmann::json& info) {
+    IngestOptions o;
+    if (!info.is_object()) return o;
+    auto get = [&](const char* key, auto& value) {
+        const auto it = info.find(key);
+        if (it == info.end()) return;
+        try {
+            value = it->template get<std::remove_reference_t<decltype(value)>>();
+        } catch (const nlohmann::json::exception&) {
+        }
+    };
+    get("dem", o.demPath);
+    get("rivers", o.riversPath);
+    get("band", o.band);
+    get("t_srs", o.targetSrs);
+    get("layer", o.layer);
+    get("where", o.where);
+    get("assume_crs", o.assumeSrs);
+    get("stride", o.stride);
+    get("min_river_length", o.minRiverLength);
+    get("river_clearance_m", o.riverClearance);
+    o.stride = std::max(1, o.stride);
+    return o;
+}
+
+}  // namespace unilod

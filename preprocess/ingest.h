@@ -1,0 +1,77 @@
+// Ingestion: DEM raster + river lines -> the checked, cleaned inputs of the unified model, and the
+// block point sets made from them. The ONE path from files to points: `unilod build`, `unilod
+// order` and `unilod report` all call it, so that they rank the same points (issue 17, item 6).
+//
+// ingest(): load the DEM (GDAL; band, geographic -> UTM of its centre or the target CRS); refuse
+// a raster below 2 x 2 cells or with absurd elevations; fill small nodata holes (nodata.h rule
+// 1); load the rivers (OGR, reprojected to the DEM's CRS); refuse rivers with no vertex on the
+// DEM; clean the rivers (rivercleaning.h). splitIntoBlocks(): check stride and block size against
+// the DEM (a block size larger than the DEM is clamped: one block in that direction), cut the
+// block grid with the river clearance (blocks.h), fill the nodata cells a block's hull would
+// bridge (nodata.h rule 2).
+#pragma once
+
+#include <functional>
+#include <nlohmann/json_fwd.hpp>
+#include <string>
+
+#include "blocks.h"
+#include "dem.h"
+#include "nodata.h"
+#include "rivercleaning.h"
+#include "rivers.h"
+
+namespace unilod {
+
+// Elevations outside this range are refused as absurd (a broken nodata value, wrong units...):
+// the lowest and highest points on Earth with a wide margin.
+inline constexpr double kMinPlausibleZ = -12000.0, kMaxPlausibleZ = 10000.0;
+
+struct IngestOptions {
+    std::string demPath, riversPath;
+    int band = 0;           // 1-based; 0: the only band
+    std::string targetSrs;  // --t-srs; empty: a projected DEM's own CRS, else UTM of its centre
+    std::string layer, where, assumeSrs;  // river layer, OGR SQL filter, CRS of a CRS-less layer
+    int stride = 1;                       // DEM points: every stride-th row and column
+    double minRiverLength = 0;            // river cleaning: drop shorter rivers (metres)
+    double riverClearance = kDefaultRiverClearance;  // DEM points this close to a river go
+    // Warnings for accepted-but-odd input (empty river layer, NaN cells...).
+    std::function<void(const std::string&)> warn;
+};
+
+struct Ingested {
+    DemGrid dem;        // working CRS, small holes filled (nodata.h)
+    RiverLines rivers;  // cleaned, in the DEM's CRS
+    RiverCleaningStats cleaning;
+    NodataStats nodata;
+};
+
+// Returns false with `error` (naming the file and the problem) on bad input.
+bool ingest(const IngestOptions& options, Ingested& data, std::string& error);
+
+// The block grid of `data` (blocks.h) with the options' stride and river clearance; `blockSize`
+// in DEM cells, clamped to the DEM per direction (a block size >= the DEM's extent in a direction
+// gives one block there). A DEM without any domain (blocks.h "Domain": no lattice square with 3
+// valid corners) is refused. `source` keeps a pointer to data.dem: keep
+// `data` in place while `source` is used. Returns false with `error` naming the option
+// (--stride, --block-size) or the DEM.
+bool splitIntoBlocks(Ingested& data, const IngestOptions& options, int blockSize,
+                     bool lockOuterEdge, BlockSource& source, std::string& error);
+
+// A block size that makes the whole DEM one block (splitIntoBlocks clamps it).
+inline constexpr int kWholeDem = 1 << 30;
+
+// The default block size of `build`: kDefaultBlockSize cells (twice the stride where that is
+// more), or fewer where blocks that large would not fit the exact 1 mm grid of the constrained
+// triangulation (about 537 km a side: cells of more than 2 km).
+int automaticBlockSize(const DemGrid& dem, int stride);
+// False with `error` naming --block-size when blocks of `blockSize` cells (clamped to the DEM)
+// would not fit that grid.
+bool checkBlockFitsExactGrid(const DemGrid& dem, int stride, int blockSize, std::string& error);
+
+// The build info keys of these options: `unilod build` records them in the .ulod file,
+// `unilod report` reads them back (absent keys keep the defaults).
+void recordIngestOptions(const IngestOptions& options, nlohmann::json& info);
+IngestOptions ingestOptionsFromInfo(const nlohmann::json& info);
+
+}  // namespace unilod
