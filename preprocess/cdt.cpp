@@ -770,9 +770,22 @@ std::uint32_t Cdt::locateFrom(PointId p, std::uint32_t start) const {
     }
 }
 
-void Cdt::insertPoint(PointId p, std::uint32_t hint) {
+Cdt::SplitEdge Cdt::insertPoint(PointId p, std::uint32_t hint) {
     const std::uint32_t start =
         hint != kNone && triangleAlive(hint) ? locateFrom(p, hint) : locate(p);
+    // On a constraint edge of the (closed) triangle holding p: the edge stops being one while
+    // the cavity crosses it, its two halves become constraints after.
+    SplitEdge split;
+    if (!isGhost(start)) {
+        for (std::uint32_t i = 0; i < 3; ++i) {
+            const std::uint32_t h = 3 * start + i;
+            if (isConstrained(h) && orient(origin(h), destination(h), p) == 0) {
+                split = {origin(h), destination(h)};
+                setConstrained(h, false);
+                break;
+            }
+        }
+    }
     auto inCircle = [&](std::uint32_t t) {
         const PointId* v = &tv[3 * t];
         if (v[0] == kGhost || v[1] == kGhost || v[2] == kGhost) {
@@ -802,8 +815,11 @@ void Cdt::insertPoint(PointId p, std::uint32_t hint) {
         const std::uint32_t t = cavity_[k];
         for (std::uint32_t i = 0; i < 3; ++i) {
             const std::uint32_t n = tn[3 * t + i] / 3;
+            // Constrained Delaunay: the cavity is what p sees, so a constraint edge is never
+            // inside it (both of its triangles reached around an end of it).
+            assert(!(mark_[n] == markStamp_ && isConstrained(3 * t + i)));
             if (mark_[n] == markStamp_) continue;
-            if (inCircle(n)) {
+            if (!isConstrained(3 * t + i) && inCircle(n)) {
                 mark_[n] = markStamp_;
                 cavity_.push_back(n);
             } else {
@@ -833,6 +849,12 @@ void Cdt::insertPoint(PointId p, std::uint32_t hint) {
         link(3 * e.t, 3 * it->t + 1);
     }
     ++vertexCount;
+    if (split.u != kNone) {
+        setConstrained(findEdge(split.u, p), true);
+        setConstrained(findEdge(p, split.w), true);
+        ++constraintEdgeCount;
+    }
+    return split;
 }
 
 // --- Construction ----------------------------------------------------------------------------

@@ -214,10 +214,16 @@ public:
     void removeHullVertex(PointId v, const std::vector<PointId>& link,
                           const std::vector<std::uint32_t>& triangles);
 
-    // Inserts a point (construction only: no constraints yet; p not a vertex, not on a vertex).
+    // Inserts a point p (not a vertex, not on a vertex) by Bowyer-Watson. The cavity never grows
+    // across a constraint edge, so the mesh stays constrained Delaunay (greedytin.h inserts
+    // points among river constraints). A point exactly on a constraint edge u-w splits it: u-p
+    // and p-w become constraint edges, and the split edge is returned ({kNone, kNone}: none).
     // `hint`: an alive triangle near p to start the point location from (greedytin.h passes the
     // triangle whose bucket holds p); kNone: the last triangle created.
-    void insertPoint(PointId p, std::uint32_t hint = kNone);
+    struct SplitEdge {
+        PointId u = kNone, w = kNone;
+    };
+    SplitEdge insertPoint(PointId p, std::uint32_t hint = kNone);
     // Walks from the alive triangle `start` to a real triangle containing p (closed), or to a
     // ghost triangle when p lies outside the hull.
     std::uint32_t locateFrom(PointId p, std::uint32_t start) const;

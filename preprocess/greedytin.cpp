@@ -5,6 +5,9 @@
 #include <cassert>
 #include <cmath>
 #include <numeric>
+#include <unordered_map>
+
+#include "modelerror.h"
 
 namespace unilod {
 
@@ -43,8 +46,155 @@ double errorIn(const Corners& q, std::int64_t x, std::int64_t y, double z) {
 }  // namespace
 
 bool GreedyTin::init(const PointSet& set, std::string& error, const CdtOptions& options) {
+    return init(set, {}, 0.0, error, options);
+}
+
+bool GreedyTin::placeRivers(const std::vector<Polyline>& rivers, double tolerance,
+                            std::string& error) {
+    const PointSet& set = *set_;
+    for (const Polyline& chain : rivers) {
+        for (PointId v : chain) {
+            if (v >= set.points.size()) {
+                error = "river point id " + std::to_string(v) + " out of range";
+                return false;
+            }
+        }
+    }
+    // A placed segment: chain c, chain indices i < j, the vertices of its constraint edges.
+    struct Placed {
+        std::uint32_t c, i, j;
+        std::vector<PointId> path;
+    };
+    std::vector<Placed> placed;
+    std::unordered_map<std::uint64_t, std::uint32_t> owner;  // undirected edge -> placed index
+    auto key = [](PointId u, PointId w) { return Cdt::edgeKey(std::min(u, w), std::max(u, w)); };
+    auto rep = [&](PointId v) { return cdt_.representative[v]; };
+    auto ensureVertex = [&](PointId v) {
+        if (cdt_.isVertex(v)) return;
+        const Cdt::SplitEdge s = cdt_.insertPoint(v);
+        if (s.u == Cdt::kNone) return;
+        // v lies on a placed segment's edge u-w: the segment now passes through v.
+        const auto it = owner.find(key(s.u, s.w));
+        assert(it != owner.end());
+        const std::uint32_t k = it->second;
+        owner.erase(it);
+        std::vector<PointId>& path = placed[k].path;
+        for (std::size_t m = 0; m + 1 < path.size(); ++m) {
+            if (key(path[m], path[m + 1]) == key(s.u, s.w)) {
+                path.insert(path.begin() + std::ptrdiff_t(m) + 1, v);
+                break;
+            }
+        }
+        owner[key(s.u, v)] = owner[key(v, s.w)] = k;
+    };
+    auto distance2 = [&](PointId a, PointId c, PointId m) {
+        const Point &pa = set.points[a], &pc = set.points[c], &pm = set.points[m];
+        const double da[3] = {pa.x, pa.y, pa.z}, dc[3] = {pc.x, pc.y, pc.z},
+                     dm[3] = {pm.x, pm.y, pm.z};
+        return segmentDistance2(da, dc, dm);
+    };
+    // The worst vertex strictly between chain indices i and j, and its squared distance.
+    auto worst = [&](const Polyline& chain, std::uint32_t i, std::uint32_t j) {
+        std::pair<std::uint32_t, double> w{i + 1, -1.0};
+        for (std::uint32_t m = i + 1; m < j; ++m) {
+            const double d2 = distance2(chain[i], chain[j], chain[m]);
+            if (d2 > w.second) w = {m, d2};
+        }
+        return w;
+    };
+    // The placed segment a constraint edge on the way a -> b belongs to (crossed or run along),
+    // or kNone: the segment can be inserted. Read-only (insertSegment's walk).
+    auto blocker = [&](PointId a, PointId b) -> std::uint32_t {
+        Cdt::Trace trace;
+        for (PointId cur = a; cur != b;) {
+            std::uint32_t h = cdt_.findEdge(cur, b);
+            PointId end = b;
+            if (h == Cdt::kNone) {
+                cdt_.traceSegment(cur, b, trace);
+                if (trace.end == Cdt::TraceEnd::Constraint) {
+                    const std::uint32_t e = trace.edge;
+                    return owner.at(key(cdt_.origin(e), cdt_.destination(e)));
+                }
+                if (trace.end == Cdt::TraceEnd::Vertex) end = trace.vertex;
+                if (trace.crossed.empty()) h = cdt_.findEdge(cur, end);
+            }
+            if (h != Cdt::kNone && cdt_.isConstrained(h)) return owner.at(key(cur, end));
+            cur = end;
+        }
+        return Cdt::kNone;
+    };
+    struct Range {
+        std::uint32_t c, i, j;
+    };
+    std::vector<Range> pending;
+    for (std::uint32_t c = rivers.size(); c-- > 0;) {
+        if (rivers[c].size() >= 2) pending.push_back({c, 0, std::uint32_t(rivers[c].size() - 1)});
+    }
+    const double tol2 = tolerance * tolerance;
+    auto split = [&](const Range& r) {
+        const std::uint32_t m = worst(rivers[r.c], r.i, r.j).first;
+        pending.push_back({r.c, m, r.j});
+        pending.push_back({r.c, r.i, m});
+    };
+    std::vector<PointId> path;
+    while (!pending.empty()) {
+        const Range r = pending.back();
+        pending.pop_back();
+        const Polyline& chain = rivers[r.c];
+        if (r.j > r.i + 1 && worst(chain, r.i, r.j).second > tol2) {
+            split(r);
+            continue;
+        }
+        const PointId a = rep(chain[r.i]), b = rep(chain[r.j]);
+        ensureVertex(a);
+        ensureVertex(b);
+        if (a == b) continue;  // merged on the 1 mm grid
+        const std::uint32_t k = blocker(a, b);
+        if (k == Cdt::kNone) {
+            if (!cdt_.insertSegment(a, b, path, error)) return false;  // blocker() said no
+            for (std::size_t m = 0; m + 1 < path.size(); ++m)
+                owner[key(path[m], path[m + 1])] = std::uint32_t(placed.size());
+            placed.push_back({r.c, r.i, r.j, path});
+            continue;
+        }
+        if (r.j > r.i + 1) {  // this one is a shortcut: split it
+            split(r);
+            continue;
+        }
+        Placed& other = placed[k];
+        if (other.j == other.i + 1) {
+            error = "river segments cross: " + std::to_string(chain[r.i]) + "-" +
+                    std::to_string(chain[r.j]) + " and " + std::to_string(rivers[other.c][other.i]) +
+                    "-" + std::to_string(rivers[other.c][other.j]);
+            return false;
+        }
+        // An original segment meets a placed shortcut: take the shortcut out, split it, and try
+        // this segment again after its halves.
+        std::vector<std::uint32_t> freed;
+        for (std::size_t m = 0; m + 1 < other.path.size(); ++m) {
+            const std::uint32_t h = cdt_.findEdge(other.path[m], other.path[m + 1]);
+            cdt_.setConstrained(h, false);
+            --cdt_.constraintEdgeCount;
+            owner.erase(key(other.path[m], other.path[m + 1]));
+            freed.push_back(h);
+        }
+        other.path.clear();
+        cdt_.legalize(freed);  // Delaunay again where the constraint was
+        pending.push_back(r);
+        split({other.c, other.i, other.j});
+    }
+    return true;
+}
+
+bool GreedyTin::init(const PointSet& set, const std::vector<Polyline>& rivers,
+                     double riverTolerance, std::string& error, const CdtOptions& options) {
     set_ = &set;
     if (!buildHullCdt(set, options, cdt_, error)) return false;
+    if (!(riverTolerance >= 0 && std::isfinite(riverTolerance))) {
+        error = "the river tolerance must be finite and >= 0";
+        return false;
+    }
+    if (!rivers.empty() && !placeRivers(rivers, riverTolerance, error)) return false;
     pool_.clear();
     heap_ = {};
     step_ = 0;

@@ -18,6 +18,17 @@
 // Points on the same grid point (1 mm) are merged as in buildCdt (the lowest id is the vertex;
 // the others are not measured). Heights use the same barycentric formula as modelerror.cpp.
 // Deterministic: no threads, ties broken by point id.
+//
+// With rivers (the baseline for a model that must hold its rivers, issue 15): each river chain
+// (point ids from one end or junction to the next) is simplified to a river tolerance by 3D
+// Douglas-Peucker (every dropped river vertex within the tolerance, as a 3D distance, of the
+// segment that replaces it: the model's river error, modelerror.h) and the kept segments are
+// inserted as constraint edges before any other point; the greedy insertion then runs as above,
+// constrained Delaunay (Cdt::insertPoint never crosses a constraint), over every other point
+// (the dropped river vertices included: their vertical error counts as any point's). Where a
+// kept segment would cross or overlap one already placed, the one that is a shortcut (spans
+// dropped vertices) is split at its worst vertex and both halves are simplified again, so the
+// placed rivers never cross; two original segments crossing is an error.
 #pragma once
 
 #include <cstddef>
@@ -37,6 +48,14 @@ public:
     // points. `set` must outlive this object. False with `error` on too few distinct points,
     // collinear points or a non-finite coordinate (buildHullCdt's errors).
     bool init(const PointSet& set, std::string& error, const CdtOptions& options = {});
+    // The same with `rivers` (chains of point ids of `set`, see above) simplified to
+    // `riverTolerance` metres and placed as constraints first. False with `error` also when
+    // two original river segments cross.
+    bool init(const PointSet& set, const std::vector<Polyline>& rivers, double riverTolerance,
+              std::string& error, const CdtOptions& options = {});
+    // Placed river segments: constraint edges of the triangulation (sub-edges where a segment
+    // passes through a vertex count once each).
+    std::uint32_t riverEdgeCount() const { return cdt_.constraintEdgeCount; }
     // Inserts worst points until the largest vertical error is <= `threshold` (metres).
     void refineTo(double threshold);
     // The largest vertical error over all (representative) points now; 0 when all are vertices.
@@ -62,6 +81,7 @@ private:
         }
     };
     void insertWorst(const Candidate& c);
+    bool placeRivers(const std::vector<Polyline>& rivers, double tolerance, std::string& error);
     // Appends the points of `pending` to the ranges of the triangles `slots` (each point lies in
     // one of them) and pushes each triangle's worst point.
     void distribute(const std::vector<std::uint32_t>& slots);

@@ -12,6 +12,11 @@
 // river constraints cost on top. Targets: no rivers <= 1.15 for e <= 10 m and <= 1.3 above
 // (20 m); with rivers <= 1.5.
 //
+// With rivers, the best known method on the same points is measured too: a greedy TIN that holds
+// the rivers simplified to e (3D Douglas-Peucker) as constraint edges (greedytin.h), one run per
+// e (`constrained_tin_triangles`, `ratio_vs_constrained_tin`), beside a strict lower bound for any
+// model (RiverDp). `--bai on,off` builds the river model with and without the BAI factor.
+//
 // `--build-time N`: a synthetic DEM of about N points (its river network scales with the grid,
 // about 4 000 rivers at 16M points; tools/benchbuild.h as bench_build), built with the default
 // options; wall seconds and peak RSS.
@@ -104,26 +109,16 @@ struct RiverDp {
     std::uint64_t lowerBoundTriangles() const { return boundCost > 2 ? boundCost - 2 : 0; }
 };
 
-std::vector<RiverDp> riverDpVertices(const std::string& path,
-                                     const std::vector<double>& tolerances) {
-    unilod::format::Reader reader;
-    std::string error;
-    if (!reader.open(path, error)) fail(error);
-    unilod::format::Block b;
-    if (!reader.readBlock(0, b, error)) fail(error);
+// The river chains of a block at full resolution: vertex ids from one end or junction (a vertex
+// whose river degree is not 2) to the next; a closed loop without one starts anywhere.
+std::vector<std::vector<std::uint32_t>> riverChains(const unilod::format::Block& b) {
     const unilod::format::Level& full = b.levels.front();
     std::vector<std::vector<std::uint32_t>> next(b.vertices.size());
     for (std::uint32_t e = full.riverFirst; e < full.riverFirst + full.riverCount; ++e) {
         next[b.riverIndices[e].a].push_back(b.riverIndices[e].b);
         next[b.riverIndices[e].b].push_back(b.riverIndices[e].a);
     }
-    auto pos = [&](std::uint32_t v, int k) {
-        return k == 0 ? b.grid[v].x * unilod::format::kGridUnit
-                      : (k == 1 ? b.grid[v].y * unilod::format::kGridUnit : double(b.vertices[v].z));
-    };
-    // Chains from every end / junction; a closed loop without one starts anywhere.
     std::vector<std::vector<std::uint32_t>> chains;
-    std::vector<std::uint8_t> usedEdge;  // by (vertex, slot)
     std::vector<std::uint8_t> seen(b.vertices.size(), 0);
     for (int pass = 0; pass < 2; ++pass) {
         for (std::uint32_t s = 0; s < b.vertices.size(); ++s) {
@@ -131,6 +126,8 @@ std::vector<RiverDp> riverDpVertices(const std::string& path,
                 continue;
             for (std::uint32_t first : next[s]) {
                 if (seen[first] && next[first].size() == 2) continue;
+                // One edge between two ends / junctions: once, from the lower id.
+                if (next[first].size() != 2 && first < s) continue;
                 std::vector<std::uint32_t> chain{s};
                 std::uint32_t prev = s, cur = first;
                 while (true) {
@@ -145,6 +142,21 @@ std::vector<RiverDp> riverDpVertices(const std::string& path,
             }
         }
     }
+    return chains;
+}
+
+std::vector<RiverDp> riverDpVertices(const std::string& path,
+                                     const std::vector<double>& tolerances) {
+    unilod::format::Reader reader;
+    std::string error;
+    if (!reader.open(path, error)) fail(error);
+    unilod::format::Block b;
+    if (!reader.readBlock(0, b, error)) fail(error);
+    const std::vector<std::vector<std::uint32_t>> chains = riverChains(b);
+    auto pos = [&](std::uint32_t v, int k) {
+        return k == 0 ? b.grid[v].x * unilod::format::kGridUnit
+                      : (k == 1 ? b.grid[v].y * unilod::format::kGridUnit : double(b.vertices[v].z));
+    };
     // Squared 3D distance of chain vertex m to the segment between chain vertices i and j.
     const auto deviation2 = [&](const std::vector<std::uint32_t>& c, std::size_t i, std::size_t j,
                                 std::size_t m) {
@@ -355,6 +367,7 @@ int main(int argc, char** argv) {
     std::vector<std::string> datasets = {"jacksboro", "synth1m", "synth4m"};
     std::vector<std::string> orders = {"greedy"};
     std::vector<double> errors = {5, 10, 20};
+    std::vector<std::string> bais = {"on"};
     std::string keep;
     std::size_t buildTime = 0;
     int threads = 0;
@@ -364,6 +377,10 @@ int main(int argc, char** argv) {
     app.add_option("--orders", orders, "deletion orders, comma-separated: greedy, 3ddp")
         ->delimiter(',')
         ->check(CLI::IsMember({"greedy", "3ddp"}));
+    app.add_option("--bai", bais,
+                   "river builds with the BAI factor on, off or both (comma-separated: on,off)")
+        ->delimiter(',')
+        ->check(CLI::IsMember({"on", "off"}));
     app.add_option("--errors", errors, "model-error thresholds in metres, comma-separated")
         ->delimiter(',')
         ->check(CLI::NonNegativeNumber);
@@ -421,6 +438,9 @@ int main(int argc, char** argv) {
         return 0;
     }
 
+    std::vector<bool> baiSettings;
+    for (const std::string& b : {std::string("on"), std::string("off")})
+        if (std::find(bais.begin(), bais.end(), b) != bais.end()) baiSettings.push_back(b == "on");
     const std::string noRivers = work + "/no_rivers.geojson";
     {
         // An empty FeatureCollection is an empty network (rivers.h).
@@ -432,24 +452,30 @@ int main(int argc, char** argv) {
         const Dataset d = prepare(name, work, UNILOD_ASSETS_DIR);
         std::string tinSource;
         std::vector<std::uint64_t> tin;
-        for (const bool rivers : {false, true}) {
+        std::vector<std::pair<bool, bool>> variants{{false, true}};  // (rivers, BAI)
+        for (const bool bai : baiSettings) variants.push_back({true, bai});
+        for (const auto& [rivers, bai] : variants) {
             for (const std::string& order : orders) {
                 unilod::BuildOptions o;
                 o.demPath = d.dem;
                 o.riversPath = rivers ? d.rivers : noRivers;
-                o.outPath = work + "/" + name + (rivers ? "_rivers_" : "_bare_") + order + ".ulod";
+                o.outPath = work + "/" + name + (rivers ? "_rivers_" : "_bare_") + order +
+                            (bai ? "" : "_nobai") + ".ulod";
+                o.useBai = bai;
                 o.blockSize = std::max(d.width, d.height) - 1;
                 o.order = order == "3ddp" ? unilod::DeletionOrderKind::ThreeDdp
                                           : unilod::DeletionOrderKind::Greedy;
                 o.threads = threads;
                 o.force = true;
-                const std::string label = name + (rivers ? " rivers " : " no rivers ") + order;
+                const std::string label = name + (rivers ? " rivers " : " no rivers ") + order +
+                                          (bai ? "" : " no-BAI");
                 std::fprintf(stderr, "bench_order: build %s...\n", label.c_str());
                 json build = unilod::bench::runInChild(
                     [&] { return unilod::bench::measureBuild("bench_order: " + label, o); });
                 build["dataset"] = name;
                 build["rivers"] = rivers;
                 build["order"] = order;
+                build["bai"] = bai;
                 builds.push_back(build);
 
                 if (tinSource.empty()) {
@@ -487,6 +513,44 @@ int main(int argc, char** argv) {
                 }
                 const std::vector<RiverDp> riverDp =
                     rivers ? riverDpVertices(o.outPath, errors) : std::vector<RiverDp>();
+                // The best known method for a model that holds its rivers, measured: a greedy TIN
+                // of the same points with the rivers simplified to e (3D Douglas-Peucker) as
+                // constraints (greedytin.h), one run per e.
+                std::vector<std::uint64_t> constrained;
+                if (rivers) {
+                    std::fprintf(stderr, "bench_order: greedy TIN with rivers %s...\n",
+                                 label.c_str());
+                    const json t = unilod::bench::runInChild([&] {
+                        const unilod::PointSet set = readBlockPoints(o.outPath);
+                        unilod::format::Reader reader;
+                        unilod::format::Block b;
+                        std::string message;
+                        if (!reader.open(o.outPath, message) || !reader.readBlock(0, b, message))
+                            fail(message);
+                        std::vector<unilod::Polyline> chains;
+                        for (const std::vector<std::uint32_t>& c : riverChains(b))
+                            chains.emplace_back(c.begin(), c.end());
+                        const auto start = std::chrono::steady_clock::now();
+                        std::vector<std::uint64_t> counts;
+                        for (double e : errors) {
+                            unilod::GreedyTin held;
+                            if (!held.init(set, chains, e, message))
+                                fail("'" + o.outPath + "': " + message);
+                            held.refineTo(e);
+                            counts.push_back(held.triangleCount());
+                        }
+                        const double seconds = std::chrono::duration<double>(
+                                                   std::chrono::steady_clock::now() - start)
+                                                   .count();
+                        return json{{"triangles", counts}, {"seconds", seconds}};
+                    });
+                    constrained = t["triangles"].get<std::vector<std::uint64_t>>();
+                    tins.push_back({{"dataset", name},
+                                    {"rivers", true},
+                                    {"order", order},
+                                    {"bai", bai},
+                                    {"seconds", t["seconds"]}});
+                }
                 for (std::size_t i = 0; i < errors.size(); ++i) {
                     const std::uint64_t ours = table.rows[i].exactTriangles;
                     if (rivers) {
@@ -503,6 +567,15 @@ int main(int argc, char** argv) {
                                   tin[i] > 0 ? std::round(double(bound) / double(tin[i]) * 1000.0) /
                                                    1000.0
                                              : 0.0},
+                                 {"constrained_tin_triangles", constrained[i]},
+                                 {"constrained_tin_vs_tin",
+                                  tin[i] > 0 ? std::round(double(constrained[i]) /
+                                                          double(tin[i]) * 1000.0) /
+                                                   1000.0
+                                             : 0.0},
+                                 {"ratio_vs_constrained_tin",
+                                  std::round(double(ours) / double(constrained[i]) * 1000.0) /
+                                      1000.0},
                                  {"tin_plus_rivers_triangles", withRivers},
                                  {"ratio_vs_tin_plus_rivers",
                                   std::round(double(ours) / double(withRivers) * 1000.0) / 1000.0}};
@@ -516,6 +589,7 @@ int main(int argc, char** argv) {
                     rows.push_back({{"dataset", name},
                                     {"rivers", rivers},
                                     {"order", order},
+                                    {"bai", bai},
                                     {"error_m", errors[i]},
                                     {"unilod_triangles", ours},
                                     {"unilod_level_triangles", table.rows[i].levelTriangles},

@@ -144,5 +144,131 @@ TEST(GreedyTin, BadInput) {
     EXPECT_NE(error.find("collinear"), std::string::npos) << error;
 }
 
+// ---------------------------------------------------------------------------------------------
+// With rivers as constraints (the baseline of a model that holds its rivers).
+
+// Appends a river chain (local metres, the grid's origin added) at a flat 100 m; returns its ids.
+Polyline addChain(PointSet& set, std::initializer_list<std::pair<double, double>> xy) {
+    Polyline chain;
+    for (const auto& [x, y] : xy) {
+        chain.push_back(PointId(set.points.size()));
+        set.points.push_back({1000.0 + x, 2000.0 + y, 100.0});
+    }
+    return chain;
+}
+
+// After init: every pair of consecutive placed vertices of each chain is a constraint edge, every
+// chain vertex between them is within `tol` (3D) of it, and nothing else is a constraint.
+// Returns the placed vertices per chain.
+std::vector<Polyline> expectPlacedWithin(const PointSet& set, const GreedyTin& tin,
+                                         const std::vector<Polyline>& chains, double tol) {
+    const Cdt& cdt = tin.cdt();
+    std::vector<Polyline> kept;
+    std::uint32_t pairs = 0;
+    for (const Polyline& chain : chains) {
+        Polyline k;
+        std::size_t prev = 0;
+        for (std::size_t i = 0; i < chain.size(); ++i) {
+            if (!cdt.isVertex(chain[i])) continue;
+            k.push_back(chain[i]);
+            if (i == 0) continue;
+            const std::uint32_t h = cdt.findEdge(chain[prev], chain[i]);
+            EXPECT_NE(h, Cdt::kNone) << chain[prev] << "-" << chain[i];
+            if (h != Cdt::kNone) {
+                EXPECT_TRUE(cdt.isConstrained(h));
+            }
+            const Point &a = set.points[chain[prev]], &c = set.points[chain[i]];
+            for (std::size_t m = prev + 1; m < i; ++m) {
+                const Point& p = set.points[chain[m]];
+                const double da[3] = {a.x, a.y, a.z}, dc[3] = {c.x, c.y, c.z},
+                             dm[3] = {p.x, p.y, p.z};
+                EXPECT_LE(std::sqrt(segmentDistance2(da, dc, dm)), tol + 1e-9);
+            }
+            prev = i;
+            ++pairs;
+        }
+        EXPECT_EQ(k.front(), chain.front());
+        EXPECT_EQ(k.back(), chain.back());
+        kept.push_back(k);
+    }
+    EXPECT_EQ(tin.riverEdgeCount(), pairs);
+    return kept;
+}
+
+TEST(GreedyTinRivers, ShortcutsWithinTheToleranceAndTheSurfaceWithinTheThreshold) {
+    PointSet set = makeGrid(41, 41, 5.0, 7);
+    std::vector<Polyline> chains;
+    // A meander with bends of about 11 m: at 20 m they go, at 0.5 m they stay.
+    chains.push_back(addChain(set, {{10.3, 20.1}, {40.2, 31.7}, {70.4, 22.2}, {100.1, 33.9},
+                                    {130.6, 24.4}, {160.2, 35.3}, {190.3, 26.1}}));
+    for (const double tol : {0.5, 5.0, 20.0}) {
+        SCOPED_TRACE(tol);
+        GreedyTin tin;
+        std::string error;
+        ASSERT_TRUE(tin.init(set, chains, tol, error)) << error;
+        const std::vector<Polyline> kept = expectPlacedWithin(set, tin, chains, tol);
+        if (tol != 5.0) {
+            EXPECT_EQ(kept[0].size(), tol < 5.0 ? 7u : 2u);
+        }
+        for (const double e : {20.0, 5.0, 1.0}) {
+            tin.refineTo(e);
+            EXPECT_LE(bruteForceMaxError(set, tin.cdt()), e + 1e-9);
+            EXPECT_EQ(tin.riverEdgeCount(), kept[0].size() - 1);  // constraints stay
+        }
+    }
+    // Deterministic, and more triangles than without the river.
+    GreedyTin a, b, bare;
+    std::string error;
+    ASSERT_TRUE(a.init(set, chains, 5.0, error));
+    ASSERT_TRUE(b.init(set, chains, 5.0, error));
+    PointSet noRiver = makeGrid(41, 41, 5.0, 7);
+    ASSERT_TRUE(bare.init(noRiver, error));
+    a.refineTo(5.0), b.refineTo(5.0), bare.refineTo(5.0);
+    EXPECT_EQ(collectTriangles(a.cdt()), collectTriangles(b.cdt()));
+    EXPECT_GT(a.triangleCount(), bare.triangleCount());
+}
+
+TEST(GreedyTinRivers, AShortcutThatWouldCrossIsSplit) {
+    // A's shortcut (its 3.1 m bend dropped at 5 m) would cross B, which runs down from just below
+    // A's bend; A keeps its bend whichever chain is placed first.
+    for (const bool aFirst : {true, false}) {
+        SCOPED_TRACE(aFirst);
+        PointSet set = makeGrid(41, 41, 5.0, 3);
+        const Polyline a = addChain(set, {{10.3, 100.1}, {100.2, 103.3}, {190.1, 100.2}});
+        const Polyline b = addChain(set, {{100.4, 101.2}, {100.6, 60.3}});
+        const std::vector<Polyline> chains = aFirst ? std::vector{a, b} : std::vector{b, a};
+        GreedyTin tin;
+        std::string error;
+        ASSERT_TRUE(tin.init(set, chains, 5.0, error)) << error;
+        const std::vector<Polyline> kept = expectPlacedWithin(set, tin, chains, 5.0);
+        EXPECT_EQ(kept[aFirst ? 0 : 1], a);
+        EXPECT_EQ(tin.riverEdgeCount(), 3u);
+        tin.refineTo(2.0);
+        EXPECT_LE(bruteForceMaxError(set, tin.cdt()), 2.0 + 1e-9);
+        EXPECT_EQ(tin.riverEdgeCount(), 3u);
+    }
+    // Without B, A is one segment at 5 m.
+    PointSet set = makeGrid(41, 41, 5.0, 3);
+    const Polyline a = addChain(set, {{10.3, 100.1}, {100.2, 103.3}, {190.1, 100.2}});
+    GreedyTin tin;
+    std::string error;
+    ASSERT_TRUE(tin.init(set, {a}, 5.0, error)) << error;
+    EXPECT_EQ(tin.riverEdgeCount(), 1u);
+}
+
+TEST(GreedyTinRivers, CrossingOriginalSegmentsAreAnError) {
+    PointSet set = makeGrid(21, 21, 5.0, 1);
+    const Polyline a = addChain(set, {{10.3, 50.1}, {90.2, 50.3}});
+    const Polyline b = addChain(set, {{50.4, 10.2}, {50.6, 90.3}});
+    GreedyTin tin;
+    std::string error;
+    EXPECT_FALSE(tin.init(set, {a, b}, 1.0, error));
+    EXPECT_NE(error.find("cross"), std::string::npos) << error;
+    EXPECT_FALSE(tin.init(set, {a}, -1.0, error));
+    const Polyline bad{0, PointId(set.points.size())};
+    EXPECT_FALSE(tin.init(set, {bad}, 1.0, error));
+    EXPECT_NE(error.find("out of range"), std::string::npos) << error;
+}
+
 }  // namespace
 }  // namespace unilod
