@@ -654,6 +654,23 @@ TEST(CliBuildAnyDem, TinyDemsBuildWithDefaults) {
     }
 }
 
+// A straight DEM edge reduces to its two corners when the terrain allows (issue 17): a tilted
+// plane (exact in float32) with no rivers, default options, one block, is 2 triangles at a
+// model error of 1 cm, and the coarsest stored level keeps only corners of the DEM.
+TEST(CliBuildAnyDem, StraightDemEdgesReduceToTheirCorners) {
+    Case c("plane_edges");
+    writeTiff(c.in("dem.tif"), 30, 20, 1, [](int col, int row) { return 200 + 0.5 * col + 0.25 * row; });
+    writeText(c.in("empty.geojson"), geoJson({}));
+    expectAcceptedAndChecked(c, run("build -q " + q(c.in("dem.tif")) + " " +
+                                    q(c.in("empty.geojson")) + " -o " + q(c.out())));
+    const Result r = run("stats " + q(c.out()) + " --error 0.01 --json");
+    ASSERT_EQ(r.code, 0) << r.err;
+    const nlohmann::json s = nlohmann::json::parse(r.out);
+    ASSERT_EQ(s["rows"].size(), 1u);
+    EXPECT_EQ(s["rows"][0]["exact_triangles"].get<std::uint64_t>(), 2u) << r.out;
+    EXPECT_EQ(s["rows"][0]["exact_points"].get<std::uint64_t>(), 4u) << r.out;
+}
+
 TEST(CliBuildAnyDem, BlockSizeClampsPerDirection) {
     // 40 x 40 cells (< 256): one block with the default block size.
     Case c("clamp");
