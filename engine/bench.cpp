@@ -36,6 +36,7 @@ struct RunData {
     std::vector<FrameStats> stats;
     std::vector<std::vector<DrawBlock>> drawLists;  // "resident" keeps them for "bare"
     double seconds = 0;
+    std::uint64_t warmupBytesUploaded = 0;  // streamed during the unmeasured warm-up frames
 };
 
 nlohmann::json runJson(const RunData& r, bool perFrame) {
@@ -64,6 +65,7 @@ nlohmann::json runJson(const RunData& r, bool perFrame) {
         {"resident_blocks", summary(resident)},
         {"fallback_blocks", summary(fallback)},
         {"bytes_uploaded", uploaded},
+        {"warmup_bytes_uploaded", r.warmupBytesUploaded},
         {"gpu_bytes_used_max", gpuUsed},
         {"gpu_budget", r.stats.empty() ? 0 : r.stats.back().gpuBudget},
         {"evictions", evictions},
@@ -94,6 +96,8 @@ bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
             renderer.renderBareFrame(view, (*bareLists)[0]);
         else if (!renderer.renderFrame(view, true, nullptr, error))
             return false;
+        else
+            data.warmupBytesUploaded += renderer.scene().stats().bytesUploaded;
     }
     renderer.finish();
     std::vector<FrameStats> stats;

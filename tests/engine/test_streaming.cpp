@@ -288,10 +288,19 @@ TEST_F(Streaming, BenchEmitsEveryField) {
             EXPECT_GT(x["frame_ms"][k].get<double>(), 0.0) << run << " " << k;
         EXPECT_GT(x["triangles"]["mean"].get<double>(), 0.0) << run;
     }
-    // The streamed run uploads, the preloaded ones do not; bare draws what resident drew; full
+    // The streamed run streams: what the loader delivered was uploaded (during the warm-up or
+    // the measured frames), or, where the loader had not delivered yet when the frames were
+    // done (a slow disk, a quick GPU), blocks were drawn at their coarse fallback. The preloaded
+    // runs upload nothing per frame and never fall back. Bare draws what resident drew; full
     // draws at least as many triangles as the LOD.
-    EXPECT_GT(j["runs"]["lod"]["bytes_uploaded"].get<std::uint64_t>(), 0u);
+    const nlohmann::json& lod = j["runs"]["lod"];
+    EXPECT_TRUE(lod["bytes_uploaded"].get<std::uint64_t>() +
+                        lod["warmup_bytes_uploaded"].get<std::uint64_t>() > 0 ||
+                lod["fallback_blocks"]["max"].get<double>() > 0)
+        << lod.dump();
     EXPECT_EQ(j["runs"]["resident"]["bytes_uploaded"].get<std::uint64_t>(), 0u);
+    EXPECT_EQ(j["runs"]["resident"]["warmup_bytes_uploaded"].get<std::uint64_t>(), 0u);
+    EXPECT_EQ(j["runs"]["resident"]["fallback_blocks"]["max"].get<double>(), 0.0);
     EXPECT_EQ(j["runs"]["bare"]["triangles"]["mean"], j["runs"]["resident"]["triangles"]["mean"]);
     EXPECT_GE(j["runs"]["full"]["triangles"]["mean"].get<double>(),
               j["runs"]["resident"]["triangles"]["mean"].get<double>());
