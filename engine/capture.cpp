@@ -260,7 +260,7 @@ bool runCapture(const CaptureOptions& options, CaptureResult& result, std::strin
         std::snprintf(name, sizeof name, "frame_%04zu", i);
         f.pngPath = (dir / (std::string(name) + ".png")).string();
         f.jsonPath = (dir / (std::string(name) + ".json")).string();
-        if (!writePng(f.pngPath, options.width, options.height, images[i], output, error)) {
+        if (!format::writePng(f.pngPath, options.width, options.height, images[i], output, error)) {
             cleanup();
             return false;
         }

@@ -114,40 +114,10 @@ struct BlockState {
     std::vector<format::Level> levels;
     std::uint64_t terrainTriangles = 0, riverEdges = 0;  // index data the levels use
     std::uint64_t fullBytes = 0;
-    // The `max` error bounds displacements in any direction (engine/lod.h BoxView::horizontal):
-    // a block with rivers, or whose outline may have moved (outlineMoves).
-    bool horizontal = false;
     Allocation coarse, full;  // coarse: the last level only, always resident
     std::uint64_t lastUsedFrame = 0;
     std::uint64_t deniedEpoch = ~0ull;  // space epoch in which an upload did not fit
 };
-
-// Whether a block's outline (cdt.h "Domain") may move between its levels: unless the coarsest
-// level's outline is the block's bounding rectangle. The greedy order deletes an outline vertex
-// only where no other changes sides (deletion.h), and a deleted vertex never returns, so a
-// rectangle at the coarsest level means only straight stretches of it were simplified (no
-// displacement) at every level. `g` holds the coarsest level (readGeometry).
-bool outlineMoves(const format::BlockGeometry& g) {
-    if (g.levels.empty()) return false;
-    std::set<std::pair<std::uint32_t, std::uint32_t>> directed;
-    for (const format::Triangle& t : g.terrainIndices) {
-        directed.insert({t.a, t.b}), directed.insert({t.b, t.c}), directed.insert({t.c, t.a});
-    }
-    // Float vertices relative to the origin; the box in doubles: the reader's tolerance.
-    auto on = [](double v, double side) {
-        return std::fabs(v - side) <= format::kFloatSlack * std::fabs(side) + 2e-3;
-    };
-    const double x0 = g.minX - g.originX, x1 = g.maxX - g.originX;
-    const double y0 = g.minY - g.originY, y1 = g.maxY - g.originY;
-    for (const auto& [u, w] : directed) {
-        if (directed.count({w, u})) continue;
-        const format::Vertex &a = g.vertices[u], &b = g.vertices[w];
-        const bool side = (on(a.x, x0) && on(b.x, x0)) || (on(a.x, x1) && on(b.x, x1)) ||
-                          (on(a.y, y0) && on(b.y, y0)) || (on(a.y, y1) && on(b.y, y1));
-        if (!side) return true;
-    }
-    return false;
-}
 
 struct Loaded {
     std::uint32_t block = 0;
@@ -172,6 +142,8 @@ struct StreamingScene::Impl {
     format::Reader reader;
     std::uint32_t metric = format::kMetricMax;
     std::vector<BlockState> blocks;
+    std::vector<LodNode> nodes;  // per block: what the cut needs (lod/cut.h)
+    std::vector<NodeChoice> cut;
     Buffer arena;
     RangeAllocator allocator;
     std::uint64_t budget = 0, coarseBytes = 0;
@@ -316,8 +288,10 @@ bool StreamingScene::open(const Device& device, const std::string& path,
                       b.terrainTriangles * sizeof(format::Triangle) +
                       b.riverEdges * sizeof(format::Edge);
         largest = std::max(largest, b.fullBytes);
-        b.horizontal = (!g.levels.empty() && g.levels.front().riverCount > 0) || outlineMoves(g);
+        LodNode node = lodNode(g);  // the coarsest level: whether its outline may move
         b.levels = std::move(g.levels);
+        node.levels = nullptr;  // set below, once s.blocks no longer moves
+        s.nodes.push_back(node);
         Packed p;
         pack(g, g.terrainIndices.size(), g.riverIndices.size(), p);
         s.coarseBytes += alignUp(p.bytes.size());
@@ -328,6 +302,8 @@ bool StreamingScene::open(const Device& device, const std::string& path,
         error = path + ": no blocks to draw";
         return false;
     }
+    for (std::size_t i = 0; i < s.blocks.size(); ++i)
+        s.nodes[i].levels = &s.blocks[i].levels;
     std::uint64_t budget = options.gpuBudget;
     if (options.preloadAll) {
         std::uint64_t all = s.coarseBytes;
@@ -479,40 +455,25 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
     st.evictions = 0;
     s.releaseCompleted(completedFrame);
 
-    // 1. Culling and the level each visible block asks for.
-    const Camera& camera = view.camera;
-    const double aspect = double(view.width) / double(view.height);
-    const ViewTolerance tolerance{s.options.pixels, camera.fovDegrees * kDegree,
-                                  double(view.width), double(view.height), s.options.distance};
+    // 1. The cut: culling and the level each visible block asks for, nearest first (uploads
+    // and requests go in this order).
+    ViewSpec spec;
+    spec.kind = view.grid ? ViewSpec::Kind::Grid : ViewSpec::Kind::Camera;
+    spec.camera = view.camera;
+    spec.cull = s.options.cull;
+    spec.widthPixels = double(view.width);
+    spec.heightPixels = double(view.height);
+    spec.pixels = s.options.pixels;
+    spec.distance = s.options.distance;
+    spec.gridHalfHeight = view.gridHalfHeight;
+    spec.finest = s.options.policy == LodPolicy::Finest;
+    selectCut(spec, s.nodes, s.metric, s.cut);
     s.selection.clear();
-    for (std::uint32_t i = 0; i < s.blocks.size(); ++i) {
-        const BlockState& b = s.blocks[i];
-        if (s.options.cull) {
-            const bool visible =
-                view.grid ? boxInGridView(camera, view.gridHalfHeight, aspect, b.boxMin, b.boxMax)
-                          : boxInFrustum(camera, aspect, b.boxMin, b.boxMax);
-            if (!visible) continue;
-        }
+    for (const NodeChoice& c : s.cut) {
         BlockSelection sel;
-        sel.block = i;
-        sel.col = b.info.col;
-        sel.row = b.info.row;
-        // The grid mode shows, top-down, the levels the perspective view from the same eye
-        // selects (the paper's 2D grid diagrams at a view distance).
-        sel.distance = blockDistance(s.options.distance, camera.eye, b.boxMin, b.boxMax);
-        sel.box = boxView(camera, b.boxMin, b.boxMax);
-        sel.box.horizontal = b.horizontal;
-        sel.hLim = blockTolerance(tolerance, sel.distance, sel.box);
-        sel.wanted = s.options.policy == LodPolicy::Finest
-                         ? chooseStoredLevel(b.levels, s.metric, -1.0)
-                         : chooseStoredLevel(b.levels, s.metric, sel.hLim);
+        static_cast<NodeChoice&>(sel) = c;
         s.selection.push_back(sel);
     }
-    // Nearest first: uploads and requests go in this order.
-    std::stable_sort(s.selection.begin(), s.selection.end(),
-                     [](const BlockSelection& a, const BlockSelection& b) {
-                         return a.distance < b.distance;
-                     });
     for (const BlockSelection& sel : s.selection) {
         BlockState& b = s.blocks[sel.block];
         if (sel.wanted.level + 1 < b.levels.size()) b.lastUsedFrame = frame;

@@ -4,7 +4,7 @@
 // - At open, every block's levels are read and its coarsest level is uploaded and stays
 //   resident, so no block ever disappears; the budget must hold this coarse set.
 // - Every frame, prepare() culls the blocks against the view, computes S and h_lim per visible
-//   block and picks the coarsest level with h_s <= h_lim (lod.h). A block whose chosen level is
+//   block and picks the coarsest level with h_s <= h_lim (lod/cut.h selectCut). A block whose chosen level is
 //   finer than its resident coarse level needs its full LOD geometry (all levels' index data):
 //   it is requested from a loader thread, nearest first. Loaded blocks are uploaded by the
 //   frame's command buffer through a staging buffer (at most `uploadBytesPerFrame` per frame).
@@ -26,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "cut.h"
 #include "device.h"
 #include "lod.h"
 #include "renderer.h"
@@ -56,13 +57,9 @@ struct SceneOptions {
     bool preloadAll = false;
 };
 
-// One visible block's choice in the last prepared frame.
-struct BlockSelection {
-    std::uint32_t block = 0;  // index in the file's directory
-    std::uint32_t col = 0, row = 0;
-    double distance = 0, hLim = 0;  // S, h_lim
-    BoxView box;                    // how the box lies in the view (lod.h effectiveDistance)
-    LevelChoice wanted;             // the level h_lim asks for
+// One visible block's choice in the last prepared frame: the cut's choice (lod/cut.h) and what
+// was drawn.
+struct BlockSelection : NodeChoice {
     std::size_t drawnLevel = 0;     // the level drawn (the coarse one while not resident)
     bool fallback = false;          // drawn coarser than wanted: not resident yet
     std::uint32_t triangles = 0, riverEdges = 0;

@@ -56,7 +56,7 @@ bool saveScreenshot(const Device& device, WindowTarget& target, const std::strin
         error = path + ": " + error;
         return false;
     }
-    return writePng(path, width, height, rgba, output, error);
+    return format::writePng(path, width, height, rgba, output, error);
 }
 
 // Metres from the view centre to the top edge in grid mode: what the perspective camera sees

@@ -43,7 +43,7 @@
 //
 // River deviation: the largest 3D distance from the original river vertices between A and C
 // (along the river as built, X included) to the segment A-C. A 3D distance bounds the
-// horizontal one and makes the on-screen bound of the drawn river provable (engine/lod.h).
+// horizontal one and makes the on-screen bound of the drawn river provable (engine/lod/lod.h).
 //
 // `max` error of a step (both orders): max(vertical error of the re-evaluated points, the river
 // deviation of the new edge A-C), stored as a running maximum over the steps, so one h_lim bounds

@@ -6,14 +6,10 @@
 #include <cstdlib>
 #include <numbers>
 
+#include "cut.h"
 #include "ulod.h"
 
 namespace unilod {
-
-double screenErrorLimit(double pixels, double distance, double fovDegrees, double heightPixels) {
-    const double alpha = fovDegrees * std::numbers::pi / 180.0;
-    return 2.0 * pixels * distance * std::tan(alpha / 2.0) / heightPixels;
-}
 
 bool parseDistance(const std::string& text, double& metres) {
     std::string s = text;
@@ -56,20 +52,12 @@ std::size_t findBlock(const std::vector<format::BlockInfo>& blocks, std::uint32_
 
 // What the stats need of one block: its centre and, per step, the counts of that state.
 struct BlockSummary {
-    double cx = 0, cy = 0, cz = 0;
+    engine::LodNode node;  // its box (the cut's S and h_lim)
     std::vector<float> error;  // chosen metric, steps + 1 entries
     std::uint32_t vertexCount = 0;
     std::vector<std::uint32_t> triangles, riverEdges;  // per step k = 0..steps
     std::vector<format::Level> levels;                 // the stored levels
 };
-
-// k* = the largest k with error[k] <= limit (0 when even error[0] exceeds it). Errors are
-// non-decreasing: the states within the tolerance are a prefix.
-std::size_t exactStep(const std::vector<float>& error, double limit) {
-    const auto it = std::upper_bound(error.begin(), error.end(), limit,
-                                     [](double v, float e) { return v < double(e); });
-    return it == error.begin() ? 0 : std::size_t(it - error.begin()) - 1;
-}
 
 // Opens `path`, resolves the metric (0: the file's default) and reads every block's summary.
 bool loadSummaries(const std::string& path, std::uint32_t requestedMetric, format::Reader& reader,
@@ -93,9 +81,7 @@ bool loadSummaries(const std::string& path, std::uint32_t requestedMetric, forma
     for (std::size_t i = 0; i < infos.size(); ++i) {
         if (!reader.readBlock(i, b, error)) return false;
         BlockSummary& s = blocks[i];
-        s.cx = 0.5 * (b.minX + b.maxX);
-        s.cy = 0.5 * (b.minY + b.maxY);
-        s.cz = 0.5 * (b.minZ + b.maxZ);
+        s.node = engine::lodNode(b);
         s.error = metric == format::kMetricPaper ? b.errorPaper : b.errorMax;
         s.vertexCount = std::uint32_t(b.vertices.size());
         if (b.levels.empty() || s.error.size() != b.steps.size() + 1) {
@@ -110,11 +96,29 @@ bool loadSummaries(const std::string& path, std::uint32_t requestedMetric, forma
             s.riverEdges.push_back(step.riverEdgesAlive);
         }
         s.levels = std::move(b.levels);
+        s.node.levels = nullptr;  // counts per exact step here, not stored levels
     }
     return true;
 }
 
 }  // namespace
+
+engine::ViewSpec statsView(const format::Header& header, const StatsOptions& options,
+                           double distance, double pixels) {
+    engine::ViewSpec v;
+    v.kind = engine::ViewSpec::Kind::Camera;
+    v.camera.eye[0] = 0.5 * (header.minX + header.maxX);
+    v.camera.eye[1] = 0.5 * (header.minY + header.maxY);
+    v.camera.eye[2] = header.maxZ + distance;
+    v.camera.pitchDegrees = -90;
+    v.camera.fovDegrees = options.fovDegrees;
+    v.direction = false;  // S to the block centre, Eq. 11 as it stands
+    v.distance = engine::DistanceMode::Centre;
+    v.heightPixels = options.heightPixels;
+    v.widthPixels = options.heightPixels * 16.0 / 9.0;
+    v.pixels = pixels;
+    return v;
+}
 
 bool computeStats(const std::string& path, const StatsOptions& o, StatsTable& table,
                   std::string& error) {
@@ -162,27 +166,20 @@ bool computeStats(const std::string& path, const StatsOptions& o, StatsTable& ta
     table.middleCol = infos[middle].col;
     table.middleRow = infos[middle].row;
 
-    const double eyeX = 0.5 * (h.minX + h.maxX), eyeY = 0.5 * (h.minY + h.maxY);
     for (double d : o.distances) {
-        const double eyeZ = h.maxZ + d;
-        std::vector<double> s(blocks.size());
-        for (std::size_t i = 0; i < blocks.size(); ++i) {
-            s[i] = std::hypot(blocks[i].cx - eyeX, blocks[i].cy - eyeY, blocks[i].cz - eyeZ);
-        }
         for (double p : o.pixels) {
             StatsRow row;
             row.distance = d;
             row.pixels = p;
-            auto limit = [&](std::size_t i) {
-                return screenErrorLimit(p, s[i], o.fovDegrees, o.heightPixels);
-            };
+            const engine::ViewSpec view = statsView(h, o, d, p);
+            auto limit = [&](std::size_t i) { return engine::nodeTolerance(view, blocks[i].node); };
             row.hEdge = limit(edge);
             row.hCorner = limit(corner);
             row.hMiddle = limit(middle);
             for (std::size_t i = 0; i < blocks.size(); ++i) {
                 const BlockSummary& bs = blocks[i];
                 const double hlim = limit(i);
-                const std::size_t k = exactStep(bs.error, hlim);
+                const std::size_t k = engine::exactStep(bs.error, hlim);
                 row.points += bs.vertexCount - k;
                 row.riverEdges += bs.riverEdges[k];
                 row.triangles += bs.triangles[k];
@@ -216,7 +213,7 @@ bool computeErrorStats(const std::string& path, const std::vector<double>& error
         ErrorStatsRow row;
         row.error = e;
         for (const BlockSummary& s : blocks) {
-            const std::size_t k = exactStep(s.error, e);
+            const std::size_t k = engine::exactStep(s.error, e);
             row.exactPoints += s.vertexCount - k;
             row.exactTriangles += s.triangles[k];
             const format::Level& level = s.levels[format::storedLevelFor(s.levels, table.metric, e)];

@@ -31,6 +31,9 @@
 #include <string>
 #include <vector>
 
+#include "cut.h"
+#include "ulod.h"
+
 namespace unilod {
 
 struct StatsOptions {
@@ -57,8 +60,11 @@ struct StatsTable {
     std::vector<StatsRow> rows;  // for each distance (given order), for each pixel tolerance
 };
 
-// h_lim = 2·P·S·tan(α/2)/H (paper Eq. 11), α in degrees.
-double screenErrorLimit(double pixels, double distance, double fovDegrees, double heightPixels);
+// The view of one table row (distance D, pixel tolerance P): the camera above the data's centre
+// at D over its maximum z, S to each block's centre, h_lim of Eq. 11 (engine/lod/cut.h; the grid
+// diagram of `report` uses the same view).
+engine::ViewSpec statsView(const format::Header& header, const StatsOptions& options,
+                           double distance, double pixels);
 
 // Parses "100km", "1500 m", "2.5km" or a bare number (metres). False on anything else.
 bool parseDistance(const std::string& text, double& metres);

@@ -151,7 +151,7 @@ bool validateLevelGeometry(const Block& block, std::size_t level, std::string& e
 // the largest step whose own stored error (errorMax / errorPaper by `metric`) is <= hLim, or
 // level 0 (full resolution) when none is. Stored errors are non-decreasing with the step, so
 // this is the coarsest qualifying level. The one place this rule lives: the engine
-// (engine/lod.h chooseStoredLevel) and `unilod stats --error` both call it. `levels` non-empty.
+// (engine/lod/lod.h chooseStoredLevel) and `unilod stats --error` both call it. `levels` non-empty.
 std::size_t storedLevelFor(const std::vector<Level>& levels, std::uint32_t metric, double hLim);
 
 // Writes header + blocks to `path` atomically (AtomicFile: temporary file in the same folder,

@@ -18,7 +18,6 @@
 #include <set>
 
 #include "dem.h"
-#include "lod.h"
 #include "shared.h"
 #include "synthetic.h"
 #include "pngread.h"
@@ -77,28 +76,6 @@ protected:
 fs::path Capture::dir_;
 std::string Capture::file_;
 
-TEST(Lod, ChoosesCoarsestLevelWithinTolerance) {
-    std::vector<format::Level> levels(3);
-    levels[0].step = 0;
-    levels[1].step = 4;
-    levels[2].step = 8;
-    const std::vector<float> errors = {0, 0, 1, 1, 2, 2, 3, 5, 9, 9};
-    EXPECT_EQ(engine::chooseLevel(levels, errors, 0.5).level, 0u);
-    EXPECT_EQ(engine::chooseLevel(levels, errors, 2.0).level, 1u);  // k* = 5, level step 4
-    EXPECT_EQ(engine::chooseLevel(levels, errors, 2.0).nextError, 9.0);
-    EXPECT_EQ(engine::chooseLevel(levels, errors, 8.9).level, 1u);
-    EXPECT_EQ(engine::chooseLevel(levels, errors, 9.0).level, 2u);
-    EXPECT_EQ(engine::chooseLevel(levels, errors, 9.0).nextError, -1.0);
-    // h_lim = 2 P S tan(fov/2) / H: 60 degrees, 1 px, 1000 m, 1000 px -> 1.1547 m.
-    EXPECT_NEAR(engine::toleranceFor(1, 1000, 3.14159265358979 / 3, 1000), 1.1547005, 1e-6);
-    const double eye[3] = {5, 5, 5}, lo[3] = {0, 0, 0}, hi[3] = {1, 2, 9};
-    EXPECT_DOUBLE_EQ(engine::nearestBoxDistance(eye, lo, hi), 5.0);
-    EXPECT_DOUBLE_EQ(engine::blockDistance(engine::DistanceMode::Centre, eye, lo, hi),
-                     std::sqrt(4.5 * 4.5 + 4 * 4 + 0.5 * 0.5));
-    // 90 degree field of view, square viewport: the corner ray is at tan^2 = 2, cos^2 = 1/3.
-    EXPECT_NEAR(engine::frustumEdgeFactor(3.14159265358979 / 2, 1.0), 1.0 / 3.0, 1e-12);
-}
-
 TEST_F(Capture, NearAndFarViews) {
     Image nearImage;
     const nlohmann::json nearView = capture("near", 6000, &nearImage);
@@ -140,7 +117,7 @@ TEST_F(Capture, NearAndFarViews) {
             }
             EXPECT_EQ(b["triangles"].get<std::uint32_t>(), block.levels[level].triangleCount);
             // h_lim by Eq. 11 with P = 1, 60 degrees, 480 px and S' = c max(zMin, S cos) / sin
-            // (engine/lod.h): cos of the frustum's corner angle from tan^2 = tan^2(30 deg) *
+            // (engine/lod/lod.h): cos of the frustum's corner angle from tan^2 = tan^2(30 deg) *
             // (1 + (4/3)^2); zMin the smallest view depth of the box's corners; c = the larger
             // of that cos and the smallest cos of the angle between a corner ray and the view
             // axis (0 if a corner is not ahead); sin = the largest sin of the angle between a

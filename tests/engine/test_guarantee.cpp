@@ -282,7 +282,7 @@ protected:
 
     // Every original point of every block against the surface drawn below it: the segment from
     // the DEM point to the surface point, projected, when one end is on screen and both are in
-    // front of the 1 m near plane (engine/lod.h effectiveDistance bounds exactly such
+    // front of the 1 m near plane (engine/lod/lod.h effectiveDistance bounds exactly such
     // segments). The deviation measured is the full on-screen length of the projected segment,
     // not only its vertical component: the bound there is for that length (|d x p| <= |d| |p|),
     // so this is the stronger check. Border points are checked in every block that holds them.
@@ -324,7 +324,7 @@ protected:
                 const double wx = block.originX + double(v.x), wy = block.originY + double(v.y);
                 const auto a = cam.project(wx, wy, v.z);
                 const auto b = cam.project(wx, wy, s);
-                // One end on screen suffices (engine/lod.h: the bound needs one end within the
+                // One end on screen suffices (engine/lod/lod.h: the bound needs one end within the
                 // frustum's corner angle and the other in front of the eye).
                 if (!(a.inside || b.inside) || !(a.depth >= 1.0 && b.depth >= 1.0)) continue;
                 ++out.checked;
@@ -347,7 +347,7 @@ protected:
     // farther than hs (1 mm slack); else the horizontal segment to it at the vertex's height,
     // projected, counts like a point's segment to its surface (the outline's planimetric
     // deviation is part of the `max` error, deletion.h; a horizontal displacement gets no sin phi
-    // factor, engine/lod.h).
+    // factor, engine/lod/lod.h).
     static bool outlineDeviation(const Projector& cam, const format::Block& block,
                                  const format::Level& level, std::size_t k, double hs,
                                  double pixels, Deviation& out) {

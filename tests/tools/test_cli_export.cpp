@@ -1,6 +1,6 @@
 // `unilod export` (tools/export/gltfexport.h): the bundled Jacksboro model exported with --h-lim
 // and with --camera, loaded back with tinygltf's own loader. Per block the triangle and line
-// counts, the index values and the positions are compared with the level that engine/lod.h's
+// counts, the index values and the positions are compared with the level that engine/lod/lod.h's
 // chooseLevel picks from the file's error table, with h_lim recomputed here (the camera formula
 // written out again); with a view direction the export equals what the engine draws (`unilod
 // capture` of the same view: same blocks, levels and counts); plus normals facing up (the axis
@@ -267,7 +267,7 @@ TEST_F(ExportTest, CameraRoundTrip) {
     EXPECT_GE(levels.size(), 2u) << "the camera should select different levels per block";
     EXPECT_NE(r.out.find(summaryLine(triangles, edges)), std::string::npos) << r.out;
     // With yaw and pitch but --no-cull: every block, none finer than without the direction
-    // (the depth bound of engine/lod.h only ever raises h_lim).
+    // (the depth bound of engine/lod/lod.h only ever raises h_lim).
     const std::string out2 = dir->file("cam2.glb");
     ASSERT_EQ(runCli("export -q " + q(model) + " --camera " + cam.str() +
                      ",135,-30 --no-cull --fov 45 --size 1200x800 --pixels 2 -o " + q(out2))

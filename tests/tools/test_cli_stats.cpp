@@ -465,11 +465,29 @@ TEST(StatsParse, Distances) {
     EXPECT_FALSE(parseDistance("1e400km", m));
 }
 
-TEST(StatsParse, ScreenErrorLimitIsEquation11) {
-    // 1 pixel at 100 km, 60 degrees, 1080 px: 2·100000·tan(30°)/1080.
-    EXPECT_NEAR(screenErrorLimit(1, 100e3, 60, 1080), 2e5 * std::tan(M_PI / 6) / 1080, 1e-9);
-    EXPECT_NEAR(screenErrorLimit(3, 100e3, 60, 1080), 3 * screenErrorLimit(1, 100e3, 60, 1080),
-                1e-9);
+TEST(StatsParse, RowViewIsEquation11AtTheBlockCentre) {
+    // The eye is above the data's centre at D over its maximum z; S = the distance to a block's
+    // box centre; h_lim = 2·P·S·tan(α/2)/H. A flat block centred below the eye: S = D.
+    format::Header h;
+    h.minX = 1000, h.maxX = 3000, h.minY = -500, h.maxY = 500, h.minZ = 0, h.maxZ = 200;
+    StatsOptions o;
+    engine::LodNode below;
+    const double lo[3] = {1900, -100, 200}, hi[3] = {2100, 100, 200};
+    std::copy(lo, lo + 3, below.boxMin);
+    std::copy(hi, hi + 3, below.boxMax);
+    const engine::ViewSpec one = statsView(h, o, 100e3, 1);
+    double s = 0;
+    EXPECT_NEAR(engine::nodeTolerance(one, below, &s), 2e5 * std::tan(M_PI / 6) / 1080, 1e-9);
+    EXPECT_NEAR(s, 100e3, 1e-9);
+    const engine::ViewSpec three = statsView(h, o, 100e3, 3);
+    EXPECT_NEAR(engine::nodeTolerance(three, below), 3 * engine::nodeTolerance(one, below), 1e-9);
+    // A block off to the side: S is the 3D distance to its centre, whatever the river flag.
+    engine::LodNode side = below;
+    side.boxMin[0] = side.boxMax[0] = 2000 + 3000;
+    side.horizontal = true;
+    EXPECT_NEAR(engine::nodeTolerance(one, side, &s),
+                2 * std::hypot(3000.0, 100e3) * std::tan(M_PI / 6) / 1080, 1e-9);
+    EXPECT_NEAR(s, std::hypot(3000.0, 100e3), 1e-6);
 }
 
 }  // namespace

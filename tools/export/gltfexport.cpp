@@ -58,8 +58,8 @@ int addMaterial(tinygltf::Model& model, const char* name, double r, double g, do
 
 // One block's mesh + node.
 void addBlock(tinygltf::Model& model, const format::Header& header, const format::Block& block,
-              const BlockSelection& sel, int terrainMaterial, int riverMaterial) {
-    const format::Level& level = block.levels[sel.choice.level];
+              const ExportedBlock& sel, int terrainMaterial, int riverMaterial) {
+    const format::Level& level = block.levels[sel.wanted.level];
     const std::size_t n = level.vertexCount;
     const double dx0 = block.originX - header.originX, dy0 = block.originY - header.originY;
 
@@ -149,10 +149,10 @@ void addBlock(tinygltf::Model& model, const format::Header& header, const format
     Value::Object extras;
     extras["col"] = Value(int(block.col));
     extras["row"] = Value(int(block.row));
-    extras["level"] = Value(int(sel.choice.level));
-    extras["step"] = Value(int(sel.choice.step));
+    extras["level"] = Value(int(sel.wanted.level));
+    extras["step"] = Value(int(sel.wanted.step));
     extras["h_lim"] = Value(sel.hLim);
-    extras["error"] = Value(sel.choice.error);
+    extras["error"] = Value(sel.wanted.error);
     extras["distance"] = Value(sel.distance);
     extras["min_depth"] = Value(sel.box.minDepth);
     extras["axis_cos"] = Value(sel.box.axisCos);
@@ -228,7 +228,7 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
             continue;
         }
         if (!reader.readBlock(i, block, error)) return false;
-        const BlockSelection s = selectLevel(block, i, so, metric);
+        const ExportedBlock s = selectLevel(block, i, so, metric);
         addBlock(model, header, block, s, terrainMaterial, riverMaterial);
         summary.blocks.push_back(s);
         summary.vertices += s.vertexCount;

@@ -37,7 +37,7 @@ struct ExportOptions {
 };
 
 struct ExportSummary {
-    std::vector<BlockSelection> blocks;  // file order
+    std::vector<ExportedBlock> blocks;  // file order
     std::uint64_t vertices = 0, triangles = 0, riverEdges = 0;
     std::uint64_t bytes = 0;
 };

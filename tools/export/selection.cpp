@@ -3,68 +3,43 @@
 #include <cassert>
 #include <cmath>
 
-#include "camera.h"
 
 namespace unilod::exporter {
 
-namespace {
-constexpr double kDegree = 3.14159265358979323846 / 180.0;
-
-engine::Camera cameraOf(const SelectionOptions& options) {
-    engine::Camera camera;
-    for (int k = 0; k < 3; ++k) camera.eye[k] = options.eye[k];
-    camera.yawDegrees = options.yawDegrees;
-    camera.pitchDegrees = options.pitchDegrees;
-    camera.fovDegrees = options.fovDegrees;
-    return camera;
-}
-}  // namespace
-
-double blockTolerance(const format::BlockInfo& info, const SelectionOptions& options,
-                      bool rivers, double* distance, engine::BoxView* box) {
-    if (distance != nullptr) *distance = 0;
-    if (box != nullptr) *box = engine::BoxView{};
-    if (!options.useCamera) return options.hLim;
-    const double boxMin[3] = {info.minX, info.minY, info.minZ};
-    const double boxMax[3] = {info.maxX, info.maxY, info.maxZ};
-    const double s = engine::blockDistance(options.distance, options.eye, boxMin, boxMax);
-    engine::BoxView view =
-        options.hasDirection ? engine::boxView(cameraOf(options), boxMin, boxMax) : engine::BoxView{};
-    view.horizontal = rivers;
-    if (distance != nullptr) *distance = s;
-    if (box != nullptr) *box = view;
-    const engine::ViewTolerance tolerance{options.pixels, options.fovDegrees * kDegree,
-                                          options.widthPixels, options.heightPixels,
-                                          options.distance};
-    return engine::blockTolerance(tolerance, s, view);
+engine::ViewSpec viewSpec(const SelectionOptions& options) {
+    engine::ViewSpec v;
+    if (!options.useCamera) {
+        v.kind = engine::ViewSpec::Kind::Uniform;
+        v.hLim = options.hLim;
+        return v;
+    }
+    v.kind = engine::ViewSpec::Kind::Camera;
+    for (int k = 0; k < 3; ++k) v.camera.eye[k] = options.eye[k];
+    v.camera.yawDegrees = options.yawDegrees;
+    v.camera.pitchDegrees = options.pitchDegrees;
+    v.camera.fovDegrees = options.fovDegrees;
+    v.direction = options.hasDirection;
+    v.cull = options.cull;
+    v.widthPixels = options.widthPixels;
+    v.heightPixels = options.heightPixels;
+    v.pixels = options.pixels;
+    v.distance = options.distance;
+    return v;
 }
 
 bool blockVisible(const format::BlockInfo& info, const SelectionOptions& options) {
-    if (!options.useCamera || !options.hasDirection || !options.cull) return true;
-    const engine::Camera camera = cameraOf(options);
     const double boxMin[3] = {info.minX, info.minY, info.minZ};
     const double boxMax[3] = {info.maxX, info.maxY, info.maxZ};
-    return engine::boxInFrustum(camera, options.widthPixels / options.heightPixels, boxMin, boxMax);
+    return engine::nodeVisible(viewSpec(options), boxMin, boxMax);
 }
 
-BlockSelection selectLevel(const format::Block& block, std::size_t index,
-                           const SelectionOptions& options, std::uint32_t metric) {
+ExportedBlock selectLevel(const format::Block& block, std::size_t index,
+                          const SelectionOptions& options, std::uint32_t metric) {
     assert(!block.levels.empty());
-    format::BlockInfo info;
-    info.minX = block.minX;
-    info.minY = block.minY;
-    info.minZ = block.minZ;
-    info.maxX = block.maxX;
-    info.maxY = block.maxY;
-    info.maxZ = block.maxZ;
-    BlockSelection s;
-    s.index = index;
-    s.col = block.col;
-    s.row = block.row;
-    s.hLim = blockTolerance(info, options, block.levels.front().riverCount > 0, &s.distance,
-                            &s.box);
-    s.choice = engine::chooseStoredLevel(block.levels, metric, s.hLim);
-    const format::Level& level = block.levels[s.choice.level];
+    ExportedBlock s;
+    static_cast<engine::NodeChoice&>(s) = engine::chooseNode(
+        viewSpec(options), engine::lodNode(block), std::uint32_t(index), metric);
+    const format::Level& level = block.levels[s.wanted.level];
     s.vertexCount = level.vertexCount;
     s.triangles = level.triangleCount;
     s.riverEdges = level.riverCount;

@@ -4,7 +4,7 @@
 #include <array>
 #include <cmath>
 
-#include "lod.h"
+#include "cut.h"
 #include "report.h"
 #include "ulod.h"
 
@@ -63,7 +63,7 @@ bool renderGrid(const std::string& path, const StatsOptions& stats, double dista
         return false;
     }
     const double pixels = stats.pixels.empty() ? 1.0 : stats.pixels.front();
-    const double eye[3] = {(h.minX + h.maxX) / 2, (h.minY + h.maxY) / 2, h.maxZ + distance};
+    const engine::ViewSpec view = statsView(h, stats, distance, pixels);  // as `stats` counts
 
     // World -> image: the data's extent fitted into the square with a margin, north up.
     const double margin = std::max(2.0, size * 0.02);
@@ -82,16 +82,9 @@ bool renderGrid(const std::string& path, const StatsOptions& stats, double dista
     std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
     std::vector<std::array<double, 4>> riverLines;
     for (std::size_t i = 0; i < reader.blocks().size(); ++i) {
-        const format::BlockInfo& info = reader.blocks()[i];
-        const double dx = (info.minX + info.maxX) / 2 - eye[0];
-        const double dy = (info.minY + info.maxY) / 2 - eye[1];
-        const double dz = (info.minZ + info.maxZ) / 2 - eye[2];
-        const double s = std::sqrt(dx * dx + dy * dy + dz * dz);
-        const double hLim = screenErrorLimit(pixels, s, stats.fovDegrees, stats.heightPixels);
         if (!reader.readBlock(i, block, error)) return false;
-        const engine::LevelChoice choice = engine::chooseLevel(
-            block.levels, metric == format::kMetricPaper ? block.errorPaper : block.errorMax,
-            hLim);
+        const engine::LevelChoice choice =
+            engine::chooseNode(view, engine::lodNode(block), std::uint32_t(i), metric).wanted;
         const format::Level& level = block.levels[choice.level];
         auto X = [&](std::uint32_t v) { return px(block.originX + double(block.vertices[v].x)); };
         auto Y = [&](std::uint32_t v) { return py(block.originY + double(block.vertices[v].y)); };

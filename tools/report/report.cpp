@@ -268,7 +268,7 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
         GridDiagram g;
         if (!renderGrid(o.path, o.stats, d, o.imageSize, rgba, g, error)) return false;
         g.file = gridName(d);
-        if (!engine::writePng((temp / g.file).string(), o.imageSize, o.imageSize, rgba,
+        if (!format::writePng((temp / g.file).string(), o.imageSize, o.imageSize, rgba,
                               kInTempFolder, error))
             return false;
         summary.files.push_back(g.file);

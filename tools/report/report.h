@@ -26,9 +26,10 @@
 //   is measured (hausdorff2D). Rivers without unlocked points are not counted. Landform class:
 //   the mean altitude of the river's vertices (z sampled from the DEM), classes by Table 1's
 //   lower bounds 0 / 500 / 1000 m.
-// - Grid diagrams: the stats viewpoint (above the centre of the data, D above its maximum z,
-//   S = distance to the block centre, h_lim = 2·P·S·tan(α/2)/H); each block draws its stored
-//   level chooseLevel(levels, errors, h_lim) (engine/lod.h), the level the engine would draw.
+// - Grid diagrams: the stats viewpoint (stats.h statsView: above the centre of the data, D above
+//   its maximum z, S = distance to the block centre, h_lim = 2·P·S·tan(α/2)/H); each block draws
+//   the stored level the cut chooses for it (engine/lod/cut.h chooseNode), the level the engine
+//   would draw.
 #pragma once
 
 #include <cstdint>

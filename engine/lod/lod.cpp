@@ -54,14 +54,17 @@ double blockTolerance(const ViewTolerance& view, double distance, const BoxView&
                         view.height);
 }
 
-LevelChoice chooseLevel(const std::vector<format::Level>& levels, const std::vector<float>& errors,
-                        double hLim) {
-    assert(!levels.empty() && !errors.empty());
+std::size_t exactStep(const std::vector<float>& errors, double hLim) {
     // Number of steps k with errors[k] <= hLim; k* is one less (or none: full resolution).
     const auto qualifying = std::upper_bound(errors.begin(), errors.end(), hLim,
                                              [](double h, float e) { return h < double(e); });
-    const std::size_t kStar =
-        qualifying == errors.begin() ? 0 : std::size_t(qualifying - errors.begin()) - 1;
+    return qualifying == errors.begin() ? 0 : std::size_t(qualifying - errors.begin()) - 1;
+}
+
+LevelChoice chooseLevel(const std::vector<format::Level>& levels, const std::vector<float>& errors,
+                        double hLim) {
+    assert(!levels.empty() && !errors.empty());
+    const std::size_t kStar = exactStep(errors, hLim);
     LevelChoice c;
     for (std::size_t i = 0; i < levels.size(); ++i)
         if (levels[i].step <= kStar) c.level = i;

@@ -2,7 +2,7 @@
 // the renderer (projection matrices), the per-block LOD choice (frustum culling) and the tools.
 #pragma once
 
-#include "../shaders/shared.h"
+#include "shared.h"  // shaders/shared.h: the matrix type the renderer pushes
 
 namespace unilod::engine {
 

@@ -73,6 +73,11 @@ struct LevelChoice {
     double nextError = -1;  // error of the next coarser stored level; -1 for the coarsest
 };
 
+// k* = the largest step k with errors[k] <= hLim (errors are non-decreasing, so the states within
+// the tolerance are a prefix); 0 when even errors[0] exceeds it (nothing finer exists). The
+// exact state the paper's Tables 2 and 3 count (`stats`).
+std::size_t exactStep(const std::vector<float>& errors, double hLim);
+
 // k* = the largest step with error[k] <= hLim (errors are non-decreasing, so a prefix
 // qualifies); the chosen level is the stored level with the largest step <= k*. If even
 // error[0] > hLim the full-resolution level is the best there is and is chosen.

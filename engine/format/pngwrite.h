@@ -7,13 +7,13 @@
 
 #include "atomicfile.h"
 
-namespace unilod::engine {
+namespace unilod::format {
 
-// Writes RGBA8 rows (top to bottom) as an RGBA PNG with format::writeFileAtomically (`output`:
+// Writes RGBA8 rows (top to bottom) as an RGBA PNG with writeFileAtomically (`output`:
 // replace an existing file or not, the inputs `path` must not be). Returns false with a message
 // naming the file; nothing is left behind on failure.
 bool writePng(const std::string& path, std::uint32_t width, std::uint32_t height,
-              const std::vector<std::uint8_t>& rgba, const format::OutputOptions& output,
+              const std::vector<std::uint8_t>& rgba, const OutputOptions& output,
               std::string& error);
 
-}  // namespace unilod::engine
+}  // namespace unilod::format

@@ -4,7 +4,7 @@
 
 #include <cassert>
 
-namespace unilod::engine {
+namespace unilod::format {
 
 namespace {
 
@@ -40,7 +40,7 @@ bool encode(std::string& out, std::uint32_t width, std::uint32_t height, const s
 }  // namespace
 
 bool writePng(const std::string& path, std::uint32_t width, std::uint32_t height,
-              const std::vector<std::uint8_t>& rgba, const format::OutputOptions& output,
+              const std::vector<std::uint8_t>& rgba, const OutputOptions& output,
               std::string& error) {
     assert(rgba.size() == std::size_t(width) * height * 4);
     std::string bytes;
@@ -48,7 +48,7 @@ bool writePng(const std::string& path, std::uint32_t width, std::uint32_t height
         error = path + ": cannot encode the PNG";
         return false;
     }
-    return format::writeFileAtomically(path, bytes, output, error);
+    return writeFileAtomically(path, bytes, output, error);
 }
 
-}  // namespace unilod::engine
+}  // namespace unilod::format

@@ -1,0 +1,125 @@
+#include "cut.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <set>
+#include <utility>
+
+namespace unilod::engine {
+
+namespace {
+
+constexpr double kDegree = 3.14159265358979323846 / 180.0;
+
+// The directed edges of `count` triangles that no other triangle has reversed: the outline.
+bool outlineMovesImpl(const format::Vertex* vertices, const format::Triangle* triangles,
+                      std::size_t count, double originX, double originY, double minX, double minY,
+                      double maxX, double maxY) {
+    std::set<std::pair<std::uint32_t, std::uint32_t>> directed;
+    for (std::size_t i = 0; i < count; ++i) {
+        const format::Triangle& t = triangles[i];
+        directed.insert({t.a, t.b}), directed.insert({t.b, t.c}), directed.insert({t.c, t.a});
+    }
+    // Float vertices relative to the origin; the box in doubles: the reader's tolerance.
+    auto on = [](double v, double side) {
+        return std::fabs(v - side) <= format::kFloatSlack * std::fabs(side) + 2e-3;
+    };
+    const double x0 = minX - originX, x1 = maxX - originX;
+    const double y0 = minY - originY, y1 = maxY - originY;
+    for (const auto& [u, w] : directed) {
+        if (directed.count({w, u})) continue;
+        const format::Vertex &a = vertices[u], &b = vertices[w];
+        const bool side = (on(a.x, x0) && on(b.x, x0)) || (on(a.x, x1) && on(b.x, x1)) ||
+                          (on(a.y, y0) && on(b.y, y0)) || (on(a.y, y1) && on(b.y, y1));
+        if (!side) return true;
+    }
+    return false;
+}
+
+template <typename B>
+LodNode nodeOf(const B& b, bool moves) {
+    LodNode n;
+    n.boxMin[0] = b.minX;
+    n.boxMin[1] = b.minY;
+    n.boxMin[2] = b.minZ;
+    n.boxMax[0] = b.maxX;
+    n.boxMax[1] = b.maxY;
+    n.boxMax[2] = b.maxZ;
+    n.horizontal = (!b.levels.empty() && b.levels.front().riverCount > 0) || moves;
+    n.levels = &b.levels;
+    n.col = b.col;
+    n.row = b.row;
+    return n;
+}
+
+}  // namespace
+
+bool outlineMoves(const format::BlockGeometry& g) {
+    if (g.levels.empty()) return false;
+    return outlineMovesImpl(g.vertices.data(), g.terrainIndices.data(), g.terrainIndices.size(),
+                            g.originX, g.originY, g.minX, g.minY, g.maxX, g.maxY);
+}
+
+bool outlineMoves(const format::Block& b) {
+    if (b.levels.empty()) return false;
+    const format::Level& last = b.levels.back();
+    assert(std::size_t(last.triangleFirst) + last.triangleCount <= b.terrainIndices.size());
+    return outlineMovesImpl(b.vertices.data(), b.terrainIndices.data() + last.triangleFirst,
+                            last.triangleCount, b.originX, b.originY, b.minX, b.minY, b.maxX,
+                            b.maxY);
+}
+
+LodNode lodNode(const format::BlockGeometry& g) { return nodeOf(g, outlineMoves(g)); }
+LodNode lodNode(const format::Block& b) { return nodeOf(b, outlineMoves(b)); }
+
+bool nodeVisible(const ViewSpec& view, const double boxMin[3], const double boxMax[3]) {
+    if (view.kind == ViewSpec::Kind::Uniform || !view.cull || !view.direction) return true;
+    const double aspect = view.widthPixels / view.heightPixels;
+    return view.kind == ViewSpec::Kind::Grid
+               ? boxInGridView(view.camera, view.gridHalfHeight, aspect, boxMin, boxMax)
+               : boxInFrustum(view.camera, aspect, boxMin, boxMax);
+}
+
+double nodeTolerance(const ViewSpec& view, const LodNode& node, double* distance, BoxView* box) {
+    if (distance != nullptr) *distance = 0;
+    if (box != nullptr) *box = BoxView{};
+    if (view.kind == ViewSpec::Kind::Uniform) return view.hLim;
+    // The grid mode shows, top-down, the levels the perspective view from the same eye selects
+    // (the paper's 2D grid diagrams at a view distance).
+    const double s = blockDistance(view.distance, view.camera.eye, node.boxMin, node.boxMax);
+    BoxView place = view.direction ? boxView(view.camera, node.boxMin, node.boxMax) : BoxView{};
+    place.horizontal = node.horizontal;
+    if (distance != nullptr) *distance = s;
+    if (box != nullptr) *box = place;
+    const ViewTolerance tolerance{view.pixels, view.camera.fovDegrees * kDegree, view.widthPixels,
+                                  view.heightPixels, view.distance};
+    return blockTolerance(tolerance, s, place);
+}
+
+NodeChoice chooseNode(const ViewSpec& view, const LodNode& node, std::uint32_t index,
+                      std::uint32_t metric) {
+    assert(node.levels != nullptr && !node.levels->empty());
+    NodeChoice c;
+    c.block = index;
+    c.col = node.col;
+    c.row = node.row;
+    c.hLim = nodeTolerance(view, node, &c.distance, &c.box);
+    c.wanted = chooseStoredLevel(*node.levels, metric, view.finest ? -1.0 : c.hLim);
+    return c;
+}
+
+void selectCut(const ViewSpec& view, const std::vector<LodNode>& nodes, std::uint32_t metric,
+               std::vector<NodeChoice>& out) {
+    out.clear();
+    for (std::uint32_t i = 0; i < nodes.size(); ++i) {
+        const LodNode& n = nodes[i];
+        if (nodeVisible(view, n.boxMin, n.boxMax)) out.push_back(chooseNode(view, n, i, metric));
+    }
+    // Nearest first: the engine uploads and requests in this order.
+    std::stable_sort(out.begin(), out.end(), [](const NodeChoice& a, const NodeChoice& b) {
+        return a.distance < b.distance;
+    });
+}
+
+}  // namespace unilod::engine

@@ -1,0 +1,94 @@
+// The cut of the model a view draws (paper §3.4, Eq. 11; DESIGN.md "Screen-space error"): which
+// nodes are drawn and at which stored level. The one implementation of "cull -> S -> h_lim ->
+// level" that the engine, `export`, `stats`, `report` and the grid diagram call.
+//
+// A node is a block of the file today; the cut walks roots first and, for a node with children,
+// draws the node when its coarsest-level h_s fits its h_lim and examines its children otherwise
+// (issue 18's block hierarchy). A node with no children is drawn at the level chooseStoredLevel
+// picks for its h_lim.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "camera.h"
+#include "lod.h"
+#include "ulod.h"
+
+namespace unilod::engine {
+
+// What the view asks of the model. One of three kinds:
+// - `Camera`: a perspective camera. S from the eye to each box (mode `distance`), h_lim from
+//   Eq. 11 over `heightPixels` (and, in Nearest mode, the box's place in the view:
+//   lod.h effectiveDistance). `direction` false: only the eye is known (export --camera x,y,z):
+//   no culling, BoxView{} for every box (the bound for any direction).
+// - `Grid`: the 2D grid mode (paper Figures 7-12): levels as the perspective camera would choose
+//   them, culling against the top-down rectangle of half height `gridHalfHeight`.
+// - `Uniform`: one h_lim (`hLim`, metres) for every node; nothing culled, S = 0.
+// `finest`: every drawn node at full resolution (the benchmark's baseline), the cut unchanged.
+struct ViewSpec {
+    enum class Kind { Camera, Grid, Uniform };
+    Kind kind = Kind::Camera;
+    Camera camera;
+    bool direction = true;
+    bool cull = true;
+    double widthPixels = 1920, heightPixels = 1080;
+    double pixels = 1.0;  // P
+    DistanceMode distance = DistanceMode::Nearest;
+    double gridHalfHeight = 0;
+    double hLim = 0;
+    bool finest = false;
+};
+
+// What the cut needs of a node: its box, whether its `max` error bounds horizontal
+// displacements too (camera.h BoxView::horizontal: it holds river edges, or its outline may
+// move) and its stored levels (errors per metric). The levels must outlive the call.
+struct LodNode {
+    double boxMin[3] = {}, boxMax[3] = {};
+    bool horizontal = false;
+    const std::vector<format::Level>* levels = nullptr;
+    std::uint32_t col = 0, row = 0;  // grid position (reported back)
+};
+
+// Whether a block's outline (cdt.h "Domain") may move between its levels: unless the coarsest
+// level's outline is the block's bounding rectangle. The greedy order deletes an outline vertex
+// only where no other changes sides (deletion.h), and a deleted vertex never returns, so a
+// rectangle at the coarsest level means only straight stretches of it were simplified (no
+// displacement) at every level. `g` holds the coarsest level (Reader::readGeometry), `block`
+// every level.
+bool outlineMoves(const format::BlockGeometry& g);
+bool outlineMoves(const format::Block& block);
+
+// A block as a node: `g` holds its coarsest level (its levels: all of them), `block` is whole.
+LodNode lodNode(const format::BlockGeometry& g);
+LodNode lodNode(const format::Block& block);
+
+// One drawn node of the cut.
+struct NodeChoice {
+    std::uint32_t block = 0;  // index into the node list (the file's directory)
+    std::uint32_t col = 0, row = 0;
+    double distance = 0, hLim = 0;  // S of the view's mode (0 for Uniform), h_lim
+    BoxView box;                    // how the box lies in the view (Camera/Grid with a direction)
+    LevelChoice wanted;             // the level h_lim asks for
+};
+
+// True when the view draws a node with this box at all (frustum / grid-rectangle culling).
+bool nodeVisible(const ViewSpec& view, const double boxMin[3], const double boxMax[3]);
+
+// S and h_lim of a node for the view. `distance` / `box` receive S and the box's place in the
+// view when not null.
+double nodeTolerance(const ViewSpec& view, const LodNode& node, double* distance = nullptr,
+                     BoxView* box = nullptr);
+
+
+// One node's choice (culling aside): S, h_lim and the wanted level. `index`: the node's index,
+// reported back in NodeChoice::block.
+NodeChoice chooseNode(const ViewSpec& view, const LodNode& node, std::uint32_t index,
+                      std::uint32_t metric);
+
+// The cut for the view, nearest first (ties in node order): every visible node with its wanted
+// level under `metric` (format::kMetricMax / kMetricPaper). `out` is cleared first.
+void selectCut(const ViewSpec& view, const std::vector<LodNode>& nodes, std::uint32_t metric,
+               std::vector<NodeChoice>& out);
+
+}  // namespace unilod::engine

@@ -1,0 +1,194 @@
+// The CPU-only level choice (engine/lod: paper §3.4, Eq. 11; DESIGN.md "Screen-space error"):
+// h_lim and S, the stored-level and exact-step choices, the outline test, and the cut that the
+// engine, `export`, `stats`, `report` and the grid diagram all call. No Vulkan here.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "cut.h"
+#include "lod.h"
+#include "ulod.h"
+
+using namespace unilod;
+
+namespace {
+
+TEST(Lod, ChoosesCoarsestLevelWithinTolerance) {
+    std::vector<format::Level> levels(3);
+    levels[0].step = 0;
+    levels[1].step = 4;
+    levels[2].step = 8;
+    const std::vector<float> errors = {0, 0, 1, 1, 2, 2, 3, 5, 9, 9};
+    EXPECT_EQ(engine::chooseLevel(levels, errors, 0.5).level, 0u);
+    EXPECT_EQ(engine::chooseLevel(levels, errors, 2.0).level, 1u);  // k* = 5, level step 4
+    EXPECT_EQ(engine::chooseLevel(levels, errors, 2.0).nextError, 9.0);
+    EXPECT_EQ(engine::chooseLevel(levels, errors, 8.9).level, 1u);
+    EXPECT_EQ(engine::chooseLevel(levels, errors, 9.0).level, 2u);
+    EXPECT_EQ(engine::chooseLevel(levels, errors, 9.0).nextError, -1.0);
+    // h_lim = 2 P S tan(fov/2) / H: 60 degrees, 1 px, 1000 m, 1000 px -> 1.1547 m.
+    EXPECT_NEAR(engine::toleranceFor(1, 1000, 3.14159265358979 / 3, 1000), 1.1547005, 1e-6);
+    const double eye[3] = {5, 5, 5}, lo[3] = {0, 0, 0}, hi[3] = {1, 2, 9};
+    EXPECT_DOUBLE_EQ(engine::nearestBoxDistance(eye, lo, hi), 5.0);
+    EXPECT_DOUBLE_EQ(engine::blockDistance(engine::DistanceMode::Centre, eye, lo, hi),
+                     std::sqrt(4.5 * 4.5 + 4 * 4 + 0.5 * 0.5));
+    // 90 degree field of view, square viewport: the corner ray is at tan^2 = 2, cos^2 = 1/3.
+    EXPECT_NEAR(engine::frustumEdgeFactor(3.14159265358979 / 2, 1.0), 1.0 / 3.0, 1e-12);
+}
+
+TEST(Lod, ExactStepIsTheLastStateWithinTolerance) {
+    const std::vector<float> errors = {0, 0, 1, 1, 2, 2, 3, 5, 9, 9};
+    EXPECT_EQ(engine::exactStep(errors, -1.0), 0u);  // nothing within: full resolution
+    EXPECT_EQ(engine::exactStep(errors, 0.0), 1u);
+    EXPECT_EQ(engine::exactStep(errors, 2.5), 5u);
+    EXPECT_EQ(engine::exactStep(errors, 9.0), 9u);
+    EXPECT_EQ(engine::exactStep(errors, 1e9), 9u);
+}
+
+// Three stored levels with errors 0 / 2 / 6 (both metrics), river edges when `rivers`.
+std::vector<format::Level> threeLevels(bool rivers) {
+    std::vector<format::Level> levels(3);
+    const float errors[3] = {0, 2, 6};
+    for (int i = 0; i < 3; ++i) {
+        levels[i].step = std::uint32_t(4 * i);
+        levels[i].errorMax = levels[i].errorPaper = errors[i];
+        levels[i].riverCount = rivers ? 1 : 0;
+    }
+    return levels;
+}
+
+engine::LodNode nodeAt(double x0, double y0, double size, const std::vector<format::Level>& levels) {
+    engine::LodNode n;
+    n.boxMin[0] = x0, n.boxMin[1] = y0, n.boxMin[2] = 0;
+    n.boxMax[0] = x0 + size, n.boxMax[1] = y0 + size, n.boxMax[2] = 10;
+    n.levels = &levels;
+    n.horizontal = levels.front().riverCount > 0;
+    return n;
+}
+
+TEST(Cut, UniformToleranceChoosesEveryNodeInOrder) {
+    const std::vector<format::Level> levels = threeLevels(false);
+    std::vector<engine::LodNode> nodes;
+    for (int i = 0; i < 4; ++i) nodes.push_back(nodeAt(1000.0 * i, 0, 1000, levels));
+    engine::ViewSpec v;
+    v.kind = engine::ViewSpec::Kind::Uniform;
+    v.hLim = 2.5;
+    std::vector<engine::NodeChoice> cut;
+    engine::selectCut(v, nodes, format::kMetricMax, cut);
+    ASSERT_EQ(cut.size(), 4u);
+    for (std::uint32_t i = 0; i < 4; ++i) {
+        EXPECT_EQ(cut[i].block, i);  // S = 0 for all: ties keep node order
+        EXPECT_EQ(cut[i].distance, 0.0);
+        EXPECT_EQ(cut[i].hLim, 2.5);
+        EXPECT_EQ(cut[i].wanted.level, 1u);
+    }
+    v.finest = true;
+    engine::selectCut(v, nodes, format::kMetricMax, cut);
+    for (const engine::NodeChoice& c : cut) EXPECT_EQ(c.wanted.level, 0u);
+}
+
+TEST(Cut, CameraCullsAndSortsNearestFirst) {
+    const std::vector<format::Level> levels = threeLevels(false);
+    // A row of 1 km blocks along x; the eye at x = 500 m, 300 m up, looking east and down.
+    std::vector<engine::LodNode> nodes;
+    for (int i = -3; i < 20; ++i) nodes.push_back(nodeAt(1000.0 * i, -500, 1000, levels));
+    engine::ViewSpec v;
+    v.camera.eye[0] = 500, v.camera.eye[1] = 0, v.camera.eye[2] = 300;
+    v.camera.yawDegrees = 90;
+    v.camera.pitchDegrees = -10;
+    v.camera.fovDegrees = 60;
+    v.widthPixels = 800, v.heightPixels = 600;
+    std::vector<engine::NodeChoice> cut;
+    engine::selectCut(v, nodes, format::kMetricMax, cut);
+    ASSERT_FALSE(cut.empty());
+    ASSERT_LT(cut.size(), nodes.size());  // the blocks behind the eye are culled
+    for (std::size_t i = 0; i < cut.size(); ++i) {
+        const engine::LodNode& n = nodes[cut[i].block];
+        EXPECT_TRUE(engine::nodeVisible(v, n.boxMin, n.boxMax));
+        EXPECT_GE(n.boxMax[0], 0.0) << "a block behind the eye was kept";
+        if (i > 0) {
+            EXPECT_LE(cut[i - 1].distance, cut[i].distance);
+        }
+        // The cut's h_lim is nodeTolerance's, its level chooseStoredLevel's.
+        EXPECT_EQ(cut[i].hLim, engine::nodeTolerance(v, n));
+        EXPECT_EQ(cut[i].wanted.level,
+                  engine::chooseStoredLevel(levels, format::kMetricMax, cut[i].hLim).level);
+    }
+    // Farther blocks get larger tolerances and never finer levels.
+    EXPECT_LT(cut.front().hLim, cut.back().hLim);
+    EXPECT_LE(cut.front().wanted.level, cut.back().wanted.level);
+    // Culling off: every node.
+    v.cull = false;
+    engine::selectCut(v, nodes, format::kMetricMax, cut);
+    EXPECT_EQ(cut.size(), nodes.size());
+}
+
+TEST(Cut, RiversTakeNoCreditForASteepView) {
+    // Looking straight down, a vertical error shrinks on screen (BoxView::verticalSin), a river
+    // displacement does not: the same box gets a smaller h_lim when it holds rivers.
+    const std::vector<format::Level> dry = threeLevels(false), wet = threeLevels(true);
+    engine::ViewSpec v;
+    v.camera.eye[0] = 500, v.camera.eye[1] = 500, v.camera.eye[2] = 5000;
+    v.camera.pitchDegrees = -90;
+    const engine::LodNode a = nodeAt(0, 0, 1000, dry), b = nodeAt(0, 0, 1000, wet);
+    EXPECT_LT(engine::nodeTolerance(v, b), engine::nodeTolerance(v, a));
+    // Centre mode is Eq. 11 at the box centre, rivers or not.
+    v.distance = engine::DistanceMode::Centre;
+    double s = 0;
+    const double h = engine::nodeTolerance(v, b, &s);
+    EXPECT_DOUBLE_EQ(s, 4995.0);
+    EXPECT_DOUBLE_EQ(h, engine::toleranceFor(1, 4995.0, 60 * 3.14159265358979323846 / 180, 1080));
+    EXPECT_DOUBLE_EQ(engine::nodeTolerance(v, a), h);
+    // Without a direction (export --camera x,y,z): no box credit, no culling.
+    v.distance = engine::DistanceMode::Nearest;
+    v.direction = false;
+    engine::BoxView box;
+    engine::nodeTolerance(v, a, &s, &box);
+    EXPECT_EQ(box.axisCos, 0.0);
+    EXPECT_EQ(box.verticalSin, 1.0);
+    v.camera.eye[2] = -5000;  // below the ground, looking down: nothing visible, nothing culled
+    EXPECT_TRUE(engine::nodeVisible(v, a.boxMin, a.boxMax));
+}
+
+TEST(Cut, GridModeCullsTheTopDownRectangle) {
+    const std::vector<format::Level> levels = threeLevels(false);
+    std::vector<engine::LodNode> nodes;
+    for (int i = 0; i < 10; ++i) nodes.push_back(nodeAt(1000.0 * i, 0, 1000, levels));
+    engine::ViewSpec v;
+    v.kind = engine::ViewSpec::Kind::Grid;
+    v.camera.eye[0] = 500, v.camera.eye[1] = 500, v.camera.eye[2] = 1000;
+    v.widthPixels = v.heightPixels = 100;
+    v.gridHalfHeight = 1200;  // x in [-700, 1700]: blocks 0 and 1
+    std::vector<engine::NodeChoice> cut;
+    engine::selectCut(v, nodes, format::kMetricMax, cut);
+    ASSERT_EQ(cut.size(), 2u);
+    EXPECT_EQ(cut[0].block, 0u);
+    EXPECT_EQ(cut[1].block, 1u);
+}
+
+// A one-level block over the unit square [0, 10]^2 with the given triangles.
+format::Block squareBlock(const std::vector<format::Vertex>& vertices,
+                          const std::vector<format::Triangle>& triangles) {
+    format::Block b;
+    b.minX = 0, b.minY = 0, b.maxX = 10, b.maxY = 10, b.maxZ = 1;
+    b.vertices = vertices;
+    b.terrainIndices = triangles;
+    b.levels.resize(1);
+    b.levels[0].vertexCount = std::uint32_t(vertices.size());
+    b.levels[0].triangleCount = std::uint32_t(triangles.size());
+    return b;
+}
+
+TEST(Cut, OutlineMovesUnlessTheCoarsestOutlineIsTheRectangle) {
+    // Two triangles covering the square: the outline is the rectangle.
+    const format::Block full =
+        squareBlock({{0, 0, 0, 0}, {10, 0, 0, 0}, {10, 10, 0, 0}, {0, 10, 0, 0}}, {{0, 1, 2}, {0, 2, 3}});
+    EXPECT_FALSE(engine::outlineMoves(full));
+    EXPECT_FALSE(engine::lodNode(full).horizontal);
+    // One triangle: the diagonal is an outline edge inside the box (nodata beyond it).
+    const format::Block half = squareBlock({{0, 0, 0, 0}, {10, 0, 0, 0}, {10, 10, 0, 0}}, {{0, 1, 2}});
+    EXPECT_TRUE(engine::outlineMoves(half));
+    EXPECT_TRUE(engine::lodNode(half).horizontal);
+}
+
+}  // namespace
