@@ -29,6 +29,11 @@ format::OutputOptions outputOptions(const BuildOptions& o) {
 
 }  // namespace
 
+bool recordsPaperMetric(const BuildOptions& o) {
+    return o.paperMetric || o.order == DeletionOrderKind::ThreeDdp ||
+           o.defaultMetric == format::kMetricPaper;
+}
+
 bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) {
     const auto start = std::chrono::steady_clock::now();
     summary = {};
@@ -46,6 +51,7 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     // BAI table before the long work, so that a typo fails fast.
     BlockBuildOptions blockOptions;
     blockOptions.order = o.order;
+    blockOptions.paperError = recordsPaperMetric(o);
     blockOptions.importance.useBai = o.useBai;
     blockOptions.importance.baiRow = o.baiRow;
     if (!o.baiTablePath.empty() &&
@@ -98,7 +104,7 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     const BlockRect& first = source.rect(0);
     header.blockWidth = (first.cellCol1 - first.cellCol0) * std::fabs(dem.cellX);
     header.blockHeight = (first.cellRow1 - first.cellRow0) * std::fabs(dem.cellY);
-    header.metrics = format::kMetricMax | format::kMetricPaper;
+    header.metrics = format::kMetricMax | (blockOptions.paperError ? format::kMetricPaper : 0u);
     header.defaultMetric = o.defaultMetric;
     // Provenance; nothing here may depend on the thread count or the clock.
     nlohmann::json info = {

@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -535,6 +536,41 @@ TEST(CliBuildOdd, OrderOption) {
     c.writeGood();
     expectRejected(c, run(build(c, c.in("dem.tif"), c.in("rivers.geojson"), "--order 4ddp")), 2,
                    "", "--order");
+}
+
+TEST(CliBuildOdd, MetricsRecorded) {
+    // `max` always; `paper` with 3ddp, as the default metric, or asked for (build.h).
+    struct Want {
+        const char* extra;
+        bool paper;
+    };
+    for (const Want w : {Want{"", false}, Want{"--paper-metric", true}, Want{"--order 3ddp", true},
+                         Want{"--metric paper", true}}) {
+        SCOPED_TRACE(w.extra);
+        Case c(std::string("metrics_") + std::to_string(std::strlen(w.extra)));
+        c.writeGood();
+        const Result r = run(build(c, c.in("dem.tif"), c.in("rivers.geojson"), w.extra));
+        ASSERT_EQ(r.code, 0) << r.err;
+        format::Reader reader;
+        std::string error;
+        ASSERT_TRUE(reader.open(c.out(), error)) << error;
+        EXPECT_EQ(reader.header().metrics,
+                  format::kMetricMax | (w.paper ? format::kMetricPaper : 0u));
+        format::Block block;
+        ASSERT_TRUE(reader.readBlock(0, block, error)) << error;
+        EXPECT_EQ(block.errorMax.size(), block.steps.size() + 1);
+        EXPECT_EQ(block.errorPaper.size(), w.paper ? block.steps.size() + 1 : 0u);
+        EXPECT_EQ(run("check -q --errors " + q(c.out())).code, 0);
+        // Asking a max-only file for the paper metric: a clear error naming the file.
+        const Result stats = run("stats --metric paper " + q(c.out()));
+        if (w.paper) {
+            EXPECT_EQ(stats.code, 0) << stats.err;
+        } else {
+            EXPECT_EQ(stats.code, 1);
+            EXPECT_NE(stats.err.find(c.out()), std::string::npos) << stats.err;
+            EXPECT_NE(stats.err.find("paper"), std::string::npos) << stats.err;
+        }
+    }
 }
 
 TEST(CliBuildBad, StrideZero) {

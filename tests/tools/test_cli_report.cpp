@@ -59,7 +59,9 @@ protected:
     static void SetUpTestSuite() {
         dir = new test::TempDir("report");
         model = dir->file("j.ulod");
-        const auto r = runCli("build -q " + q(kDem) + " " + q(kRivers) + " -o " + q(model));
+        // Both metrics: the curves of both are checked against the file.
+        const auto r = runCli("build -q --paper-metric " + q(kDem) + " " + q(kRivers) + " -o " +
+                              q(model));
         ASSERT_EQ(r.code, 0) << r.err;
         test::Model m;
         std::string error;

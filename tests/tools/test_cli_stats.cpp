@@ -71,6 +71,7 @@ protected:
         bo.outPath = (dir / "model.ulod").string();
         bo.blockSize = (std::max(data.dem.width, data.dem.height) - 1) / 4;  // about 4 x 4 blocks
         bo.threads = 2;
+        bo.paperMetric = true;  // both metrics: the paper-metric rows are tested below
         BuildSummary summary;
         ASSERT_TRUE(runBuild(bo, summary, error)) << error;
         model = bo.outPath;
