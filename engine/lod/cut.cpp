@@ -112,13 +112,36 @@ NodeChoice chooseNode(const ViewSpec& view, const LodNode& node, std::uint32_t i
 void selectCut(const ViewSpec& view, const std::vector<LodNode>& nodes, std::uint32_t metric,
                std::vector<NodeChoice>& out) {
     out.clear();
-    for (std::uint32_t i = 0; i < nodes.size(); ++i) {
-        const LodNode& n = nodes[i];
-        if (nodeVisible(view, n.boxMin, n.boxMax)) out.push_back(chooseNode(view, n, i, metric));
+    // Roots: the nodes no other node names as a child.
+    std::vector<std::uint8_t> isChild(nodes.size(), 0);
+    for (const LodNode& n : nodes) {
+        if (n.firstChild == kNoChild) continue;
+        assert(std::size_t(n.firstChild) + n.childCount <= nodes.size());
+        for (std::uint32_t c = 0; c < n.childCount; ++c) isChild[n.firstChild + c] = 1;
     }
-    // Nearest first: the engine uploads and requests in this order.
+    std::vector<std::uint32_t> stack;
+    for (std::uint32_t i = std::uint32_t(nodes.size()); i-- > 0;)
+        if (!isChild[i]) stack.push_back(i);
+    while (!stack.empty()) {
+        const std::uint32_t i = stack.back();
+        stack.pop_back();
+        const LodNode& n = nodes[i];
+        if (!nodeVisible(view, n.boxMin, n.boxMax)) continue;
+        NodeChoice c = chooseNode(view, n, i, metric);
+        if (n.firstChild != kNoChild && n.childCount > 0) {
+            const format::Level& finest = n.levels->front();
+            const double start =
+                metric == format::kMetricPaper ? finest.errorPaper : finest.errorMax;
+            if (view.finest || start > c.hLim) {
+                for (std::uint32_t k = n.childCount; k-- > 0;) stack.push_back(n.firstChild + k);
+                continue;
+            }
+        }
+        out.push_back(c);
+    }
+    // Nearest first: the engine uploads and requests in this order. Ties: node order.
     std::stable_sort(out.begin(), out.end(), [](const NodeChoice& a, const NodeChoice& b) {
-        return a.distance < b.distance;
+        return a.distance < b.distance || (a.distance == b.distance && a.block < b.block);
     });
 }
 

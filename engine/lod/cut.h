@@ -43,11 +43,16 @@ struct ViewSpec {
 // What the cut needs of a node: its box, whether its `max` error bounds horizontal
 // displacements too (camera.h BoxView::horizontal: it holds river edges, or its outline may
 // move) and its stored levels (errors per metric). The levels must outlive the call.
+// Tree links (issue 18's block hierarchy): a node's children are the `childCount` nodes from
+// `firstChild` on, each inside its parent's box; a node that is no other node's child is a root.
+// A list without links is a forest of leaves: today's blocks.
+inline constexpr std::uint32_t kNoChild = ~0u;
 struct LodNode {
     double boxMin[3] = {}, boxMax[3] = {};
     bool horizontal = false;
     const std::vector<format::Level>* levels = nullptr;
     std::uint32_t col = 0, row = 0;  // grid position (reported back)
+    std::uint32_t firstChild = kNoChild, childCount = 0;
 };
 
 // Whether a block's outline (cdt.h "Domain") may move between its levels: unless the coarsest
@@ -86,8 +91,12 @@ double nodeTolerance(const ViewSpec& view, const LodNode& node, double* distance
 NodeChoice chooseNode(const ViewSpec& view, const LodNode& node, std::uint32_t index,
                       std::uint32_t metric);
 
-// The cut for the view, nearest first (ties in node order): every visible node with its wanted
-// level under `metric` (format::kMetricMax / kMetricPaper). `out` is cleared first.
+// The cut for the view, nearest first (ties in node order), under `metric` (format::kMetricMax /
+// kMetricPaper). From every root: a node outside the view is skipped with its subtree; a node
+// with children whose starting (finest) error exceeds its h_lim — or any node with children in
+// `finest` mode — gives way to its children; every other visible node is drawn at its wanted
+// level. Children lie inside their parent and meet it without cracks (its own outer border stays
+// locked), so any such cut covers the visible model once. `out` is cleared first.
 void selectCut(const ViewSpec& view, const std::vector<LodNode>& nodes, std::uint32_t metric,
                std::vector<NodeChoice>& out);
 

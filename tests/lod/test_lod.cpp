@@ -166,6 +166,83 @@ TEST(Cut, GridModeCullsTheTopDownRectangle) {
     EXPECT_EQ(cut[1].block, 1u);
 }
 
+// A root over [0, 2000]^2 (levels with errors 10 / 20) and its four 1 km children (0 / 2 / 6).
+struct Tree {
+    std::vector<format::Level> parentLevels, childLevels;
+    std::vector<engine::LodNode> nodes;
+    Tree() {
+        parentLevels = threeLevels(false);
+        parentLevels.pop_back();
+        parentLevels[0].errorMax = parentLevels[0].errorPaper = 10;
+        parentLevels[1].errorMax = parentLevels[1].errorPaper = 20;
+        childLevels = threeLevels(false);
+        nodes.push_back(nodeAt(0, 0, 2000, parentLevels));
+        nodes[0].firstChild = 1;
+        nodes[0].childCount = 4;
+        for (int k = 0; k < 4; ++k)
+            nodes.push_back(nodeAt(1000.0 * (k % 2), 1000.0 * (k / 2), 1000, childLevels));
+    }
+};
+
+TEST(Cut, TreeDrawsANodeWhenItsStartingErrorFits) {
+    Tree t;
+    engine::ViewSpec v;
+    v.kind = engine::ViewSpec::Kind::Uniform;
+    std::vector<engine::NodeChoice> cut;
+    // h_lim 25: the root at its coarsest level; 15: the root at full resolution (10 <= 15 < 20).
+    v.hLim = 25;
+    engine::selectCut(v, t.nodes, format::kMetricMax, cut);
+    ASSERT_EQ(cut.size(), 1u);
+    EXPECT_EQ(cut[0].block, 0u);
+    EXPECT_EQ(cut[0].wanted.level, 1u);
+    v.hLim = 15;
+    engine::selectCut(v, t.nodes, format::kMetricMax, cut);
+    ASSERT_EQ(cut.size(), 1u);
+    EXPECT_EQ(cut[0].wanted.level, 0u);
+    // h_lim 5 < the root's starting error: its four children, each at error 2 (level 1).
+    v.hLim = 5;
+    engine::selectCut(v, t.nodes, format::kMetricMax, cut);
+    ASSERT_EQ(cut.size(), 4u);
+    for (std::uint32_t k = 0; k < 4; ++k) {
+        EXPECT_EQ(cut[k].block, k + 1);
+        EXPECT_EQ(cut[k].wanted.level, 1u);
+    }
+    // Full resolution: the leaves at level 0, whatever h_lim allows.
+    v.hLim = 1e9;
+    v.finest = true;
+    engine::selectCut(v, t.nodes, format::kMetricMax, cut);
+    ASSERT_EQ(cut.size(), 4u);
+    for (const engine::NodeChoice& c : cut) EXPECT_EQ(c.wanted.level, 0u);
+}
+
+TEST(Cut, TreeCullsSubtreesAndDescendsNearTheEye) {
+    Tree t;
+    // Low over child 0 (x, y < 1000), looking north-east along the diagonal: the root's nearest
+    // point is under the eye (S small, h_lim below its starting error), so it gives way to its
+    // children; child 0 and the children ahead are drawn, none behind the eye.
+    engine::ViewSpec v;
+    v.camera.eye[0] = 300, v.camera.eye[1] = 300, v.camera.eye[2] = 50;
+    v.camera.yawDegrees = 45;
+    v.camera.pitchDegrees = -5;
+    std::vector<engine::NodeChoice> cut;
+    engine::selectCut(v, t.nodes, format::kMetricMax, cut);
+    ASSERT_FALSE(cut.empty());
+    for (const engine::NodeChoice& c : cut) EXPECT_NE(c.block, 0u) << "the root was drawn";
+    EXPECT_EQ(cut.front().block, 1u);  // the child under the eye, nearest first
+    // The same view from 100 km up looking down: the root alone.
+    v.camera.eye[2] = 100e3;
+    v.camera.pitchDegrees = -90;
+    engine::selectCut(v, t.nodes, format::kMetricMax, cut);
+    ASSERT_EQ(cut.size(), 1u);
+    EXPECT_EQ(cut[0].block, 0u);
+    // Beyond the tree's north-east corner, looking further north-east: nothing.
+    v.camera.eye[0] = v.camera.eye[1] = 2500;
+    v.camera.eye[2] = 50;
+    v.camera.pitchDegrees = 0;
+    engine::selectCut(v, t.nodes, format::kMetricMax, cut);
+    EXPECT_TRUE(cut.empty());
+}
+
 // A one-level block over the unit square [0, 10]^2 with the given triangles.
 format::Block squareBlock(const std::vector<format::Vertex>& vertices,
                           const std::vector<format::Triangle>& triangles) {
