@@ -750,7 +750,7 @@ void Cdt::removeVertex(PointId v, const std::vector<PointId>& ring,
 
 // --- Point insertion (Bowyer-Watson) ---------------------------------------------------------
 
-std::uint32_t Cdt::locateFrom(PointId p, std::uint32_t start) const {
+std::uint32_t Cdt::locateGridFrom(std::int64_t x, std::int64_t y, std::uint32_t start) const {
     std::uint32_t t = start;
     std::uint32_t rot = 0;
     for (;;) {
@@ -759,7 +759,7 @@ std::uint32_t Cdt::locateFrom(PointId p, std::uint32_t start) const {
         for (std::uint32_t k = 0; k < 3; ++k) {
             const std::uint32_t e = (k + rot) % 3;
             const PointId u = tv[3 * t + nextIndex(e)], w = tv[3 * t + prevIndex(e)];
-            if (orient(u, w, p) < 0) {
+            if (orient2d(gx[u], gy[u], gx[w], gy[w], x, y) < 0) {
                 t = tn[3 * t + e] / 3;
                 inside = false;
                 break;

@@ -226,7 +226,11 @@ public:
     SplitEdge insertPoint(PointId p, std::uint32_t hint = kNone);
     // Walks from the alive triangle `start` to a real triangle containing p (closed), or to a
     // ghost triangle when p lies outside the hull.
-    std::uint32_t locateFrom(PointId p, std::uint32_t start) const;
+    std::uint32_t locateFrom(PointId p, std::uint32_t start) const {
+        return locateGridFrom(gx[p], gy[p], start);
+    }
+    // The same for a grid position that need not be a point of the set.
+    std::uint32_t locateGridFrom(std::int64_t x, std::int64_t y, std::uint32_t start) const;
 
 private:
     std::uint32_t locate(PointId p) const { return locateFrom(p, lastTriangle_); }

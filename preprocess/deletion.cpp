@@ -196,7 +196,7 @@ void Sequence::start(std::size_t expectedSteps) {
     rec_.removedTriangles.reserve(expectedSteps * 25 / 4);
     rec_.addedTriangles.reserve(expectedSteps * 17 / 4);
     if (options_.maxError || options_.paperError) {
-        error_.init(set_, cdt_, options_.maxError, options_.paperError);
+        error_.init(set_, cdt_, options_.maxError, options_.paperError, options_.extraSamples);
         rec_.initialErrorMax = error_.runningMax();
         rec_.initialErrorPaper = error_.runningPaper();
         runningMax_ = rec_.initialErrorMax;
@@ -724,8 +724,19 @@ std::size_t DeletionRecords::memoryBytes() const {
            (errorMax.capacity() + errorPaper.capacity()) * 8 + kept.capacity() * sizeof(KeptVertex);
 }
 
+namespace {
+bool extraSamplesValid(const DeletionOptions& options, std::string& error) {
+    if (options.extraSamples != nullptr && options.paperError) {
+        error = "extra original points count in the max metric only (turn the paper metric off)";
+        return false;
+    }
+    return true;
+}
+}  // namespace
+
 bool runDeletion(const PointSet& set, Cdt& cdt, const std::vector<PointId>& order,
                  const DeletionOptions& options, DeletionRecords& records, std::string& error) {
+    if (!extraSamplesValid(options, error)) return false;
     Sequence sequence(set, cdt, options, records);
     return sequence.run(order, error);
 }
@@ -733,6 +744,7 @@ bool runDeletion(const PointSet& set, Cdt& cdt, const std::vector<PointId>& orde
 bool runGreedyDeletion(const PointSet& set, Cdt& cdt, const std::vector<float>& weight,
                        const DeletionOptions& options, DeletionRecords& records,
                        std::string& error) {
+    if (!extraSamplesValid(options, error)) return false;
     Sequence sequence(set, cdt, options, records);
     return sequence.runGreedy(weight, error);
 }

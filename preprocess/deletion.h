@@ -62,6 +62,7 @@
 #include <vector>
 
 #include "cdt.h"
+#include "modelerror.h"
 
 namespace unilod {
 
@@ -107,6 +108,9 @@ struct DeletionOptions {
     std::uint32_t maxSteps = std::numeric_limits<std::uint32_t>::max();
     // Called after every step with the step count (tests run the checker here).
     std::function<void(std::uint32_t)> afterStep;
+    // Original points beyond the set's, counted in the `max` metric (modelerror.h ExtraSample;
+    // max metric only). Must outlive the call.
+    const std::vector<ExtraSample>* extraSamples = nullptr;
 };
 
 // Runs the deletion sequence on `cdt` (built from `set` by buildCdt, no deletion yet).

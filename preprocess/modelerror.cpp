@@ -66,7 +66,9 @@ double surfaceHeight(const PointSet& set, const Cdt& cdt, std::uint32_t t, Point
     return heightGrid(set, cdt, t, cdt.gx[m], cdt.gy[m]);
 }
 
-void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool paperMetric) {
+void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool paperMetric,
+                      const std::vector<ExtraSample>* extra) {
+    assert((extra == nullptr || !paperMetric) && "extra samples: max metric only");
     set_ = &set;
     maxMetric_ = maxMetric;
     paperMetric_ = paperMetric;
@@ -116,18 +118,40 @@ void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool 
                                                                   samples_[s].gy)));
             }
         }
+        // Extra samples: located by a walk from the previous one's triangle (callers pass them
+        // in spatial order for short walks); outside the domain they are left out.
+        std::vector<PoolPoint> extraPoints;
+        std::vector<std::uint32_t> extraTri;
+        if (extra != nullptr && !extra->empty() && n > 0) {
+            std::uint32_t at = realTriangleAt(cdt, cdt.representative[keys[0].second]);
+            for (const ExtraSample& e : *extra) {
+                const std::uint32_t t = cdt.locateGridFrom(e.gx, e.gy, at);
+                if (cdt.isGhost(t) || !cdt.inDomain(t)) continue;
+                at = t;
+                extraPoints.push_back({e.gx, e.gy, e.z});
+                extraTri.push_back(t);
+                ++rangeCount_[t];
+                runningMax_ = std::max(runningMax_,
+                                       std::fabs(e.z - heightGrid(set, cdt, t, e.gx, e.gy)));
+            }
+        }
         std::uint32_t offset = 0;
         for (std::uint32_t t = 0; t < rangeCount_.size(); ++t) {
             rangeStart_[t] = offset;
             offset += rangeCount_[t];
             rangeCount_[t] = 0;
         }
-        pool_.reserve(2 * n + 64);
-        pool_.resize(n);
+        const std::size_t total = n + extraPoints.size();
+        pool_.reserve(2 * total + 64);
+        pool_.resize(total);
         for (std::uint32_t s = 0; s < n; ++s) {
             const std::uint32_t t = tri[s];
             pool_[rangeStart_[t] + rangeCount_[t]++] = {samples_[s].gx, samples_[s].gy,
                                                         samples_[s].z};
+        }
+        for (std::size_t i = 0; i < extraPoints.size(); ++i) {
+            const std::uint32_t t = extraTri[i];
+            pool_[rangeStart_[t] + rangeCount_[t]++] = extraPoints[i];
         }
         garbage_ = 0;
     }
@@ -514,20 +538,36 @@ PointId ModelError::nearest(std::int32_t gx, std::int32_t gy, double z) const {
     return bestId;
 }
 
+namespace {
+// The vertical error at grid position (x, y) of height z, by scanning every triangle; -1 outside
+// the domain, INFINITY outside the frame or the hull (cannot happen for the set's points).
+double bruteForceAt(const PointSet& set, const Cdt& cdt, std::int64_t x, std::int64_t y, double z) {
+    std::uint32_t found = kNil;
+    for (std::uint32_t t = 0; t < cdt.triangleSlots(); ++t) {
+        if (cdt.triangleAlive(t) && !cdt.isGhost(t) && containsGrid(cdt, t, x, y)) {
+            if (found == kNil || cdt.exterior(found)) found = t;
+            if (!cdt.exterior(found)) break;
+        }
+    }
+    if (found == kNil) return INFINITY;
+    if (cdt.exterior(found)) return -1;  // outside the domain: the outline's deviation
+    return std::fabs(z - heightGrid(set, cdt, found, x, y));
+}
+}  // namespace
+
 double bruteForceMaxError(const PointSet& set, const Cdt& cdt) {
     double worst = 0;
-    for (PointId m = 0; m < set.points.size(); ++m) {
-        std::uint32_t found = kNil;
-        for (std::uint32_t t = 0; t < cdt.triangleSlots(); ++t) {
-            if (cdt.triangleAlive(t) && !cdt.isGhost(t) &&
-                containsGrid(cdt, t, cdt.gx[m], cdt.gy[m])) {
-                if (found == kNil || cdt.exterior(found)) found = t;
-                if (!cdt.exterior(found)) break;
-            }
-        }
-        if (found == kNil) return INFINITY;  // outside the frame or the hull: cannot happen
-        if (cdt.exterior(found)) continue;   // outside the domain: the outline's deviation
-        worst = std::max(worst, std::fabs(set.points[m].z - surfaceHeight(set, cdt, found, m)));
+    for (PointId m = 0; m < set.points.size(); ++m)
+        worst = std::max(worst, bruteForceAt(set, cdt, cdt.gx[m], cdt.gy[m], set.points[m].z));
+    return worst;
+}
+
+double bruteForceExtraError(const PointSet& set, const Cdt& cdt,
+                            const std::vector<ExtraSample>& extra) {
+    double worst = 0;
+    for (const ExtraSample& e : extra) {
+        const double v = bruteForceAt(set, cdt, e.gx, e.gy, e.z);
+        if (v != INFINITY) worst = std::max(worst, v);  // outside the hull: left out (init)
     }
     return worst;
 }

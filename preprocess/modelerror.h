@@ -37,10 +37,21 @@
 
 namespace unilod {
 
+// An original point that is not a point of the triangulated set (issue 18: a tree node starts
+// from its children's coarsest vertices, but its error is measured against every original point
+// of its area): a position on the Cdt's grid and a height.
+struct ExtraSample {
+    std::int32_t gx = 0, gy = 0;
+    double z = 0;
+};
+
 class ModelError {
 public:
-    // `cdt`: the full triangulation of `set` (before any deletion).
-    void init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool paperMetric);
+    // `cdt`: the full triangulation of `set` (before any deletion). `extra` (max metric only):
+    // more original points, counted in M like the set's; each is located in the triangulation
+    // (exact, closed), and one outside the domain has no vertical error.
+    void init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool paperMetric,
+              const std::vector<ExtraSample>* extra = nullptr);
     // After a step: the destroyed pre-existing triangle slots and the created alive real slots.
     // Returns the step's own vertical error: the largest re-evaluated value (before the running
     // maximum).
@@ -136,6 +147,10 @@ private:
 // original point located by scanning all triangles; the current `paper` value: nearest vertex by
 // scanning all vertices (same distance formula: grid horizontal, metres vertical).
 double bruteForceMaxError(const PointSet& set, const Cdt& cdt);
+// The same over extra original points (ModelError::init `extra`; those outside the domain or the
+// hull have none).
+double bruteForceExtraError(const PointSet& set, const Cdt& cdt,
+                            const std::vector<ExtraSample>& extra);
 // The river part of the `max` error (deletion.h): along every river as built (Cdt::rivers), the
 // largest 3D distance from an original vertex to the segment between the alive vertices before
 // and after it; 0 when every river vertex is alive.

@@ -105,6 +105,77 @@ TEST(ModelError, SampledStepsOfALargerBlockEqualBruteForce) {
     EXPECT_GE(rec.errorMax.back() + 1e-9, bruteForceMaxError(set, cdt));
 }
 
+TEST(ModelError, ExtraOriginalPointsCountInTheMaxMetric) {
+    // A tree node's situation (issue 18): the triangulation holds a subset of the block's points
+    // (here every DEM point but one in three, plus every locked and river point); the others are
+    // extra original points. The recorded `max` error after every step equals the brute-force
+    // maximum over both.
+    BlockSpec spec;
+    spec.seed = 47;
+    spec.points = 400;
+    spec.rivers = 2;
+    const PointSet all = makeBlock(spec);
+    PointSet set;
+    std::vector<PointId> newId(all.points.size(), kNoPoint);
+    std::vector<PointId> extraIds;
+    for (PointId i = 0; i < all.points.size(); ++i) {
+        const Point& p = all.points[i];
+        if (p.kind == PointKind::Dem && !p.locked && i % 3 == 1) {
+            extraIds.push_back(i);
+            continue;
+        }
+        newId[i] = PointId(set.points.size());
+        set.points.push_back(p);
+    }
+    for (const Polyline& line : all.rivers) {
+        Polyline mapped;
+        for (PointId v : line) mapped.push_back(newId[v]);
+        set.rivers.push_back(mapped);
+    }
+    Cdt cdt;
+    std::string error;
+    ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+    std::vector<ExtraSample> extra;
+    for (PointId i : extraIds) {
+        const Point& p = all.points[i];
+        extra.push_back({std::int32_t(std::llround((p.x - cdt.originX) / cdt.gridUnit)),
+                         std::int32_t(std::llround((p.y - cdt.originY) / cdt.gridUnit)), p.z});
+    }
+    ASSERT_GT(extra.size(), 80u);
+    DeletionRecords rec;
+    DeletionOptions options;
+    options.paperError = false;
+    options.extraSamples = &extra;
+    double brute = std::max(bruteForceMaxError(set, cdt), bruteForceExtraError(set, cdt, extra));
+    EXPECT_GT(bruteForceExtraError(set, cdt, extra), 0.0);  // the extra points are off the mesh
+    std::uint32_t mismatches = 0;
+    options.afterStep = [&](std::uint32_t step) {
+        brute = std::max({brute, bruteForceMaxError(set, cdt), bruteForceExtraError(set, cdt, extra),
+                          bruteForceRiverDeviation(set, cdt)});
+        if (std::fabs(rec.errorMax[step - 1] - brute) > tolerance(brute) && mismatches++ == 0)
+            ADD_FAILURE() << "step " << step << ": " << rec.errorMax[step - 1] << " vs " << brute;
+    };
+    ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, error)) << error;
+    EXPECT_EQ(mismatches, 0u);
+    EXPECT_GT(rec.steps.size(), 150u);
+    // Without them the same deletion reports less at the start: they were counted.
+    Cdt plain;
+    ASSERT_TRUE(buildCdt(set, {}, plain, error)) << error;
+    DeletionRecords recPlain;
+    DeletionOptions plainOptions;
+    plainOptions.paperError = false;
+    ASSERT_TRUE(runGreedyDeletion(set, plain, {}, plainOptions, recPlain, error)) << error;
+    EXPECT_LT(recPlain.initialErrorMax, rec.initialErrorMax);
+    // The paper metric cannot take them: an error, not a wrong number.
+    Cdt again;
+    ASSERT_TRUE(buildCdt(set, {}, again, error)) << error;
+    DeletionRecords recBad;
+    DeletionOptions bad;
+    bad.extraSamples = &extra;
+    EXPECT_FALSE(runGreedyDeletion(set, again, {}, bad, recBad, error));
+    EXPECT_NE(error.find("paper"), std::string::npos) << error;
+}
+
 TEST(ModelError, MetricsCanBeSwitchedOff) {
     BlockSpec spec;
     spec.points = 200;
