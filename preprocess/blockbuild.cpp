@@ -17,7 +17,7 @@ const char* deletionOrderName(DeletionOrderKind kind) {
 
 bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
                 const BlockBuildOptions& options, format::Block& block, BlockBuildStats& stats,
-                std::string& error) {
+                std::string& error, const NodeErrorInput* node, CoarseState* coarse) {
     const auto t0 = std::chrono::steady_clock::now();
     stats = {};
     stats.points = set.points.size();
@@ -40,12 +40,30 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
     DeletionOptions del;
     del.maxError = options.maxError;
     del.paperError = options.paperError;
+    std::vector<ExtraSample> extra;
+    if (node != nullptr) {
+        if (options.order != DeletionOrderKind::Greedy) {
+            error = "tree nodes are built with the greedy order only";
+            return false;
+        }
+        del.paperError = false;
+        del.errorFloor = del.chainSlack = node->errorFloor;
+        if (node->originals) {
+            node->originals([&](const Point& p) {
+                extra.push_back({std::int32_t(std::llround((p.x - cdt.originX) / cdt.gridUnit)),
+                                 std::int32_t(std::llround((p.y - cdt.originY) / cdt.gridUnit)),
+                                 p.z});
+            });
+        }
+        del.extraSamples = &extra;
+    }
     DeletionRecords records;
     if (options.order == DeletionOrderKind::ThreeDdp) {
         if (!runDeletion(set, cdt, importance.order, del, records, error)) return false;
     } else {
         // The greedy key needs the max metric; its BAI factors are the 3ddp order's (Eq. 2).
         del.maxError = true;
+        del.stopTriangles = options.stopTriangles;
         std::vector<float> weight;
         if (options.importance.useBai) {
             const int baiRow = options.importance.baiTable.findRow(options.importance.baiRow);
@@ -90,8 +108,32 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
     in.originY = block.originY;
     in.ratio = options.lodRatio;
     in.maxError = options.maxError;
-    in.paperError = options.paperError;
+    in.paperError = del.paperError;
     if (!buildLodIndex(in, block, error)) return false;
+
+    if (coarse != nullptr) {
+        // The alive mesh after the last step, compacted to the vertices it uses.
+        *coarse = CoarseState{};
+        coarse->triangles = collectTriangles(cdt);
+        coarse->rivers = collectRiverEdges(cdt);
+        std::vector<PointId> local(set.points.size(), kNoPoint);
+        auto use = [&](PointId& v) {
+            if (local[v] == kNoPoint) {
+                local[v] = PointId(coarse->points.size());
+                coarse->points.push_back(set.points[v]);
+            }
+            v = local[v];
+        };
+        for (TriangleTriple& t : coarse->triangles)
+            for (PointId& v : t.v)
+                use(v);
+        for (RiverEdge& e : coarse->rivers) {
+            use(e.a);
+            use(e.b);
+        }
+        coarse->errorMax = records.errorMax.empty() ? records.initialErrorMax
+                                                    : records.errorMax.back();
+    }
 
     stats.vertices = block.vertices.size();
     stats.steps = records.steps.size();

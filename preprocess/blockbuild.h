@@ -4,8 +4,11 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
+#include <vector>
 
+#include "cdt.h"
 #include "importance.h"
 #include "points.h"
 #include "ulod.h"
@@ -24,6 +27,9 @@ struct BlockBuildOptions {
     bool maxError = true;    // record the `max` metric
     bool paperError = true;  // record the `paper` metric
     double lodRatio = 1.3;   // stored levels: see lodindex.h
+    // Greedy order: stop at this many alive triangles (0: run to the end): the hand-over of a
+    // block or node to its parent in issue 18's tree (nodebuild.h).
+    std::uint32_t stopTriangles = 0;
 };
 
 struct BlockBuildStats {
@@ -38,10 +44,29 @@ struct BlockBuildStats {
     double seconds = 0;
 };
 
+// The coarsest state of a built block or node, what its parent in issue 18's tree starts from
+// (nodebuild.h): the alive vertices with their exact coordinates, the alive triangles (counter-
+// clockwise, indices into `points`) and river edges, and the final `max` error.
+struct CoarseState {
+    std::vector<Point> points;
+    std::vector<TriangleTriple> triangles;
+    std::vector<RiverEdge> rivers;
+    double errorMax = 0;
+};
+
+// How a tree node's build differs from a leaf block's (nodebuild.h): its error is measured
+// against every original point of its area (`originals` calls its argument once per point), the
+// running `max` starts at `errorFloor` and every chain deviation gets it as slack (deletion.h).
+struct NodeErrorInput {
+    std::function<void(const std::function<void(const Point&)>&)> originals;
+    double errorFloor = 0;
+};
+
 // Builds `block` (vertices, records, errors, levels, indices; bbox and origin from the points).
 // `col`, `row` are stored as given. Returns false with `error` on bad input (e.g. crossing rivers).
 bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
                 const BlockBuildOptions& options, format::Block& block, BlockBuildStats& stats,
-                std::string& error);
+                std::string& error, const NodeErrorInput* node = nullptr,
+                CoarseState* coarse = nullptr);
 
 }  // namespace unilod

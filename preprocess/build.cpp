@@ -2,6 +2,7 @@
 #include "build.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -11,6 +12,7 @@
 #include <thread>
 
 #include "blockbuild.h"
+#include "nodebuild.h"
 #include "jsontext.h"
 
 namespace unilod {
@@ -120,18 +122,82 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     recordIngestOptions(o, info);
     header.buildInfo = jsonText(info);
 
-    // Blocks in parallel, written in grid order by this thread as soon as each is next in line,
-    // so the file does not depend on timing. Workers run at most `window` blocks ahead of the
-    // writer: memory holds a few blocks' results, never the whole model. Block costs vary a lot
-    // (rivers, relief), so a short window stalls the workers behind one slow block: 16M-point
-    // synthetic build, 2 threads, 204 s with 2 blocks per thread, 158 s with 4 (peak RSS 467 ->
-    // 554 MB).
+    // Blocks and tree nodes in parallel, written in file order by this thread as soon as each is
+    // next in line, so the file does not depend on timing. File order: the blocks in Morton
+    // order (so the blocks under any tree node are contiguous), then each tree level's nodes in
+    // Morton order (so every node's children are contiguous), the root last. Workers run at most
+    // `window` items ahead of the writer: memory holds a few items' results and the coarsest
+    // states of the items whose parent is not built yet, never the whole model. Block costs vary
+    // a lot (rivers, relief), so a short window stalls the workers behind one slow block:
+    // 16M-point synthetic build, 2 threads, 204 s with 2 blocks per thread, 158 s with 4 (peak
+    // RSS 467 -> 554 MB).
     // Blocks without any of the domain (all nodata) are left out of the model (splitIntoBlocks
     // refuses a DEM without any).
-    std::vector<std::size_t> present;
-    for (std::size_t i = 0; i < source.blockCount(); ++i)
-        if (source.hasDomain(i)) present.push_back(i);
-    const std::size_t n = present.size();
+    struct Item {
+        std::uint32_t level = 0, col = 0, row = 0;
+        std::size_t source = 0;                 // a leaf: its BlockSource index
+        std::uint32_t firstChild = format::kNoChild, childCount = 0;
+        std::size_t leafFirst = 0, leafCount = 1;  // the leaves under it (file order)
+        std::uint32_t parent = format::kNoChild;
+    };
+    std::vector<Item> items;
+    for (std::size_t i = 0; i < source.blockCount(); ++i) {
+        if (!source.hasDomain(i)) continue;
+        Item it;
+        it.col = source.rect(i).col;
+        it.row = source.rect(i).row;
+        it.source = i;
+        items.push_back(it);
+    }
+    auto morton = [](std::uint32_t x, std::uint32_t y) {
+        std::uint64_t m = 0;
+        for (int b = 0; b < 32; ++b)
+            m |= (std::uint64_t(x >> b & 1u) << (2 * b)) | (std::uint64_t(y >> b & 1u) << (2 * b + 1));
+        return m;
+    };
+    std::sort(items.begin(), items.end(), [&](const Item& a, const Item& b) {
+        return morton(a.col, a.row) < morton(b.col, b.row);
+    });
+    for (std::size_t i = 0; i < items.size(); ++i)
+        items[i].leafFirst = i;
+    const std::size_t leafCount = items.size();
+    // The tree (nodebuild.h): levels above the leaves until one root. The exact grid of a node
+    // spans at most 2 * (2^28 - 1) grid units (cdt.h): a level whose nodes would be wider is not
+    // built, and its children are the roots.
+    const bool tree = o.tree && o.order == DeletionOrderKind::Greedy && !blockOptions.paperError;
+    const double gridLimit = 2.0 * double((1 << 28) - 1) * format::kGridUnit;
+    std::size_t levelFirst = 0, levelCount = items.size();
+    std::uint32_t levels = 0;
+    while (tree && levelCount > 1) {
+        const std::uint32_t L = levels + 1;
+        const double span = std::max(header.blockWidth, header.blockHeight) * double(1u << L);
+        if (L > format::kMaxTreeLevel || span >= gridLimit) break;
+        const std::size_t next = items.size();
+        for (std::size_t i = levelFirst; i < levelFirst + levelCount; ++i) {
+            const Item child = items[i];
+            const bool fresh = items.size() == next || items.back().col != child.col / 2 ||
+                               items.back().row != child.row / 2;
+            if (fresh) {
+                Item node;
+                node.level = L;
+                node.col = child.col / 2;
+                node.row = child.row / 2;
+                node.firstChild = std::uint32_t(i);
+                node.childCount = 0;
+                node.leafFirst = child.leafFirst;
+                node.leafCount = 0;
+                items.push_back(node);
+            }
+            items.back().childCount += 1;
+            items.back().leafCount += child.leafCount;
+            items[i].parent = std::uint32_t(items.size() - 1);
+        }
+        levelFirst = next;
+        levelCount = items.size() - next;
+        levels = L;
+    }
+    const std::size_t n = items.size();
+    const int side = blockSize / std::max(o.stride, 1);  // sampled cells per block side
     format::Writer writer;
     if (!writer.open(o.outPath, header, n, outputOptions(o), error)) return false;
     const unsigned threads =
@@ -139,12 +205,33 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     const std::size_t window = 4 * std::size_t(threads);
     std::vector<format::Block> results(n);
     std::vector<BlockBuildStats> stats(n);
+    std::vector<CoarseState> coarse(n);
+    std::vector<std::array<double, 6>> boxes(n);
     std::vector<std::string> errors(n);
     std::vector<char> ready(n, 0);
     std::mutex mutex;
     std::condition_variable changed;
     std::size_t next = 0, written = 0;
     bool failed = false;
+    // The node border lines (nodebuild.h): the outer border of its leaf rectangle, locked unless
+    // it is the DEM's outer edge (leaves lock that only for the 3ddp order, which builds no tree).
+    auto nodeBorder = [&](const Item& it) {
+        const std::uint32_t c0 = it.col << it.level, r0 = it.row << it.level;
+        const std::uint32_t c1 = std::min(source.blocksX(), (it.col + 1) << it.level) - 1;
+        const std::uint32_t r1 = std::min(source.blocksY(), (it.row + 1) << it.level) - 1;
+        const BlockRect& lo = source.rect(std::size_t(r0) * source.blocksX() + c0);
+        const BlockRect& hi = source.rect(std::size_t(r1) * source.blocksX() + c1);
+        NodeBorder b;
+        b.x0 = dem.centreX(lo.cellCol0);
+        b.x1 = dem.centreX(hi.cellCol1);
+        b.y0 = dem.centreY(lo.cellRow0);
+        b.y1 = dem.centreY(hi.cellRow1);
+        b.lockX0 = c0 != 0;
+        b.lockY0 = r0 != 0;
+        b.lockX1 = c1 + 1 != source.blocksX();
+        b.lockY1 = r1 + 1 != source.blocksY();
+        return b;
+    };
     auto work = [&] {
         for (;;) {
             std::size_t i;
@@ -153,13 +240,64 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
                 changed.wait(lock, [&] { return failed || next >= n || next < written + window; });
                 if (failed || next >= n) return;
                 i = next++;
+                // A node waits for its children (items before it, already taken: no deadlock).
+                const Item& it = items[i];
+                changed.wait(lock, [&] {
+                    if (failed) return true;
+                    for (std::uint32_t c = 0; c < it.childCount; ++c)
+                        if (!ready[it.firstChild + c]) return false;
+                    return true;
+                });
+                if (failed) return;
             }
-            const PointSet set = source.points(present[i]);
-            const BlockRect& r = source.rect(present[i]);
-            const bool ok =
-                buildBlock(set, r.col, r.row, blockOptions, results[i], stats[i], errors[i]);
+            const Item& it = items[i];
+            BlockBuildOptions itemOptions = blockOptions;
+            if (it.parent != format::kNoChild)
+                itemOptions.stopTriangles = nodeHandoffTriangles(side, it.level);
+            bool ok;
+            if (it.level == 0) {
+                const PointSet set = source.points(it.source);
+                ok = buildBlock(set, it.col, it.row, itemOptions, results[i], stats[i],
+                                errors[i], nullptr, tree ? &coarse[i] : nullptr);
+            } else {
+                std::vector<const CoarseState*> children;
+                for (std::uint32_t c = 0; c < it.childCount; ++c)
+                    children.push_back(&coarse[it.firstChild + c]);
+                auto originals = [&](const std::function<void(const Point&)>& f) {
+                    for (std::size_t l = it.leafFirst; l < it.leafFirst + it.leafCount; ++l) {
+                        const PointSet leaf = source.points(items[l].source);
+                        for (const Point& p : leaf.points)
+                            f(p);
+                    }
+                };
+                ok = buildNode(children, nodeBorder(it), it.col, it.row, itemOptions, originals,
+                               results[i], stats[i], coarse[i], errors[i]);
+                if (ok) {
+                    // The node's box holds its children's (the cut culls a subtree by it).
+                    format::Block& b = results[i];
+                    for (std::uint32_t c = 0; c < it.childCount; ++c) {
+                        const auto& k = boxes[it.firstChild + c];
+                        b.minX = std::min(b.minX, k[0]);
+                        b.minY = std::min(b.minY, k[1]);
+                        b.minZ = std::min(b.minZ, k[2]);
+                        b.maxX = std::max(b.maxX, k[3]);
+                        b.maxY = std::max(b.maxY, k[4]);
+                        b.maxZ = std::max(b.maxZ, k[5]);
+                    }
+                    b.level = it.level;
+                    b.firstChild = it.firstChild;
+                    b.childCount = it.childCount;
+                }
+            }
             {
                 std::lock_guard lock(mutex);
+                if (ok) {
+                    const format::Block& b = results[i];
+                    boxes[i] = {b.minX, b.minY, b.minZ, b.maxX, b.maxY, b.maxZ};
+                    // The children's coarsest states are no longer needed.
+                    for (std::uint32_t c = 0; c < it.childCount; ++c)
+                        coarse[it.firstChild + c] = CoarseState{};
+                }
                 ready[i] = 1;
                 if (!ok) failed = true;
             }
@@ -189,14 +327,17 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
         header.maxY = std::max(header.maxY, b.maxY);
         header.maxZ = std::max(header.maxZ, b.maxZ);
         const BlockBuildStats& st = stats[i];
-        summary.demPoints += st.points - st.riverPoints;
-        summary.riverPoints += st.riverPoints;
-        summary.lockedPoints += st.lockedPoints;
+        if (items[i].level == 0) {
+            summary.demPoints += st.points - st.riverPoints;
+            summary.riverPoints += st.riverPoints;
+            summary.lockedPoints += st.lockedPoints;
+            summary.fullTriangles += st.fullTriangles;
+            summary.coarsestTriangles += st.coarsestTriangles;
+        }
+        if (items[i].parent == format::kNoChild) summary.rootTriangles += st.coarsestTriangles;
         summary.steps += st.steps;
         summary.kept += st.kept;
         summary.deferrals += st.deferrals;
-        summary.fullTriangles += st.fullTriangles;
-        summary.coarsestTriangles += st.coarsestTriangles;
         summary.indexTriangles += st.indexTriangles;
         results[i] = format::Block{};  // release the block's memory
         {
@@ -215,10 +356,12 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
         t.join();
     for (std::size_t i = 0; i < n; ++i) {
         if (!errors[i].empty()) {
-            error = "DEM '" + o.demPath + "' + rivers '" + o.riversPath + "': block (" +
-                    std::to_string(source.rect(present[i]).col) + "," +
-                    std::to_string(source.rect(present[i]).row) +
-                    "): " + errors[i];
+            const Item& it = items[i];
+            error = "DEM '" + o.demPath + "' + rivers '" + o.riversPath + "': " +
+                    (it.level == 0 ? "block (" : "tree node (") + std::to_string(it.col) + "," +
+                    std::to_string(it.row) + ")" +
+                    (it.level == 0 ? "" : " of level " + std::to_string(it.level)) + ": " +
+                    errors[i];
             return false;
         }
     }
@@ -235,7 +378,9 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     if (!writer.finish(error)) return false;
     std::error_code ec;
     summary.outputBytes = std::filesystem::file_size(o.outPath, ec);
-    summary.blocks = n;
+    summary.blocks = leafCount;
+    summary.nodes = n - leafCount;
+    summary.treeLevels = levels;
     summary.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return true;

@@ -124,6 +124,7 @@ private:
     void record(PointId x, PointId a, PointId c);
     // The deviation of the chain (river or ring) at x: deletion.h.
     double chainDeviation(PointId x) const;
+    double builtChainDeviation(std::uint32_t p) const;  // from the chain as built, at position p
     void rollback(PointId x, PointId a, PointId c);
     void setBoundary(PointId x, PointId a, PointId c, bool deleted);
     void block(PointId x, std::initializer_list<PointId> blockers);
@@ -197,7 +198,8 @@ void Sequence::start(std::size_t expectedSteps) {
     rec_.addedTriangles.reserve(expectedSteps * 17 / 4);
     if (options_.maxError || options_.paperError) {
         error_.init(set_, cdt_, options_.maxError, options_.paperError, options_.extraSamples);
-        rec_.initialErrorMax = error_.runningMax();
+        rec_.initialErrorMax =
+            options_.maxError ? std::max(error_.runningMax(), options_.errorFloor) : 0.0;
         rec_.initialErrorPaper = error_.runningPaper();
         runningMax_ = rec_.initialErrorMax;
         if (options_.maxError) {
@@ -471,6 +473,10 @@ void Sequence::rollback(PointId x, PointId a, PointId c) {
 double Sequence::chainDeviation(PointId x) const {
     const std::uint32_t p = riverPos_[x];
     if (p == kNil) return 0;
+    return builtChainDeviation(p) + options_.chainSlack;
+}
+
+double Sequence::builtChainDeviation(std::uint32_t p) const {
     const std::uint32_t pa = riverPrev_[p], pc = riverNext_[p];
     assert(pa != kNil && pc != kNil);
     const PointId a = riverVertex_[pa], c = riverVertex_[pc];
@@ -640,7 +646,11 @@ bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
         }
         evaluate(v);
     }
-    while (!heap_.empty() && step_ < options_.maxSteps) {
+    auto stopped = [&] {
+        return step_ >= options_.maxSteps ||
+               (options_.stopTriangles > 0 && domainTriangles_ <= options_.stopTriangles);
+    };
+    while (!heap_.empty() && !stopped()) {
         const PointId x = heap_.top();
         const double key = heap_.topKey();
         heap_.pop();
@@ -704,7 +714,7 @@ bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
             evaluate(v);
         }
     }
-    if (step_ < options_.maxSteps) {
+    if (!stopped()) {
         for (PointId v = 0; v < n; ++v) {
             if (state_[v] == State::Deferred) rec_.kept.push_back({v, KeptReason::Deferred});
         }

@@ -106,11 +106,22 @@ struct DeletionOptions {
     // Stop after this many steps (the Cdt is left at that step; `kept` then lists only the
     // refusals met so far and no Deferred entries).
     std::uint32_t maxSteps = std::numeric_limits<std::uint32_t>::max();
+    // Greedy order: stop once the alive triangles are this many or fewer (0: run to the end). A
+    // block or node of issue 18's tree hands over to its parent there (nodebuild.h); like
+    // maxSteps, `kept` then lists no Deferred entries.
+    std::uint32_t stopTriangles = 0;
     // Called after every step with the step count (tests run the checker here).
     std::function<void(std::uint32_t)> afterStep;
     // Original points beyond the set's, counted in the `max` metric (modelerror.h ExtraSample;
     // max metric only). Must outlive the call.
     const std::vector<ExtraSample>* extraSamples = nullptr;
+    // Issue 18's tree nodes (nodebuild.h), whose points are their children's coarsest vertices:
+    // `errorFloor` is the error the running `max` starts from (the children's largest final
+    // error: errors stay monotone up the tree); `chainSlack` is added to every chain deviation
+    // (river and outline), since the chains as built are the children's coarsest ones, each
+    // within that error of the original chain (triangle inequality: the deviation from the
+    // original vertices is at most the deviation from the built ones plus the slack).
+    double errorFloor = 0, chainSlack = 0;
 };
 
 // Runs the deletion sequence on `cdt` (built from `set` by buildCdt, no deletion yet).

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <numbers>
 
@@ -32,6 +33,23 @@ bool parseDistance(const std::string& text, double& metres) {
     return true;
 }
 
+std::string statsCsv(const StatsTable& t) {
+    std::string s =
+        "view_distance_m,pixels,hlim_edge_m,hlim_corner_m,hlim_middle_m,points,"
+        "river_bound_edges,triangles,retention_percent,nodes\n";
+    char buf[512];
+    for (const StatsRow& r : t.rows) {
+        std::snprintf(buf, sizeof buf, "%.17g,%.17g,%.17g,%.17g,%.17g,%llu,%llu,%llu,%.17g,%llu\n",
+                      r.distance, r.pixels, r.hEdge, r.hCorner, r.hMiddle,
+                      static_cast<unsigned long long>(r.points),
+                      static_cast<unsigned long long>(r.riverEdges),
+                      static_cast<unsigned long long>(r.triangles), r.retention,
+                      static_cast<unsigned long long>(r.nodes));
+        s += buf;
+    }
+    return s;
+}
+
 namespace {
 
 // Index in `blocks` of the block at (col, row), or of the nearest stored one.
@@ -40,6 +58,7 @@ std::size_t findBlock(const std::vector<format::BlockInfo>& blocks, std::uint32_
     std::size_t best = 0;
     long bestDistance = -1;
     for (std::size_t i = 0; i < blocks.size(); ++i) {
+        if (blocks[i].level != 0) continue;  // leaves only
         const long d =
             std::labs(long(blocks[i].col) - long(col)) + std::labs(long(blocks[i].row) - long(row));
         if (bestDistance < 0 || d < bestDistance) {
@@ -96,9 +115,34 @@ bool loadSummaries(const std::string& path, std::uint32_t requestedMetric, forma
             s.riverEdges.push_back(step.riverEdgesAlive);
         }
         s.levels = std::move(b.levels);
-        s.node.levels = nullptr;  // counts per exact step here, not stored levels
+        s.node.levels = &s.levels;
     }
     return true;
+}
+
+// The cut of `view` through the file's tree (engine/lod/cut.h) and, per drawn node, the counts
+// of its exact step k* for the node's h_lim.
+struct CutCounts {
+    std::uint64_t points = 0, riverEdges = 0, triangles = 0, nodes = 0;
+};
+CutCounts countCut(const engine::ViewSpec& view, const std::vector<BlockSummary>& blocks,
+                   std::uint32_t metric) {
+    std::vector<engine::LodNode> nodes;
+    nodes.reserve(blocks.size());
+    for (const BlockSummary& s : blocks)
+        nodes.push_back(s.node);
+    std::vector<engine::NodeChoice> cut;
+    engine::selectCut(view, nodes, metric, cut);
+    CutCounts c;
+    c.nodes = cut.size();
+    for (const engine::NodeChoice& choice : cut) {
+        const BlockSummary& bs = blocks[choice.block];
+        const std::size_t k = engine::exactStep(bs.error, choice.hLim);
+        c.points += bs.vertexCount - k;
+        c.riverEdges += bs.riverEdges[k];
+        c.triangles += bs.triangles[k];
+    }
+    return c;
 }
 
 }  // namespace
@@ -152,7 +196,7 @@ bool computeStats(const std::string& path, const StatsOptions& o, StatsTable& ta
     table.blocksX = h.blocksX;
     table.blocksY = h.blocksY;
     for (const BlockSummary& s : blocks)
-        table.fullPoints += s.vertexCount;
+        if (s.node.level == 0) table.fullPoints += s.vertexCount;
 
     const std::size_t corner = findBlock(infos, 0, 0);
     const std::uint32_t midCol = h.blocksX > 0 ? (h.blocksX - 1) / 2 : 0;
@@ -176,14 +220,11 @@ bool computeStats(const std::string& path, const StatsOptions& o, StatsTable& ta
             row.hEdge = limit(edge);
             row.hCorner = limit(corner);
             row.hMiddle = limit(middle);
-            for (std::size_t i = 0; i < blocks.size(); ++i) {
-                const BlockSummary& bs = blocks[i];
-                const double hlim = limit(i);
-                const std::size_t k = engine::exactStep(bs.error, hlim);
-                row.points += bs.vertexCount - k;
-                row.riverEdges += bs.riverEdges[k];
-                row.triangles += bs.triangles[k];
-            }
+            const CutCounts c = countCut(view, blocks, table.metric);
+            row.points = c.points;
+            row.riverEdges = c.riverEdges;
+            row.triangles = c.triangles;
+            row.nodes = c.nodes;
             row.retention =
                 table.fullPoints > 0 ? 100.0 * double(row.points) / double(table.fullPoints) : 0.0;
             table.rows.push_back(row);
@@ -204,15 +245,27 @@ bool computeErrorStats(const std::string& path, const std::vector<double>& error
     format::Reader reader;
     std::vector<BlockSummary> blocks;
     if (!loadSummaries(path, metric, reader, table.metric, blocks, error)) return false;
-    table.blocks = blocks.size();
     for (const BlockSummary& s : blocks) {
+        if (s.node.level != 0) continue;
+        table.blocks += 1;
         table.fullPoints += s.vertexCount;
         table.fullTriangles += s.triangles[0];
     }
+    table.nodes = blocks.size() - table.blocks;
+    std::vector<engine::LodNode> nodes;
+    for (const BlockSummary& s : blocks)
+        nodes.push_back(s.node);
+    std::vector<engine::NodeChoice> cut;
     for (double e : errors) {
         ErrorStatsRow row;
         row.error = e;
-        for (const BlockSummary& s : blocks) {
+        engine::ViewSpec view;
+        view.kind = engine::ViewSpec::Kind::Uniform;
+        view.hLim = e;
+        engine::selectCut(view, nodes, table.metric, cut);
+        row.nodes = cut.size();
+        for (const engine::NodeChoice& choice : cut) {
+            const BlockSummary& s = blocks[choice.block];
             const std::size_t k = engine::exactStep(s.error, e);
             row.exactPoints += s.vertexCount - k;
             row.exactTriangles += s.triangles[k];

@@ -15,7 +15,10 @@
 //   h_lim the block stays at full resolution (k* = 0): nothing finer exists.
 // - Counts of that state: points = vertexCount - k* (the alive prefix of the retention order),
 //   river bound edges = steps[k*-1].riverEdgesAlive, triangles = steps[k*-1].trianglesAlive
-//   (k* = 0: levels[0].riverCount / levels[0].triangleCount). Totals are sums over blocks;
+//   (k* = 0: levels[0].riverCount / levels[0].triangleCount). Which blocks: the cut of the view
+//   through the file's block hierarchy (issue 18; engine/lod/cut.h selectCut): a tree node is
+//   counted instead of its children when its full-resolution error fits its h_lim. Totals are
+//   sums over the drawn nodes;
 //   locked border vertices shared by neighbouring blocks are counted once in EVERY block that
 //   holds them (no deduplication), and so is a river edge lying on a block border. Retention % =
 //   points / full-resolution points (the sum of vertexCount) · 100, counted the same way.
@@ -48,6 +51,7 @@ struct StatsRow {
     double distance = 0, pixels = 0;             // D (metres), P
     double hEdge = 0, hCorner = 0, hMiddle = 0;  // h_lim of the named blocks (metres)
     std::uint64_t points = 0, riverEdges = 0, triangles = 0;
+    std::uint64_t nodes = 0;  // drawn nodes of the cut (blocks and tree nodes)
     double retention = 0;  // percent
 };
 
@@ -66,6 +70,10 @@ struct StatsTable {
 engine::ViewSpec statsView(const format::Header& header, const StatsOptions& options,
                            double distance, double pixels);
 
+// The table as CSV (`unilod stats --csv`, `report`'s tables.csv): a header line, then one line
+// per row; doubles with %.17g (they round-trip), '.' decimals.
+std::string statsCsv(const StatsTable& table);
+
 // Parses "100km", "1500 m", "2.5km" or a bare number (metres). False on anything else.
 bool parseDistance(const std::string& text, double& metres);
 
@@ -76,7 +84,7 @@ bool computeStats(const std::string& path, const StatsOptions& options, StatsTab
                   std::string& error);
 
 // --- Uniform model-error thresholds (`unilod stats --error`): the same tolerance e (metres) for
-// every block, no viewpoint. Per e, summed over blocks (border vertices counted in every block
+// every block, no viewpoint. Per e, summed over the nodes of the cut for h_lim = e (border vertices counted in every block
 // holding them, as above):
 // - exact: the exact step k* = the largest k with error[k] <= e (k* = 0 when even error[0] > e);
 //   points = vertexCount - k*, triangles = steps[k*-1].trianglesAlive (k* = 0: levels[0]).
@@ -88,12 +96,13 @@ struct ErrorStatsRow {
     double error = 0;  // e (metres)
     std::uint64_t exactPoints = 0, exactTriangles = 0;
     std::uint64_t levelPoints = 0, levelTriangles = 0;
+    std::uint64_t nodes = 0;  // drawn nodes of the cut
 };
 
 struct ErrorStatsTable {
     std::uint32_t metric = 0;  // the metric used
-    std::size_t blocks = 0;
-    std::uint64_t fullPoints = 0, fullTriangles = 0;  // sums at full resolution
+    std::size_t blocks = 0, nodes = 0;  // leaves (blocks) and tree nodes in the file
+    std::uint64_t fullPoints = 0, fullTriangles = 0;  // sums over the blocks at full resolution
     std::vector<ErrorStatsRow> rows;                  // one per threshold, in the given order
 };
 

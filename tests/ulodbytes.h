@@ -19,8 +19,8 @@
 namespace unilod::test {
 
 struct UlodBytes {
-    // README.md: file header 136 bytes, directory entries 96, trailer 8, block header 136.
-    static constexpr std::size_t kHeaderSize = 136, kEntrySize = 96, kBlockHeaderSize = 136;
+    // README.md: file header 136 bytes, directory entries 104, trailer 8, block header 136.
+    static constexpr std::size_t kHeaderSize = 136, kEntrySize = 104, kBlockHeaderSize = 136;
     // Header fields.
     static constexpr std::size_t kOriginX = 24, kMinX = 40, kMinY = 48, kMinZ = 56, kMaxX = 64,
                                  kMaxY = 72, kMaxZ = 80, kBlockWidth = 88, kBlockHeight = 96,

@@ -21,6 +21,7 @@
 #include <cstring>
 #include <limits>
 #include <set>
+#include <tuple>
 #include <utility>
 
 #include "predicates.h"
@@ -64,9 +65,11 @@ struct DirEntry {
     std::uint32_t checksum;
     std::uint32_t vertexCount, stepCount, levelCount;
     std::uint32_t fullTriangles;
+    std::uint16_t level, childCount;  // tree links (Block)
+    std::uint32_t firstChild;
     std::uint32_t reserved;  // 0
 };
-static_assert(sizeof(DirEntry) == 96);
+static_assert(sizeof(DirEntry) == 104);
 static_assert(offsetof(DirEntry, offset) == 56);
 static_assert(offsetof(DirEntry, checksum) == 72);
 
@@ -102,8 +105,72 @@ constexpr std::uint64_t alignUp(std::uint64_t n) {
     return (n + kAlign - 1) / kAlign * kAlign;
 }
 
-std::string blockName(std::uint32_t col, std::uint32_t row) {
+std::string blockName(std::uint32_t col, std::uint32_t row, std::uint32_t level = 0) {
+    if (level > 0) {
+        return "node (" + std::to_string(col) + "," + std::to_string(row) + ") of tree level " +
+               std::to_string(level);
+    }
     return "block (" + std::to_string(col) + "," + std::to_string(row) + ")";
+}
+
+// The grid of tree level L: the block grid halved L times, rounding up.
+std::uint32_t levelGridSize(std::uint32_t blocks, std::uint32_t level) {
+    return std::uint32_t((std::uint64_t(blocks) + (std::uint64_t(1) << level) - 1) >> level);
+}
+
+// The tree links of a whole directory (issue 18): a leaf (level 0) has no children; a node of
+// level L > 0 has 1 to 4 children, the entries [firstChild, firstChild + childCount) before it,
+// each of level L - 1, at its position halved and inside its box; every entry is the child of at
+// most one node. Positions inside their level's grid and unique per level.
+bool treeValid(const Header& h, const std::vector<DirEntry>& dir, std::string& error) {
+    std::set<std::tuple<std::uint32_t, std::uint32_t, std::uint32_t>> seen;
+    std::vector<std::uint8_t> hasParent(dir.size(), 0);
+    for (std::size_t i = 0; i < dir.size(); ++i) {
+        const DirEntry& e = dir[i];
+        const std::string name =
+            "directory entry " + std::to_string(i) + " (" + blockName(e.col, e.row, e.level) + ")";
+        if (e.level > kMaxTreeLevel) {
+            error = name + ": tree level above " + std::to_string(kMaxTreeLevel);
+            return false;
+        }
+        const std::uint32_t gx = levelGridSize(h.blocksX, e.level),
+                            gy = levelGridSize(h.blocksY, e.level);
+        if (e.col >= gx || e.row >= gy) {
+            error = name + ": outside the " + std::to_string(gx) + "x" + std::to_string(gy) +
+                    " grid of its tree level";
+            return false;
+        }
+        if (!seen.insert({e.level, e.col, e.row}).second) {
+            error = name + ": duplicate block position";
+            return false;
+        }
+        if (e.level == 0) {
+            if (e.childCount != 0 || e.firstChild != kNoChild) {
+                error = name + ": a leaf with children";
+                return false;
+            }
+            continue;
+        }
+        if (e.childCount < 1 || e.childCount > 4 || e.firstChild >= i ||
+            e.childCount > i - e.firstChild) {
+            error = name + ": children [" + std::to_string(e.firstChild) + ", +" +
+                    std::to_string(e.childCount) + ") are not 1 to 4 entries before it";
+            return false;
+        }
+        for (std::uint32_t c = e.firstChild; c < e.firstChild + e.childCount; ++c) {
+            const DirEntry& k = dir[c];
+            const bool inside = k.minX >= e.minX && k.maxX <= e.maxX && k.minY >= e.minY &&
+                                k.maxY <= e.maxY && k.minZ >= e.minZ && k.maxZ <= e.maxZ;
+            if (k.level + 1u != e.level || k.col / 2 != e.col || k.row / 2 != e.row ||
+                hasParent[c] || !inside) {
+                error = name + ": entry " + std::to_string(c) +
+                        " is not one of its children (level, position, box or a second parent)";
+                return false;
+            }
+            hasParent[c] = 1;
+        }
+    }
+    return true;
 }
 
 std::string errnoText() {
@@ -720,7 +787,7 @@ void serializeBlock(const Block& b, std::vector<unsigned char>& out) {
 
 bool validateBlock(const Block& block, std::uint32_t metrics, std::string& error) {
     if (!validateBlockImpl(block, metrics, error)) {
-        error = blockName(block.col, block.row) + ": " + error;
+        error = blockName(block.col, block.row, block.level) + ": " + error;
         return false;
     }
     return true;
@@ -740,7 +807,6 @@ struct Writer::Impl {
     AtomicFile file;
     std::size_t blockCount = 0;
     std::vector<DirEntry> dir;
-    std::set<std::pair<std::uint32_t, std::uint32_t>> seen;
     std::uint64_t dataStart = 0, offset = 0;
     std::vector<unsigned char> bytes;
     bool open = false;
@@ -792,14 +858,7 @@ bool Writer::writeBlock(const Block& b, std::string& error) {
     if (w.dir.size() >= w.blockCount) {
         return fail("more blocks than the " + std::to_string(w.blockCount) + " announced");
     }
-    if (b.col >= w.header.blocksX || b.row >= w.header.blocksY) {
-        return fail(blockName(b.col, b.row) + " is outside the " +
-                    std::to_string(w.header.blocksX) + "x" + std::to_string(w.header.blocksY) +
-                    " block grid");
-    }
-    if (!w.seen.insert({b.col, b.row}).second) {
-        return fail(blockName(b.col, b.row) + " appears twice");
-    }
+    if (b.level > kMaxTreeLevel) return fail(blockName(b.col, b.row, b.level) + ": tree level too high");
     std::string why;
     if (!validateBlock(b, w.header.metrics, why)) return fail(why);
     serializeBlock(b, w.bytes);
@@ -819,6 +878,17 @@ bool Writer::writeBlock(const Block& b, std::string& error) {
     e.stepCount = static_cast<std::uint32_t>(b.steps.size());
     e.levelCount = static_cast<std::uint32_t>(b.levels.size());
     e.fullTriangles = b.levels[0].triangleCount;  // validateBlock: levels[0] is step 0
+    e.level = std::uint16_t(b.level);
+    e.childCount = std::uint16_t(std::min<std::uint32_t>(b.childCount, 0xFFFF));
+    e.firstChild = b.firstChild;
+    // Tree links are checked as a whole in finish() (treeValid); positions here, early.
+    {
+        std::vector<DirEntry> one = {e};
+        one[0].childCount = 0;
+        one[0].firstChild = kNoChild;
+        one[0].level = std::uint16_t(b.level);
+        if (b.level == 0 && !treeValid(w.header, one, why)) return fail(why);
+    }
     if (!w.file.writeAt(w.bytes.data(), w.bytes.size(), w.offset, error)) return false;
     w.offset += w.bytes.size();
     w.dir.push_back(e);
@@ -847,8 +917,10 @@ bool Writer::finish(std::string& error) {
     if (!headerValid(header, w.offset, why)) return fail(why);
     for (const DirEntry& e : w.dir) {
         const double box[6] = {e.minX, e.minY, e.minZ, e.maxX, e.maxY, e.maxZ};
-        if (!directoryBoxValid(header, box, why)) return fail(blockName(e.col, e.row) + ": " + why);
+        if (!directoryBoxValid(header, box, why))
+            return fail(blockName(e.col, e.row, e.level) + ": " + why);
     }
+    if (!treeValid(header, w.dir, why)) return fail(why);
 
     FileHeader fh{};
     std::memcpy(fh.magic, kMagic, sizeof(kMagic));
@@ -1022,20 +1094,17 @@ bool Reader::open(const std::string& path, std::string& error) {
     if (!headerValid(h, actualSize, why)) return fail(why);
 
     r.blocks.resize(fh.blockCount);
-    std::set<std::pair<std::uint32_t, std::uint32_t>> seen;
+    std::vector<DirEntry> dir(fh.blockCount);
+    if (fh.blockCount > 0)
+        std::memcpy(dir.data(), head.data() + dirAt, dir.size() * sizeof(DirEntry));
+    if (!treeValid(h, dir, why)) return fail(why);
     std::vector<std::pair<std::uint64_t, std::uint64_t>> ranges;  // (offset, size) per block
     ranges.reserve(fh.blockCount);
     for (std::uint32_t i = 0; i < fh.blockCount; ++i) {
-        DirEntry e;
-        std::memcpy(&e, head.data() + dirAt + std::uint64_t(i) * sizeof(DirEntry), sizeof(e));
-        const std::string name =
-            "directory entry " + std::to_string(i) + " (" + blockName(e.col, e.row) + ")";
+        const DirEntry& e = dir[i];
+        const std::string name = "directory entry " + std::to_string(i) + " (" +
+                                 blockName(e.col, e.row, e.level) + ")";
         if (e.reserved != 0) return fail(name + ": reserved field not 0");
-        if (e.col >= fh.blocksX || e.row >= fh.blocksY) {
-            return fail(name + ": outside the " + std::to_string(fh.blocksX) + "x" +
-                        std::to_string(fh.blocksY) + " block grid");
-        }
-        if (!seen.insert({e.col, e.row}).second) return fail(name + ": duplicate block position");
         // Overflow-safe: offset <= actualSize is checked before actualSize - offset.
         if (e.offset < dataStart || e.offset % kAlign != 0 || e.offset > actualSize ||
             e.size > actualSize - e.offset || e.size < sizeof(BlockHeader)) {
@@ -1061,6 +1130,9 @@ bool Reader::open(const std::string& path, std::string& error) {
         info.stepCount = e.stepCount;
         info.levelCount = e.levelCount;
         info.fullTriangles = e.fullTriangles;
+        info.level = e.level;
+        info.firstChild = e.firstChild;
+        info.childCount = e.childCount;
     }
     std::sort(ranges.begin(), ranges.end());
     for (std::size_t i = 1; i < ranges.size(); ++i) {
@@ -1078,7 +1150,7 @@ bool Reader::readBlock(std::size_t index, Block& block, std::string& error) cons
     const Impl& r = *impl_;
     const BlockInfo& info = r.blocks[index];
     auto fail = [&](const std::string& what) {
-        error = r.path + ": " + blockName(info.col, info.row) + ": " + what;
+        error = r.path + ": " + blockName(info.col, info.row, info.level) + ": " + what;
         return false;
     };
 
@@ -1092,7 +1164,7 @@ bool Reader::readBlock(std::size_t index, Block& block, std::string& error) cons
     BlockHeader h;
     std::memcpy(&h, bytes.data(), sizeof(h));
     if (h.col != info.col || h.row != info.row) {
-        return fail("block header says " + blockName(h.col, h.row));
+        return fail("block header says " + blockName(h.col, h.row, info.level));
     }
     // Counts are checked against the byte size before any array is allocated.
     const std::uint64_t expected = blockByteSize(h);
@@ -1108,6 +1180,9 @@ bool Reader::readBlock(std::size_t index, Block& block, std::string& error) cons
     Block b;
     b.col = h.col;
     b.row = h.row;
+    b.level = info.level;
+    b.firstChild = info.firstChild;
+    b.childCount = info.childCount;
     b.originX = h.originX;
     b.originY = h.originY;
     b.minX = h.minX;
@@ -1155,12 +1230,15 @@ bool Reader::readGeometry(std::size_t index, int level, BlockGeometry& geometry,
     if (level != kLevelsOnly && level != kAllLevels &&
         (level < 0 || std::size_t(level) >= b.levels.size())) {
         error =
-            impl_->path + ": " + blockName(b.col, b.row) + ": no level " + std::to_string(level);
+            impl_->path + ": " + blockName(b.col, b.row, b.level) + ": no level " + std::to_string(level);
         return false;
     }
     BlockGeometry g;
     g.col = b.col;
     g.row = b.row;
+    g.level = b.level;
+    g.firstChild = b.firstChild;
+    g.childCount = b.childCount;
     g.originX = b.originX;
     g.originY = b.originY;
     g.minX = b.minX, g.minY = b.minY, g.minZ = b.minZ;

@@ -13,7 +13,13 @@
 namespace unilod::format {
 
 inline constexpr char kMagic[8] = {'U', 'L', 'O', 'D', '\r', '\n', '\x1a', '\n'};
-inline constexpr std::uint32_t kVersion = 1;
+// Version 2 (issue 18): the directory holds the block hierarchy's tree links.
+inline constexpr std::uint32_t kVersion = 2;
+
+// Tree links (issue 18's block hierarchy, preprocess/nodebuild.h): no child.
+inline constexpr std::uint32_t kNoChild = ~0u;
+// Tree levels above the leaves a file may hold (a 2^24-block grid side needs 24).
+inline constexpr std::uint32_t kMaxTreeLevel = 31;
 
 // Metrics present (bit mask) and the default one.
 enum Metric : std::uint32_t { kMetricMax = 1, kMetricPaper = 2 };
@@ -68,7 +74,12 @@ struct Level {
 static_assert(sizeof(Level) == 32);
 
 struct Block {
-    std::uint32_t col = 0, row = 0;  // position in the block grid
+    std::uint32_t col = 0, row = 0;  // position in its tree level's grid
+    // Tree level (0: a leaf, a block of the block grid; L: a node covering the 2^L x 2^L blocks
+    // from (col * 2^L, row * 2^L) on) and children: the childCount directory entries from
+    // firstChild on (kNoChild, 0 for a leaf). Held in the directory (BlockInfo), not in the block
+    // bytes; Reader::readBlock fills them in.
+    std::uint32_t level = 0, firstChild = kNoChild, childCount = 0;
     double originX = 0, originY = 0;  // vertex x, y are relative to this
     double minX = 0, minY = 0, minZ = 0, maxX = 0, maxY = 0, maxZ = 0;  // bounding box
 
@@ -111,6 +122,7 @@ struct Header {
 // What the directory says about a block without reading it.
 struct BlockInfo {
     std::uint32_t col = 0, row = 0;
+    std::uint32_t level = 0, firstChild = kNoChild, childCount = 0;  // as in Block
     double minX = 0, minY = 0, minZ = 0, maxX = 0, maxY = 0, maxZ = 0;
     std::uint64_t offset = 0, size = 0;  // byte range of the block in the file
     std::uint32_t checksum = 0;          // CRC-32 of those bytes
@@ -194,6 +206,7 @@ private:
 // records (a fraction of the block's bytes).
 struct BlockGeometry {
     std::uint32_t col = 0, row = 0;
+    std::uint32_t level = 0, firstChild = kNoChild, childCount = 0;  // as in Block
     double originX = 0, originY = 0;
     double minX = 0, minY = 0, minZ = 0, maxX = 0, maxY = 0, maxZ = 0;
     std::vector<Level> levels;  // every stored level, as in the file

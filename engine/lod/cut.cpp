@@ -50,6 +50,9 @@ LodNode nodeOf(const B& b, bool moves) {
     n.levels = &b.levels;
     n.col = b.col;
     n.row = b.row;
+    n.level = b.level;
+    n.firstChild = b.firstChild;
+    n.childCount = b.childCount;
     return n;
 }
 

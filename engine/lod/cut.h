@@ -46,12 +46,13 @@ struct ViewSpec {
 // Tree links (issue 18's block hierarchy): a node's children are the `childCount` nodes from
 // `firstChild` on, each inside its parent's box; a node that is no other node's child is a root.
 // A list without links is a forest of leaves: today's blocks.
-inline constexpr std::uint32_t kNoChild = ~0u;
+using format::kNoChild;
 struct LodNode {
     double boxMin[3] = {}, boxMax[3] = {};
     bool horizontal = false;
     const std::vector<format::Level>* levels = nullptr;
     std::uint32_t col = 0, row = 0;  // grid position (reported back)
+    std::uint32_t level = 0;         // tree level (reported back)
     std::uint32_t firstChild = kNoChild, childCount = 0;
 };
 

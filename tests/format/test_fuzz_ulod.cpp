@@ -276,8 +276,10 @@ void exercise(const std::string& path, Tally& tally) {
         const bool geometryOk = reader.readGeometry(i, format::kAllLevels, g, geometryError);
         EXPECT_EQ(ok, geometryOk) << blockError << " / " << geometryError;  // one validation
         if (!ok) {
-            const std::string name = path + ": block (" + std::to_string(info.col) + "," +
-                                     std::to_string(info.row) + "): ";
+            const std::string name =
+                path + (info.level == 0 ? ": block (" : ": node (") + std::to_string(info.col) +
+                "," + std::to_string(info.row) + ")" +
+                (info.level == 0 ? "" : " of tree level " + std::to_string(info.level)) + ": ";
             EXPECT_EQ(blockError.rfind(name, 0), 0u) << blockError;
             EXPECT_EQ(blockError, geometryError);
             semantic = semantic || blockError.find("checksum mismatch") == std::string::npos;
@@ -331,10 +333,11 @@ protected:
         o.outPath = dir->file("seed.ulod");
         o.blockSize = (std::max(data.dem.width, data.dem.height) - 1) / 2;
         o.threads = 1;
+        o.tree = true;  // the tree links and a node are fuzzed too
         BuildSummary summary;
         ASSERT_TRUE(runBuild(o, summary, error)) << error;
         seed = UlodBytes::load(o.outPath);
-        ASSERT_EQ(seed.blockCount(), 4u);
+        ASSERT_EQ(seed.blockCount(), 5u);  // 2 x 2 blocks and the root of their tree
     }
     static void TearDownTestSuite() {
         delete dir;

@@ -24,7 +24,7 @@ namespace {
 
 // Layout constants from README.md (the test pins the documented layout).
 constexpr std::size_t kFileHeaderSize = 136;
-constexpr std::size_t kDirEntrySize = 96;
+constexpr std::size_t kDirEntrySize = 104;
 constexpr std::size_t kBlockHeaderSize = 136;
 
 std::size_t align8(std::size_t n) {
@@ -442,7 +442,7 @@ TEST_F(UlodTest, BadMagicRejected) {
 
 TEST_F(UlodTest, WrongVersionRejectedWithTheVersion) {
     std::vector<char> bytes = readBytes(writeStandard());
-    for (std::uint32_t version : {0u, 2u, 77u}) {
+    for (std::uint32_t version : {0u, 1u, 77u}) {
         store<std::uint32_t>(bytes, 8, version);
         const std::string path = file("version.ulod");
         writeBytes(path, bytes.data(), bytes.size());
@@ -450,7 +450,7 @@ TEST_F(UlodTest, WrongVersionRejectedWithTheVersion) {
         std::string error;
         EXPECT_FALSE(reader.open(path, error));
         EXPECT_NE(error.find("unsupported .ulod version " + std::to_string(version) +
-                             " (this build reads 1)"),
+                             " (this build reads 2)"),
                   std::string::npos)
             << error;
     }
@@ -700,7 +700,7 @@ TEST_F(UlodTest, BadHeaderOrGridRejectedByWriter) {
     blocks[3].col = 0;
     blocks[3].row = 0;
     EXPECT_FALSE(writeUlod(path, makeHeader(kMetricMax), blocks, error));
-    EXPECT_NE(error.find("twice"), std::string::npos) << error;
+    EXPECT_NE(error.find("duplicate block position"), std::string::npos) << error;
 
     // What the reader would reject is not written either.
     header = makeHeader(kMetricMax);

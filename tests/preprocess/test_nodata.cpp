@@ -164,16 +164,19 @@ void expectDomainModel(const DemGrid& dem, const std::string& name, int blockSiz
     ASSERT_TRUE(checkUlod(o.outPath, co, cs, err)) << err;
     format::Reader reader;
     ASSERT_TRUE(reader.open(o.outPath, err)) << err;
-    EXPECT_EQ(reader.blocks().size(), expectedBlocks);
+    std::vector<std::size_t> leaves;  // the blocks (tree level 0; nodes are checked by `check`)
+    for (std::size_t i = 0; i < reader.blocks().size(); ++i)
+        if (reader.blocks()[i].level == 0) leaves.push_back(i);
+    EXPECT_EQ(leaves.size(), expectedBlocks);
     ErrorStatsTable stats;  // `unilod stats` over the blocks present
     ASSERT_TRUE(computeErrorStats(o.outPath, {5, 20}, format::kMetricMax, stats, err)) << err;
     EXPECT_EQ(stats.blocks, expectedBlocks);
     std::vector<std::int64_t> perLevel;  // summed over blocks, by level index (coarse levels
                                          // of blocks with fewer levels count their last one)
     std::size_t maxLevels = 0;
-    std::vector<format::Block> blocks(reader.blocks().size());
+    std::vector<format::Block> blocks(leaves.size());
     for (std::size_t i = 0; i < blocks.size(); ++i) {
-        ASSERT_TRUE(reader.readBlock(i, blocks[i], err)) << err;
+        ASSERT_TRUE(reader.readBlock(leaves[i], blocks[i], err)) << err;
         maxLevels = std::max(maxLevels, blocks[i].levels.size());
     }
     // Per block and level: twice the area, and the outline length at full resolution (edges of
@@ -219,6 +222,32 @@ void expectDomainModel(const DemGrid& dem, const std::string& name, int blockSiz
             // The outline moves by at most the level's error (its planimetric deviation).
             EXPECT_LE(std::fabs(double(twice - domain)), slack) << "level " << l;
             moved += twice != domain;
+        }
+    }
+    // The roots of the block hierarchy (issue 18) cover the whole domain: the same at every
+    // level. The blocks hand over to their parents early, so the outline simplifies mostly there.
+    {
+        std::vector<int> isChild(reader.blocks().size(), 0);
+        for (const format::BlockInfo& info : reader.blocks())
+            for (std::uint32_t c = 0; c < info.childCount; ++c)
+                isChild[info.firstChild + c] = 1;
+        std::vector<format::Block> roots;
+        for (std::size_t i = 0; i < isChild.size(); ++i) {
+            if (isChild[i]) continue;
+            roots.emplace_back();
+            ASSERT_TRUE(reader.readBlock(i, roots.back(), err)) << err;
+        }
+        if (roots.size() == 1) {  // a tree (a single block is its own root, checked above)
+            const format::Block& root = roots[0];
+            const std::int64_t domain = doubleDomainArea(filled ? *filled : dem);
+            for (std::size_t l = 0; l < root.levels.size(); ++l) {
+                const std::int64_t twice = doubleArea(root, root.levels[l]);
+                // The root's grid positions are relative to its own origin; areas do not care.
+                const double slack = 2.0 * outlineLength(root) *
+                                     double(root.levels[l].errorMax) / format::kGridUnit;
+                EXPECT_LE(std::fabs(double(twice - domain)), slack) << "root level " << l;
+                moved += twice != domain;
+            }
         }
     }
     EXPECT_GT(moved, 0u);  // outline corners are simplified too

@@ -240,13 +240,13 @@ TEST_F(StatsTest, CsvMatchesTheHandComputation) {
     ASSERT_TRUE(std::getline(in, line));
     EXPECT_EQ(line,
               "view_distance_m,pixels,hlim_edge_m,hlim_corner_m,hlim_middle_m,points,"
-              "river_bound_edges,triangles,retention_percent");
+              "river_bound_edges,triangles,retention_percent,nodes");
     std::size_t rows = 0;
     for (double d : kDistances) {
         for (double p : kPixels) {
             ASSERT_TRUE(std::getline(in, line));
             const auto f = split(line, ',');
-            ASSERT_EQ(f.size(), 9u) << line;
+            ASSERT_EQ(f.size(), 10u) << line;
             const Expected e = expected(d, p);
             EXPECT_DOUBLE_EQ(std::stod(f[0]), d);
             EXPECT_DOUBLE_EQ(std::stod(f[1]), p);
@@ -413,7 +413,7 @@ TEST_F(StatsTest, ErrorJsonHasTheDocumentedKeys) {
         for (auto it = row.begin(); it != row.end(); ++it)
             keys.insert(it.key());
         EXPECT_EQ(keys, (std::set<std::string>{"error_m", "exact_points", "exact_triangles",
-                                               "level_points", "level_triangles"}));
+                                               "level_points", "level_triangles", "nodes"}));
         EXPECT_DOUBLE_EQ(row["error_m"].get<double>(), expectedE[i]);
         const ExpectedError x = expectedForError(blocks, expectedE[i], false);
         EXPECT_EQ(row["exact_points"].get<std::uint64_t>(), x.exactPoints);

@@ -121,6 +121,10 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
     sub->add_flag("--paper-metric", c->o.paperMetric,
                   "also record the paper's metric (mean nearest-point error) with the greedy "
                   "order (3ddp and --metric paper always record it; about 20 % more build time)");
+    sub->add_flag("--tree", c->o.tree,
+                  "build the block hierarchy (issue 18): tree nodes above the blocks whose shared "
+                  "borders simplify, so far views draw a few nodes (greedy order, max metric "
+                  "only; work in progress, not yet the default)");
     sub->add_flag("-q,--quiet", c->quiet, "no progress output");
     sub->callback([c, &exitCode] { exitCode = run(*c); });
 }

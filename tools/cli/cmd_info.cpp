@@ -20,12 +20,22 @@ int run(const std::string& path, bool asJson) {
     }
     const format::Header& h = reader.header();
     nlohmann::json blocks = nlohmann::json::array();
-    std::uint64_t vertices = 0, triangles = 0;
+    std::uint64_t vertices = 0, triangles = 0;  // totals over the blocks (tree level 0)
+    std::size_t leafCount = 0, treeLevels = 0;
     for (const format::BlockInfo& b : reader.blocks()) {
-        vertices += b.vertexCount;
-        triangles += b.fullTriangles;
+        if (b.level == 0) {
+            vertices += b.vertexCount;
+            triangles += b.fullTriangles;
+            ++leafCount;
+        }
+        treeLevels = std::max<std::size_t>(treeLevels, b.level);
+        nlohmann::json children = nlohmann::json::array();
+        for (std::uint32_t c = 0; c < b.childCount; ++c)
+            children.push_back(b.firstChild + c);
         blocks.push_back({{"col", b.col},
                           {"row", b.row},
+                          {"level", b.level},
+                          {"children", children},
                           {"bbox", {b.minX, b.minY, b.minZ, b.maxX, b.maxY, b.maxZ}},
                           {"offset", b.offset},
                           {"bytes", b.size},
@@ -49,6 +59,9 @@ int run(const std::string& path, bool asJson) {
             {"z_range", {h.minZ, h.maxZ}},
             {"block_grid", {h.blocksX, h.blocksY}},
             {"block_size_m", {h.blockWidth, h.blockHeight}},
+            {"leaf_blocks", leafCount},
+            {"tree_nodes", reader.blocks().size() - leafCount},
+            {"tree_levels", treeLevels},
             {"metrics", metrics},
             {"default_metric", def},
             {"build", info.is_discarded() ? nlohmann::json(h.buildInfo) : info},
@@ -65,17 +78,20 @@ int run(const std::string& path, bool asJson) {
     std::printf("  origin        %.3f, %.3f\n", h.originX, h.originY);
     std::printf("  block grid    %u x %u blocks of %.1f x %.1f m\n", h.blocksX, h.blocksY,
                 h.blockWidth, h.blockHeight);
+    std::printf("  tree          %zu blocks, %zu nodes above them in %zu levels\n", leafCount,
+                reader.blocks().size() - leafCount, treeLevels);
     std::printf("  metrics       %s (default %s)\n", metrics.c_str(), def);
     std::printf("  totals        %llu vertices, %llu triangles at full resolution\n",
                 static_cast<unsigned long long>(vertices),
                 static_cast<unsigned long long>(triangles));
     std::printf("  crs           %.70s%s\n", h.crsWkt.empty() ? "none" : h.crsWkt.c_str(),
                 h.crsWkt.size() > 70 ? "..." : "");
-    std::printf("  %-9s %9s %9s %7s %10s %12s\n", "block", "vertices", "steps", "levels",
+    std::printf("  %-13s %9s %9s %7s %10s %12s\n", "block", "vertices", "steps", "levels",
                 "triangles", "bytes");
     for (const format::BlockInfo& b : reader.blocks()) {
-        const std::string name = "(" + std::to_string(b.col) + "," + std::to_string(b.row) + ")";
-        std::printf("  %-9s %9u %9u %7u %10u %12llu\n", name.c_str(), b.vertexCount, b.stepCount,
+        const std::string name = "(" + std::to_string(b.col) + "," + std::to_string(b.row) + ")" +
+                                 (b.level > 0 ? " L" + std::to_string(b.level) : "");
+        std::printf("  %-13s %9u %9u %7u %10u %12llu\n", name.c_str(), b.vertexCount, b.stepCount,
                     b.levelCount, b.fullTriangles, static_cast<unsigned long long>(b.size));
     }
     return 0;

@@ -59,7 +59,8 @@ void printText(const StatsTable& t, const std::string& path) {
                             "The number of points to construct a network",
                             "The number of river bound edges",
                             "Total number of triangles",
-                            "Percentage of data retention (%)"};
+                            "Percentage of data retention (%)",
+                            "Drawn nodes"};
     std::vector<std::vector<std::string>> cells;
     cells.emplace_back(std::begin(header), std::end(header));
     for (std::size_t i = 0; i < t.rows.size(); ++i) {
@@ -68,9 +69,9 @@ void printText(const StatsTable& t, const std::string& path) {
         cells.push_back({newDistance ? format("%g", r.distance / 1000.0) : "",
                          format("%g", r.pixels), format("%.2f (edge)", r.hEdge), grouped(r.points),
                          grouped(r.riverEdges), grouped(r.triangles),
-                         format("%.1f%%", r.retention)});
-        cells.push_back({"", "", format("%.2f (corner)", r.hCorner), "", "", "", ""});
-        cells.push_back({"", "", format("%.2f (middle)", r.hMiddle), "", "", "", ""});
+                         format("%.1f%%", r.retention), grouped(r.nodes)});
+        cells.push_back({"", "", format("%.2f (corner)", r.hCorner), "", "", "", "", ""});
+        cells.push_back({"", "", format("%.2f (middle)", r.hMiddle), "", "", "", "", ""});
     }
     std::vector<std::size_t> width(cells[0].size(), 0);
     for (const auto& row : cells) {
@@ -92,16 +93,7 @@ void printText(const StatsTable& t, const std::string& path) {
 }
 
 void printCsv(const StatsTable& t) {
-    std::printf(
-        "view_distance_m,pixels,hlim_edge_m,hlim_corner_m,hlim_middle_m,points,"
-        "river_bound_edges,triangles,retention_percent\n");
-    // %.17g: the CSV round-trips the computed doubles; the C locale gives '.' decimals.
-    for (const StatsRow& r : t.rows) {
-        std::printf("%.17g,%.17g,%.17g,%.17g,%.17g,%llu,%llu,%llu,%.17g\n", r.distance, r.pixels,
-                    r.hEdge, r.hCorner, r.hMiddle, static_cast<unsigned long long>(r.points),
-                    static_cast<unsigned long long>(r.riverEdges),
-                    static_cast<unsigned long long>(r.triangles), r.retention);
-    }
+    std::fputs(statsCsv(t).c_str(), stdout);
 }
 
 std::uint32_t metricOf(const std::string& name) {
@@ -115,14 +107,16 @@ const char* metricName(std::uint32_t metric) {
 }
 
 void printErrorText(const ErrorStatsTable& t, const std::string& path) {
-    std::printf("%s: %s metric; %zu blocks; %s points, %s triangles at full resolution\n",
-                path.c_str(), metricName(t.metric), t.blocks, grouped(t.fullPoints).c_str(),
+    std::printf("%s: %s metric; %zu blocks, %zu tree nodes; %s points, %s triangles at full "
+                "resolution\n",
+                path.c_str(), metricName(t.metric), t.blocks, t.nodes, grouped(t.fullPoints).c_str(),
                 grouped(t.fullTriangles).c_str());
     std::vector<std::vector<std::string>> cells = {
-        {"error (m)", "exact points", "exact triangles", "level points", "level triangles"}};
+        {"error (m)", "exact points", "exact triangles", "level points", "level triangles",
+         "drawn nodes"}};
     for (const ErrorStatsRow& r : t.rows) {
         cells.push_back({format("%g", r.error), grouped(r.exactPoints), grouped(r.exactTriangles),
-                         grouped(r.levelPoints), grouped(r.levelTriangles)});
+                         grouped(r.levelPoints), grouped(r.levelTriangles), grouped(r.nodes)});
     }
     std::vector<std::size_t> width(cells[0].size(), 0);
     for (const auto& row : cells) {
@@ -146,11 +140,13 @@ void printErrorJson(const ErrorStatsTable& t, const std::string& path) {
                         {"exact_points", r.exactPoints},
                         {"exact_triangles", r.exactTriangles},
                         {"level_points", r.levelPoints},
-                        {"level_triangles", r.levelTriangles}});
+                        {"level_triangles", r.levelTriangles},
+                        {"nodes", r.nodes}});
     }
     const nlohmann::json out = {{"file", path},
                                 {"metric", metricName(t.metric)},
                                 {"blocks", t.blocks},
+                                {"tree_nodes", t.nodes},
                                 {"full_points", t.fullPoints},
                                 {"full_triangles", t.fullTriangles},
                                 {"rows", rows}};

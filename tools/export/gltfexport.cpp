@@ -2,6 +2,7 @@
 
 #include <tiny_gltf.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -220,13 +221,39 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
     const int terrainMaterial = addMaterial(model, "terrain", 0.6, 0.6, 0.55);
     const int riverMaterial = addMaterial(model, "river", 0.1, 0.3, 0.9);
 
+    // The cut through the block hierarchy (engine/lod/cut.h, as the engine selects it): every
+    // block's box and levels first (a visible one read and validated once), then the drawn
+    // nodes, read again, in file order.
     const std::size_t count = reader.blocks().size();
+    std::vector<std::vector<format::Level>> levels(count);
+    std::vector<engine::LodNode> nodes(count);
     format::Block block;
     for (std::size_t i = 0; i < count; ++i) {
-        if (!blockVisible(reader.blocks()[i], so)) {
-            if (options.progress) options.progress(i + 1, count);
-            continue;
+        const format::BlockInfo& info = reader.blocks()[i];
+        if (blockVisible(info, so)) {
+            if (!reader.readBlock(i, block, error)) return false;
+            nodes[i] = engine::lodNode(block);
+            levels[i] = std::move(block.levels);
+        } else {
+            // Outside the view: only its box and links matter (the cut skips its subtree).
+            engine::LodNode& n = nodes[i];
+            n.boxMin[0] = info.minX, n.boxMin[1] = info.minY, n.boxMin[2] = info.minZ;
+            n.boxMax[0] = info.maxX, n.boxMax[1] = info.maxY, n.boxMax[2] = info.maxZ;
+            n.col = info.col, n.row = info.row, n.level = info.level;
+            n.firstChild = info.firstChild, n.childCount = info.childCount;
+            levels[i].push_back(format::Level{});
         }
+        nodes[i].levels = &levels[i];
+        if (options.progress) options.progress(i + 1, 2 * count);
+    }
+    std::vector<engine::NodeChoice> cut;
+    engine::selectCut(viewSpec(so), nodes, metric, cut);
+    std::vector<std::uint32_t> drawn;
+    for (const engine::NodeChoice& c : cut)
+        drawn.push_back(c.block);
+    std::sort(drawn.begin(), drawn.end());
+    for (std::size_t k = 0; k < drawn.size(); ++k) {
+        const std::uint32_t i = drawn[k];
         if (!reader.readBlock(i, block, error)) return false;
         const ExportedBlock s = selectLevel(block, i, so, metric);
         addBlock(model, header, block, s, terrainMaterial, riverMaterial);
@@ -234,7 +261,7 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
         summary.vertices += s.vertexCount;
         summary.triangles += s.triangles;
         summary.riverEdges += s.riverEdges;
-        if (options.progress) options.progress(i + 1, count);
+        if (options.progress) options.progress(count + (k + 1) * count / drawn.size(), 2 * count);
     }
 
     std::ostringstream glb;

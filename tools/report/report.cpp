@@ -37,22 +37,6 @@ bool writeText(const fs::path& dir, const std::string& name, const std::string& 
     return true;
 }
 
-// Exactly `unilod stats --csv` (tools/cli/cmd_stats.cpp printCsv).
-std::string tablesCsv(const StatsTable& t) {
-    std::string s =
-        "view_distance_m,pixels,hlim_edge_m,hlim_corner_m,hlim_middle_m,points,"
-        "river_bound_edges,triangles,retention_percent\n";
-    char buf[512];
-    for (const StatsRow& r : t.rows) {
-        std::snprintf(buf, sizeof buf, "%.17g,%.17g,%.17g,%.17g,%.17g,%llu,%llu,%llu,%.17g\n",
-                      r.distance, r.pixels, r.hEdge, r.hCorner, r.hMiddle,
-                      static_cast<unsigned long long>(r.points),
-                      static_cast<unsigned long long>(r.riverEdges),
-                      static_cast<unsigned long long>(r.triangles), r.retention);
-        s += buf;
-    }
-    return s;
-}
 
 std::string tablesMd(const StatsTable& t, const std::string& path) {
     std::ostringstream s;
@@ -275,7 +259,7 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
         summary.grids.push_back(g);
     }
 
-    if (!writeText(temp, "tables.csv", tablesCsv(summary.table), summary, error) ||
+    if (!writeText(temp, "tables.csv", statsCsv(summary.table), summary, error) ||
         !writeText(temp, "tables.md", tablesMd(summary.table, o.path), summary, error) ||
         !writeText(temp, "curves.csv", curvesCsv(summary), summary, error) ||
         !writeText(temp, "curves.svg", curvesSvg(summary), summary, error)) {
