@@ -24,8 +24,10 @@ nlohmann::json frameJson(const CaptureOptions& options, const Camera& c, const C
     nlohmann::json blocks = nlohmann::json::array();
     for (const BlockSelection& b : f.blocks) {
         blocks.push_back(
-            {{"col", b.col},
+            {{"index", b.block},
+             {"col", b.col},
              {"row", b.row},
+             {"tree_level", b.treeLevel},
              {"level", b.drawnLevel},
              {"wanted_level", b.wanted.level},
              {"fallback", b.fallback},

@@ -218,6 +218,53 @@ bool riverError(const format::Block& b, std::uint32_t step, const std::vector<Ri
 
 }  // namespace
 
+struct NodeOriginalError::Impl {
+    TriangleBuckets buckets;
+};
+
+NodeOriginalError::NodeOriginalError(const format::Block& node,
+                                     std::vector<std::vector<TriangleTriple>> levels)
+    : node_(node), levels_(std::move(levels)), worst_(levels_.size()),
+      tolerance_(maxErrorTolerance(node)) {
+    for (const std::vector<TriangleTriple>& t : levels_)
+        buckets_.push_back(new Impl{TriangleBuckets(node_, t)});
+}
+
+NodeOriginalError::~NodeOriginalError() {
+    for (Impl* b : buckets_) delete b;
+}
+
+void NodeOriginalError::add(const format::Block& leaf) {
+    tolerance_ = std::max(tolerance_, maxErrorTolerance(leaf));
+    const double u = format::kGridUnit;
+    for (std::uint32_t v = 0; v < leaf.vertices.size() && v < leaf.grid.size(); ++v) {
+        const double qx = (leaf.originX + double(leaf.grid[v].x) * u - node_.originX) / u;
+        const double qy = (leaf.originY + double(leaf.grid[v].y) * u - node_.originY) / u;
+        const std::int64_t x0 = std::int64_t(std::ceil(qx - 1 - 1e-6));
+        const std::int64_t x1 = std::int64_t(std::floor(qx + 1 + 1e-6));
+        const std::int64_t y0 = std::int64_t(std::ceil(qy - 1 - 1e-6));
+        const std::int64_t y1 = std::int64_t(std::floor(qy + 1 + 1e-6));
+        const std::int64_t rx = std::llround(qx), ry = std::llround(qy);
+        const double z = double(leaf.vertices[v].z);
+        for (std::size_t l = 0; l < levels_.size(); ++l) {
+            const TriangleBuckets& b = buckets_[l]->buckets;
+            const std::vector<TriangleTriple>& tris = levels_[l];
+            auto error = [&](std::int64_t x, std::int64_t y) {
+                const std::uint32_t t = b.locate(x, y);
+                return t == kNotFound ? 0.0 : std::fabs(z - surfaceHeight(node_, tris[t], x, y));
+            };
+            // The nearest position first: when it does not beat the level's worst, the smallest
+            // over the positions cannot either.
+            double e = error(rx, ry);
+            if (e <= worst_[l].value) continue;
+            for (std::int64_t y = y0; y <= y1 && e > 0; ++y)
+                for (std::int64_t x = x0; x <= x1 && e > 0; ++x)
+                    if (x != rx || y != ry) e = std::min(e, error(x, y));
+            if (e > worst_[l].value) worst_[l] = {e, leaf.col, leaf.row, v};
+        }
+    }
+}
+
 double maxErrorTolerance(const format::Block& block) {
     double zMax = 0;
     for (const format::Vertex& v : block.vertices)

@@ -58,4 +58,47 @@ bool levelMaxError(const format::Block& block, std::uint32_t step,
                    const std::vector<RiverEdge>& sortedEdges, const RiverReference& rivers,
                    LevelMaxError& result, std::string& error);
 
+// Issue 18: a tree node's `max` error bounds the vertical error of every ORIGINAL point of its
+// area (the vertices of the leaf blocks below it), not only of its own vertices (the build
+// measures them as extra samples: modelerror.h ExtraSample). This recomputes that error per
+// stored level of the node, leaf by leaf.
+//
+// A leaf vertex is put on the node's grid from the file: q = (leaf origin + leaf grid * unit -
+// node origin) / unit. The build placed the original point at round((p - node origin) / unit),
+// and the leaf grid is round((p - leaf origin) / unit), so the build's integer position is
+// within 1 unit of q on each axis (plus rounding of the double sums, far below). The error
+// recomputed for a point is therefore the SMALLEST |z - S| over the integer positions within
+// 1 + 1e-6 units of q on both axes (at most 3 x 3), 0 when one of them lies outside the level's
+// domain (an extra sample outside the domain has no vertical error): a lower bound of what the
+// build counted, exact up to the float tolerance of maxErrorTolerance (taken over the leaf's
+// and the node's heights). Horizontal (outline) and river deviations of original points are
+// not recomputed here: they are bounded through the node's own chains plus its children's
+// final error (nodebuild.h chain slack).
+class NodeOriginalError {
+public:
+    // `levels`: the node's triangles at each of its stored levels (vertex indices of `node`).
+    NodeOriginalError(const format::Block& node, std::vector<std::vector<TriangleTriple>> levels);
+    ~NodeOriginalError();
+    NodeOriginalError(const NodeOriginalError&) = delete;
+    NodeOriginalError& operator=(const NodeOriginalError&) = delete;
+
+    // Every vertex of `leaf` (a leaf block below the node) against every level.
+    void add(const format::Block& leaf);
+
+    struct Worst {
+        double value = 0;  // the largest recomputed error of an original point (metres)
+        std::uint32_t col = 0, row = 0, vertex = 0;  // the leaf block and its vertex
+    };
+    const std::vector<Worst>& worst() const { return worst_; }
+    double tolerance() const { return tolerance_; }  // over the node and the leaves added
+
+private:
+    struct Impl;
+    const format::Block& node_;
+    std::vector<std::vector<TriangleTriple>> levels_;
+    std::vector<Impl*> buckets_;
+    std::vector<Worst> worst_;
+    double tolerance_ = 0;
+};
+
 }  // namespace unilod

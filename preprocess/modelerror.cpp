@@ -119,20 +119,24 @@ void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool 
             }
         }
         // Extra samples: located by a walk from the previous one's triangle (callers pass them
-        // in spatial order for short walks); outside the domain they are left out.
+        // in spatial order for short walks). Outside the hull they are left out (the hull only
+        // shrinks); in an exterior triangle (outside the domain, inside the hull) they have no
+        // vertical error yet but are kept like the set's points: when the outline moves out over
+        // them (an outline vertex deleted), a domain triangle takes them (locateError).
         std::vector<PoolPoint> extraPoints;
         std::vector<std::uint32_t> extraTri;
         if (extra != nullptr && !extra->empty() && n > 0) {
             std::uint32_t at = realTriangleAt(cdt, cdt.representative[keys[0].second]);
             for (const ExtraSample& e : *extra) {
                 const std::uint32_t t = cdt.locateGridFrom(e.gx, e.gy, at);
-                if (cdt.isGhost(t) || !cdt.inDomain(t)) continue;
+                if (cdt.isGhost(t)) continue;
                 at = t;
                 extraPoints.push_back({e.gx, e.gy, e.z});
                 extraTri.push_back(t);
                 ++rangeCount_[t];
-                runningMax_ = std::max(runningMax_,
-                                       std::fabs(e.z - heightGrid(set, cdt, t, e.gx, e.gy)));
+                if (cdt.inDomain(t))
+                    runningMax_ = std::max(runningMax_,
+                                           std::fabs(e.z - heightGrid(set, cdt, t, e.gx, e.gy)));
             }
         }
         std::uint32_t offset = 0;

@@ -55,6 +55,7 @@ bool checkLevelError(const format::Block& b, std::size_t level,
         summary.worstRecomputed = recomputed;
         summary.worstCol = b.col;
         summary.worstRow = b.row;
+        summary.worstTreeLevel = b.level;
         summary.worstLevel = static_cast<std::uint32_t>(level);
     }
     return true;
@@ -96,8 +97,9 @@ bool checkDomainLevel(const std::vector<std::int32_t>& gx, const std::vector<std
     return true;
 }
 
+// `levelTriangles` (not null): receives every stored level's triangles.
 bool checkBlock(const format::Block& b, const UlodCheckOptions& options, UlodCheckSummary& summary,
-                std::string& error) {
+                std::string& error, std::vector<std::vector<TriangleTriple>>* levelTriangles) {
     const std::size_t n = b.vertices.size();
     if (b.grid.size() != n) {
         error = "no exact grid coordinates stored: topology cannot be checked exactly";
@@ -110,7 +112,7 @@ bool checkBlock(const format::Block& b, const UlodCheckOptions& options, UlodChe
         gy[i] = b.grid[i].y;
         locked[i] = (b.vertices[i].flags & format::kVertexLocked) != 0;
     }
-    auto levelTriangles = [&](const format::Level& l) {
+    auto trianglesOf = [&](const format::Level& l) {
         std::vector<TriangleTriple> t;
         for (std::uint32_t i = 0; i < l.triangleCount; ++i) {
             t.push_back(toTriple(b.terrainIndices[l.triangleFirst + i]));
@@ -128,8 +130,9 @@ bool checkBlock(const format::Block& b, const UlodCheckOptions& options, UlodChe
 
     // Full resolution: a valid convex constrained Delaunay triangulation, and the reference.
     const format::Level& l0 = b.levels.front();
-    std::vector<TriangleTriple> tris = levelTriangles(l0);
+    std::vector<TriangleTriple> tris = trianglesOf(l0);
     std::vector<RiverEdge> edges = levelEdges(l0);
+    if (levelTriangles) levelTriangles->assign(1, tris);
     Cdt cdt;
     // A domain that is one convex region gets the full checks of checker.h on a ghost-closed
     // mesh; any other (holes, concave or pinched outline) the domain checks above.
@@ -214,8 +217,9 @@ bool checkBlock(const format::Block& b, const UlodCheckOptions& options, UlodChe
         if (l.step != s + 1) continue;
         const std::string name =
             "level " + std::to_string(level) + " (step " + std::to_string(l.step) + ")";
-        tris = levelTriangles(l);
+        tris = trianglesOf(l);
         edges = levelEdges(l);
+        if (levelTriangles) levelTriangles->push_back(tris);
         if (!std::equal(tris.begin(), tris.end(), alive.begin(), alive.end())) {
             error = name + ": stored triangles differ from the replayed records";
             return false;
@@ -253,6 +257,55 @@ bool checkBlock(const format::Block& b, const UlodCheckOptions& options, UlodChe
     return true;
 }
 
+// Issue 18: the stored `max` error of every level of tree node `b` (entry `index`) against the
+// original points of its area, the vertices of the leaf blocks below it (errorcheck.h
+// NodeOriginalError), read leaf by leaf.
+bool checkNodeOriginals(format::Reader& reader, std::size_t index, const format::Block& b,
+                        std::vector<std::vector<TriangleTriple>> levels,
+                        UlodCheckSummary& summary, std::string& error) {
+    NodeOriginalError originals(b, std::move(levels));
+    const auto& infos = reader.blocks();
+    std::vector<std::size_t> stack{index};
+    format::Block leaf;
+    while (!stack.empty()) {
+        const format::BlockInfo& info = infos[stack.back()];
+        const std::size_t at = stack.back();
+        stack.pop_back();
+        if (info.childCount > 0) {
+            for (std::uint32_t c = 0; c < info.childCount; ++c) stack.push_back(info.firstChild + c);
+            continue;
+        }
+        if (!reader.readBlock(at, leaf, error)) return false;
+        originals.add(leaf);
+    }
+    const double tolerance = originals.tolerance();
+    for (std::size_t level = 0; level < b.levels.size(); ++level) {
+        const format::Level& l = b.levels[level];
+        const NodeOriginalError::Worst& w = originals.worst()[level];
+        const double stored = std::min(double(l.errorMax), double(b.errorMax[l.step]));
+        if (stored < w.value - tolerance) {
+            error = "level " + std::to_string(level) + " (step " + std::to_string(l.step) +
+                    "): max error lies: stored " + metres(stored) + ", recomputed " +
+                    metres(w.value) + " (vertical, at vertex " + std::to_string(w.vertex) +
+                    " of block (" + std::to_string(w.col) + "," + std::to_string(w.row) +
+                    ") below it: an original point), tolerance " + metres(tolerance);
+            return false;
+        }
+        const double margin = stored - w.value;
+        if (margin < summary.smallestMargin) summary.smallestMargin = margin;
+        if (stored > 0 && w.value / stored > summary.worstRatio) {
+            summary.worstRatio = w.value / stored;
+            summary.worstStored = stored;
+            summary.worstRecomputed = w.value;
+            summary.worstCol = b.col;
+            summary.worstRow = b.row;
+            summary.worstTreeLevel = b.level;
+            summary.worstLevel = static_cast<std::uint32_t>(level);
+        }
+    }
+    return true;
+}
+
 }  // namespace
 
 bool checkUlod(const std::string& path, const UlodCheckOptions& options, UlodCheckSummary& summary,
@@ -268,9 +321,11 @@ bool checkUlod(const std::string& path, const UlodCheckOptions& options, UlodChe
     for (std::size_t i = 0; i < blocks.size(); ++i) {
         format::Block b;
         if (!reader.readBlock(i, b, error)) return false;
-        if (!checkBlock(b, options, summary, error)) {
-            error = path + ": block (" + std::to_string(b.col) + "," + std::to_string(b.row) +
-                    "): " + error;
+        const bool node = options.errors && b.level > 0;
+        std::vector<std::vector<TriangleTriple>> levels;
+        if (!checkBlock(b, options, summary, error, node ? &levels : nullptr) ||
+            (node && !checkNodeOriginals(reader, i, b, std::move(levels), summary, error))) {
+            error = path + ": " + format::blockName(b.col, b.row, b.level) + ": " + error;
             return false;
         }
         ++summary.blocks;

@@ -26,7 +26,7 @@ struct UlodCheckSummary {
     // margin: the smallest stored - recomputed (metres; negative only within the tolerance).
     bool errorsChecked = false;
     double worstRatio = 0, worstStored = 0, worstRecomputed = 0;
-    std::uint32_t worstCol = 0, worstRow = 0, worstLevel = 0;
+    std::uint32_t worstCol = 0, worstRow = 0, worstTreeLevel = 0, worstLevel = 0;
     double smallestMargin = 0;
 };
 

@@ -105,14 +105,6 @@ constexpr std::uint64_t alignUp(std::uint64_t n) {
     return (n + kAlign - 1) / kAlign * kAlign;
 }
 
-std::string blockName(std::uint32_t col, std::uint32_t row, std::uint32_t level = 0) {
-    if (level > 0) {
-        return "node (" + std::to_string(col) + "," + std::to_string(row) + ") of tree level " +
-               std::to_string(level);
-    }
-    return "block (" + std::to_string(col) + "," + std::to_string(row) + ")";
-}
-
 // The grid of tree level L: the block grid halved L times, rounding up.
 std::uint32_t levelGridSize(std::uint32_t blocks, std::uint32_t level) {
     return std::uint32_t((std::uint64_t(blocks) + (std::uint64_t(1) << level) - 1) >> level);
@@ -1269,6 +1261,14 @@ std::size_t storedLevelFor(const std::vector<Level>& levels, std::uint32_t metri
         if (e <= hLim) chosen = i;  // errors are non-decreasing with the step
     }
     return chosen;
+}
+
+std::string blockName(std::uint32_t col, std::uint32_t row, std::uint32_t level) {
+    if (level > 0) {
+        return "node (" + std::to_string(col) + "," + std::to_string(row) + ") of tree level " +
+               std::to_string(level);
+    }
+    return "block (" + std::to_string(col) + "," + std::to_string(row) + ")";
 }
 
 }  // namespace unilod::format

@@ -139,6 +139,10 @@ struct BlockInfo {
 inline constexpr double kFloatSlack = 0x1p-22;
 inline constexpr double kAbsoluteSlack = 1e-6;
 
+// How messages name a directory entry: "block (c,r)" for a leaf, "node (c,r) of tree level L"
+// above the leaves.
+std::string blockName(std::uint32_t col, std::uint32_t row, std::uint32_t level = 0);
+
 // Validation of one block: the one definition of a block every reader path trusts (writeUlod and
 // Writer::writeBlock, Reader::readBlock, hence readGeometry, `unilod check`, export, capture,
 // bench, view). Structure: finite bounding box and origin (the origin inside the box), every

@@ -106,6 +106,7 @@ NodeChoice chooseNode(const ViewSpec& view, const LodNode& node, std::uint32_t i
     NodeChoice c;
     c.block = index;
     c.col = node.col;
+    c.treeLevel = node.level;
     c.row = node.row;
     c.hLim = nodeTolerance(view, node, &c.distance, &c.box);
     c.wanted = chooseStoredLevel(*node.levels, metric, view.finest ? -1.0 : c.hLim);

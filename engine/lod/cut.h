@@ -73,6 +73,7 @@ LodNode lodNode(const format::Block& block);
 struct NodeChoice {
     std::uint32_t block = 0;  // index into the node list (the file's directory)
     std::uint32_t col = 0, row = 0;
+    std::uint32_t treeLevel = 0;    // tree level (0: a leaf block)
     double distance = 0, hLim = 0;  // S of the view's mode (0 for Uniform), h_lim
     BoxView box;                    // how the box lies in the view (Camera/Grid with a direction)
     LevelChoice wanted;             // the level h_lim asks for

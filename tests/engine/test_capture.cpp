@@ -101,9 +101,12 @@ TEST_F(Capture, NearAndFarViews) {
         EXPECT_EQ((*view)["totals"]["fallback_blocks"].get<int>(), 0);
         for (const nlohmann::json& b : (*view)["blocks"]) {
             format::Block block;
-            std::size_t index = 0;
-            while (reader.blocks()[index].col != b["col"] || reader.blocks()[index].row != b["row"])
-                ++index;
+            // The directory index; the position and tree level reported agree with it.
+            const std::size_t index = b["index"].get<std::size_t>();
+            ASSERT_LT(index, reader.blocks().size());
+            EXPECT_EQ(reader.blocks()[index].col, b["col"].get<std::uint32_t>());
+            EXPECT_EQ(reader.blocks()[index].row, b["row"].get<std::uint32_t>());
+            EXPECT_EQ(reader.blocks()[index].level, b["tree_level"].get<std::uint32_t>());
             ASSERT_TRUE(reader.readBlock(index, block, error)) << error;
             const auto level = b["level"].get<std::size_t>();
             ASSERT_LT(level, block.levels.size());
@@ -267,7 +270,11 @@ TEST_F(Capture, NodataHoleIsNotDrawn) {
     EXPECT_GT(fs::file_size(dir_ / "hole.glb"), 1000u);
     format::Reader reader;
     ASSERT_TRUE(reader.open(file, error)) << error;
-    EXPECT_EQ(reader.blocks().size(), 8u);  // 3 x 3 grid, the middle block all nodata
+    // 3 x 3 grid, the middle block all nodata; above them 2 x 2 tree nodes and the root.
+    std::size_t leaves = 0;
+    for (const format::BlockInfo& b : reader.blocks()) leaves += b.level == 0;
+    EXPECT_EQ(leaves, 8u);
+    EXPECT_EQ(reader.blocks().size(), 13u);
     r = runCli("stats " + q(file) + " --error 5,20 --json");
     EXPECT_EQ(r.code, 0) << r.err;
     r = runCli("report " + q(file) + " -o " + q((dir_ / "hole_report").string()));

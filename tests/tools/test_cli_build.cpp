@@ -921,8 +921,12 @@ TEST_F(CliBuildJacksboro, ChecksAndReportsItsGrid) {
     EXPECT_EQ(by, std::size_t((h - 1 + 127) / 128));
     EXPECT_GE(bx * by, 9u);
     EXPECT_EQ(j["leaf_blocks"], bx * by);
-    EXPECT_EQ(j["tree_levels"], 0u);  // no --tree: the flat block grid
-    EXPECT_EQ(j["blocks"].size(), bx * by);
+    // The block hierarchy (the default): quadtree levels up to one root.
+    std::size_t levels = 0;
+    while ((std::size_t(1) << levels) < std::max(bx, by)) ++levels;
+    EXPECT_EQ(j["tree_levels"], levels);
+    EXPECT_EQ(j["tree_nodes"].get<std::size_t>() + bx * by, j["blocks"].size());
+    EXPECT_GT(j["blocks"].size(), bx * by);
     format::Reader reader;
     std::string error;
     ASSERT_TRUE(reader.open(model, error)) << error;
@@ -973,7 +977,8 @@ TEST_F(CliBuildJacksboro, LockedRiverVerticesSurviveToTheCoarsestLevel) {
 
 }  // namespace
 
-// Issue 18's block hierarchy on the bundled data (64-cell blocks, as in the issue): the file
+// Issue 18's block hierarchy (the default) on the bundled data (64-cell blocks, as in the issue):
+// the file
 // holds one tree over the blocks, every node's error starts at its children's largest final
 // error (monotone up the tree), `check` passes, and `stats` (the cut through the tree) keeps
 // falling with distance to below 1 % at 1,500 km, P = 1, where the flat grid stops at its
@@ -981,7 +986,7 @@ TEST_F(CliBuildJacksboro, LockedRiverVerticesSurviveToTheCoarsestLevel) {
 TEST_F(CliBuildJacksboro, TreeRetentionFallsWithDistance) {
     const std::string tree = (dir / "jb_tree.ulod").string();
     const Result b = run("build -q " + q(kDem) + " " + q(kRivers) + " -o " + q(tree) +
-                         " --block-size 64 --tree");
+                         " --block-size 64");
     ASSERT_EQ(b.code, 0) << b.err;
     const Result check = run("check -q " + q(tree));
     EXPECT_EQ(check.code, 0) << check.err;
@@ -1025,7 +1030,14 @@ TEST_F(CliBuildJacksboro, TreeRetentionFallsWithDistance) {
         }
     }
 
-    const Result flat = run("stats --csv " + q(model));  // 128-cell blocks, no tree
+    const std::string flatModel = (dir / "jb_flat.ulod").string();
+    const Result fb = run("build -q " + q(kDem) + " " + q(kRivers) + " -o " + q(flatModel) +
+                          " --block-size 64 --no-tree");
+    ASSERT_EQ(fb.code, 0) << fb.err;
+    const Result flatInfo = run("info --json " + q(flatModel));
+    ASSERT_EQ(flatInfo.code, 0) << flatInfo.err;
+    EXPECT_EQ(nlohmann::json::parse(flatInfo.out)["tree_levels"], 0u);  // --no-tree: blocks only
+    const Result flat = run("stats --csv " + q(flatModel));
     const Result s = run("stats --csv " + q(tree));
     ASSERT_EQ(s.code, 0) << s.err;
     ASSERT_EQ(flat.code, 0) << flat.err;

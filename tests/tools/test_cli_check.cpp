@@ -114,9 +114,6 @@ TEST_F(CheckErrors, LoweredBoundFails) {
         float bestRise = 0;
         for (std::size_t i = 0; i < model.blocks.size(); ++i) {
             const format::Block& b = model.blocks[i];
-            // Blocks: `check --errors` recomputes a tree node's error from its own vertices only
-            // (a lower bound of its error against the original points).
-            if (b.level != 0) continue;
             for (std::size_t j = 1; j < b.levels.size(); ++j) {
                 const std::uint32_t s = b.levels[j].step;
                 const float rise = b.errorMax[s] - b.errorMax[s - 1];
@@ -128,6 +125,11 @@ TEST_F(CheckErrors, LoweredBoundFails) {
             }
         }
         ASSERT_GT(bestRise, 0.01f) << "no stored level where the error rises by 1 cm";
+        std::printf("[ tampered  ] %s: %s, level %zu lowered by %.3f m\n", m.name.c_str(),
+                    format::blockName(model.blocks[bestBlock].col, model.blocks[bestBlock].row,
+                                      model.blocks[bestBlock].level)
+                        .c_str(),
+                    bestLevel, double(bestRise));
         format::Block& b = model.blocks[bestBlock];
         format::Level& l = b.levels[bestLevel];
         const float lowered = b.errorMax[l.step - 1];
@@ -140,8 +142,7 @@ TEST_F(CheckErrors, LoweredBoundFails) {
         EXPECT_EQ(plain.code, 0) << plain.err;
         const test::CliResult r = test::runCli("check -q --errors " + q(tampered));
         EXPECT_EQ(r.code, 1) << r.out;
-        const std::string where = "block (" + std::to_string(b.col) + "," + std::to_string(b.row) +
-                                  "): level " + std::to_string(bestLevel) + " (step " +
+        const std::string where = format::blockName(b.col, b.row, b.level) + ": level " + std::to_string(bestLevel) + " (step " +
                                   std::to_string(l.step) + "): max error lies";
         EXPECT_NE(r.err.find(tampered), std::string::npos) << r.err;
         EXPECT_NE(r.err.find(where), std::string::npos) << r.err << "\nexpected: " << where;
@@ -166,7 +167,9 @@ TEST_F(CheckErrors, MillimetreLieFails) {
         ASSERT_TRUE(test::readModel(m.path, model, error)) << error;
         format::Block* b = nullptr;
         for (format::Block& candidate : model.blocks) {
-            if (candidate.col == s.worstCol && candidate.row == s.worstRow) b = &candidate;
+            if (candidate.col == s.worstCol && candidate.row == s.worstRow &&
+                candidate.level == s.worstTreeLevel)
+                b = &candidate;
         }
         ASSERT_NE(b, nullptr);
         const std::uint32_t step = b->levels[s.worstLevel].step;
@@ -181,7 +184,7 @@ TEST_F(CheckErrors, MillimetreLieFails) {
         const test::CliResult r = test::runCli("check -q --errors " + q(tampered));
         EXPECT_EQ(r.code, 1) << r.out;
         const std::string where =
-            "block (" + std::to_string(s.worstCol) + "," + std::to_string(s.worstRow) + "): level ";
+            format::blockName(s.worstCol, s.worstRow, s.worstTreeLevel) + ": level ";
         EXPECT_NE(r.err.find(where), std::string::npos) << r.err;
         EXPECT_NE(r.err.find("max error lies"), std::string::npos) << r.err;
     }

@@ -73,7 +73,49 @@ protected:
         return m;
     }
 
-    // Checks the .glb against the levels chosen for the given per-block h_lim; returns totals.
+    // The cut for per-block h_lim (engine/lod/cut.h, written out again): from the root, a node
+    // with children whose finest error exceeds its h_lim gives way to its children, any other
+    // node is drawn. Directory indices in file order (the export's node order).
+    static std::vector<std::size_t> expectedCut(const std::vector<double>& hLim) {
+        std::vector<bool> child(blocks.size(), false);
+        for (const format::Block& b : blocks)
+            for (std::uint32_t c = 0; c < b.childCount; ++c) child[b.firstChild + c] = true;
+        std::vector<std::size_t> cut, stack;
+        for (std::size_t i = 0; i < blocks.size(); ++i)
+            if (!child[i]) stack.push_back(i);
+        while (!stack.empty()) {
+            const std::size_t i = stack.back();
+            stack.pop_back();
+            const format::Block& b = blocks[i];
+            if (b.childCount > 0 && b.errorMax[b.levels.front().step] > hLim[i]) {
+                for (std::uint32_t c = 0; c < b.childCount; ++c) stack.push_back(b.firstChild + c);
+            } else {
+                cut.push_back(i);
+            }
+        }
+        std::sort(cut.begin(), cut.end());
+        return cut;
+    }
+
+    // The drawn block (glTF node) covering each leaf block: its glTF node index, or -1.
+    static std::vector<int> coveringNodes(const tinygltf::Model& m) {
+        std::vector<int> byIndex(blocks.size(), -1), out(blocks.size(), -1);
+        for (std::size_t k = 0; k < m.nodes.size(); ++k)
+            byIndex[std::size_t(m.nodes[k].extras.Get("index").GetNumberAsInt())] = int(k);
+        std::vector<std::size_t> parent(blocks.size(), SIZE_MAX);
+        for (std::size_t i = 0; i < blocks.size(); ++i)
+            for (std::uint32_t c = 0; c < blocks[i].childCount; ++c)
+                parent[blocks[i].firstChild + c] = i;
+        for (std::size_t i = 0; i < blocks.size(); ++i) {
+            if (blocks[i].level != 0) continue;
+            for (std::size_t at = i; at != SIZE_MAX && out[i] < 0; at = parent[at])
+                out[i] = byIndex[at];
+        }
+        return out;
+    }
+
+    // Checks the .glb against the cut and levels chosen for the given per-block h_lim; returns
+    // totals.
     static void checkModel(const tinygltf::Model& m, const std::vector<double>& hLim,
                            std::uint64_t& triangles, std::uint64_t& edges,
                            std::set<std::size_t>& levelsUsed) {
@@ -87,17 +129,21 @@ protected:
         EXPECT_DOUBLE_EQ(origin.Get(0).GetNumberAsDouble(), header.originX);
         EXPECT_DOUBLE_EQ(origin.Get(1).GetNumberAsDouble(), header.originY);
         ASSERT_EQ(m.scenes.size(), 1u);
-        ASSERT_EQ(m.nodes.size(), blocks.size());
-        ASSERT_EQ(m.scenes[0].nodes.size(), blocks.size());
-        for (std::size_t i = 0; i < blocks.size(); ++i) {
+        const std::vector<std::size_t> cut = expectedCut(hLim);
+        ASSERT_EQ(m.nodes.size(), cut.size());
+        ASSERT_EQ(m.scenes[0].nodes.size(), cut.size());
+        for (std::size_t at = 0; at < cut.size(); ++at) {
+            const std::size_t i = cut[at];
             SCOPED_TRACE("block " + std::to_string(i));
             const format::Block& b = blocks[i];
             const engine::LevelChoice choice = engine::chooseLevel(b.levels, b.errorMax, hLim[i]);
             levelsUsed.insert(choice.level);
             const format::Level& level = b.levels[choice.level];
-            const tinygltf::Node& node = m.nodes[std::size_t(m.scenes[0].nodes[i])];
+            const tinygltf::Node& node = m.nodes[std::size_t(m.scenes[0].nodes[at])];
+            EXPECT_EQ(node.extras.Get("index").GetNumberAsInt(), int(i));
             EXPECT_EQ(node.extras.Get("col").GetNumberAsInt(), int(b.col));
             EXPECT_EQ(node.extras.Get("row").GetNumberAsInt(), int(b.row));
+            EXPECT_EQ(node.extras.Get("tree_level").GetNumberAsInt(), int(b.level));
             EXPECT_EQ(node.extras.Get("level").GetNumberAsInt(), int(choice.level));
             ASSERT_EQ(node.translation.size(), 3u);
             EXPECT_DOUBLE_EQ(node.translation[0], b.originX - header.originX);
@@ -274,11 +320,22 @@ TEST_F(ExportTest, CameraRoundTrip) {
                   .code,
               0);
     const tinygltf::Model m2 = load(out2);
-    ASSERT_EQ(m2.nodes.size(), m.nodes.size());
-    for (std::size_t i = 0; i < m.nodes.size(); ++i) {
-        EXPECT_GE(m2.nodes[i].extras.Get("level").GetNumberAsInt(),
-                  m.nodes[i].extras.Get("level").GetNumberAsInt());
-        EXPECT_GE(m2.nodes[i].extras.Get("h_lim").GetNumberAsDouble(), hLim[i] * (1 - 1e-12));
+    // Every leaf is covered in both; with the direction by the same block at a level no finer,
+    // or by a block higher in the tree.
+    const std::vector<int> cover = coveringNodes(m), cover2 = coveringNodes(m2);
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+        if (blocks[i].level != 0) continue;
+        ASSERT_GE(cover[i], 0);
+        ASSERT_GE(cover2[i], 0);
+        const tinygltf::Value& a = m.nodes[std::size_t(cover[i])].extras;
+        const tinygltf::Value& b = m2.nodes[std::size_t(cover2[i])].extras;
+        const int index = a.Get("index").GetNumberAsInt();
+        if (b.Get("index").GetNumberAsInt() == index) {
+            EXPECT_GE(b.Get("level").GetNumberAsInt(), a.Get("level").GetNumberAsInt());
+            EXPECT_GE(b.Get("h_lim").GetNumberAsDouble(), hLim[std::size_t(index)] * (1 - 1e-12));
+        } else {
+            EXPECT_GT(b.Get("tree_level").GetNumberAsInt(), a.Get("tree_level").GetNumberAsInt());
+        }
     }
 }
 
@@ -301,16 +358,17 @@ TEST_F(ExportTest, CameraEqualsEngineSelection) {
     ASSERT_EQ(c.code, 0) << c.err;
     const nlohmann::json j = nlohmann::json::parse(test::slurp(frames + "/frame_0000.json"));
 
-    std::set<std::tuple<int, int, int>> engine, exported;
+    std::set<std::tuple<int, int, int>> engine, exported;  // directory index, tree level, level
     for (const auto& b : j.at("blocks")) {
         EXPECT_FALSE(b.at("fallback").get<bool>());
-        engine.insert({b.at("col").get<int>(), b.at("row").get<int>(), b.at("level").get<int>()});
+        engine.insert(
+            {b.at("index").get<int>(), b.at("tree_level").get<int>(), b.at("level").get<int>()});
     }
     const tinygltf::Model m = load(out);
     std::uint64_t triangles = 0, edges = 0;
     for (const tinygltf::Node& node : m.nodes) {
-        exported.insert({node.extras.Get("col").GetNumberAsInt(),
-                         node.extras.Get("row").GetNumberAsInt(),
+        exported.insert({node.extras.Get("index").GetNumberAsInt(),
+                         node.extras.Get("tree_level").GetNumberAsInt(),
                          node.extras.Get("level").GetNumberAsInt()});
         for (const tinygltf::Primitive& p : m.meshes[std::size_t(node.mesh)].primitives) {
             const std::size_t n = m.accessors[std::size_t(p.indices)].count;

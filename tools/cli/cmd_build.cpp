@@ -78,6 +78,12 @@ int run(BuildCli& c) {
         s.demPoints, s.riverPoints, s.lockedPoints, s.crossings, s.droppedDemPoints);
     std::printf("  blocks           %zu (block size %d cells, stride %d)\n", s.blocks, s.blockSize,
                 c.o.stride);
+    if (s.nodes > 0)
+        std::printf("  tree             %zu nodes above the blocks in %zu levels; the root's "
+                    "coarsest state %zu triangles\n",
+                    s.nodes, s.treeLevels, s.rootTriangles);
+    else
+        std::printf("  tree             none (--no-tree, or an order / metric without it)\n");
     std::printf("  deletion steps   %zu (%zu ranked points kept, %zu deferred deletions)\n",
                 s.steps, s.kept, s.deferrals);
     std::printf("  triangles        %zu full resolution, %zu coarsest; index data %.2fx full\n",
@@ -121,10 +127,10 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
     sub->add_flag("--paper-metric", c->o.paperMetric,
                   "also record the paper's metric (mean nearest-point error) with the greedy "
                   "order (3ddp and --metric paper always record it; about 20 % more build time)");
-    sub->add_flag("--tree", c->o.tree,
-                  "build the block hierarchy (issue 18): tree nodes above the blocks whose shared "
-                  "borders simplify, so far views draw a few nodes (greedy order, max metric "
-                  "only; work in progress, not yet the default)");
+    sub->add_flag("--tree,!--no-tree", c->o.tree,
+                  "build the block hierarchy (default; greedy order, max metric only): tree "
+                  "nodes above the blocks whose shared borders simplify, so far views draw a few "
+                  "nodes; --no-tree: the flat block grid");
     sub->add_flag("-q,--quiet", c->quiet, "no progress output");
     sub->callback([c, &exitCode] { exitCode = run(*c); });
 }

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "commands.h"
+#include "ulod.h"
 #include "ulodcheck.h"
 
 namespace unilod::cli {
@@ -21,7 +22,7 @@ void addCheckCommand(CLI::App& app, int& exitCode) {
     sub->add_flag("--errors", options->errors,
                   "also recompute the true `max` model error at every stored level from the "
                   "file's data; fail when a stored error is below it beyond the tolerance "
-                  "(4 * 2^-24 * max|z| of the block + 1e-6 m)");
+                  "(4 * 2^-24 * max|z| of the block + 1e-6 m); a tree node's against every original point below it");
     sub->add_flag("-q,--quiet", *quiet, "no progress output");
     sub->callback([path, quiet, options, &exitCode] {
         UlodCheckSummary s;
@@ -41,10 +42,11 @@ void addCheckCommand(CLI::App& app, int& exitCode) {
         if (s.errorsChecked) {
             std::printf(
                 "; stored max errors bound the recomputed ones at every level (largest "
-                "recomputed/stored %.9g: %.9g m of %.9g m at block (%u,%u) level %u; smallest "
+                "recomputed/stored %.9g: %.9g m of %.9g m at %s level %u; smallest "
                 "margin %.3g m)",
-                s.worstRatio, s.worstRecomputed, s.worstStored, s.worstCol, s.worstRow,
-                s.worstLevel, s.smallestMargin);
+                s.worstRatio, s.worstRecomputed, s.worstStored,
+                format::blockName(s.worstCol, s.worstRow, s.worstTreeLevel).c_str(), s.worstLevel,
+                s.smallestMargin);
         }
         std::printf("\n");
         exitCode = 0;

@@ -148,8 +148,10 @@ void addBlock(tinygltf::Model& model, const format::Header& header, const format
         node.mesh = int(model.meshes.size() - 1);
     }
     Value::Object extras;
+    extras["index"] = Value(int(sel.block));
     extras["col"] = Value(int(block.col));
     extras["row"] = Value(int(block.row));
+    extras["tree_level"] = Value(int(block.level));
     extras["level"] = Value(int(sel.wanted.level));
     extras["step"] = Value(int(sel.wanted.step));
     extras["h_lim"] = Value(sel.hLim);
