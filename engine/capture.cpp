@@ -29,6 +29,7 @@ nlohmann::json frameJson(const CaptureOptions& options, const Camera& c, const C
              {"row", b.row},
              {"tree_level", b.treeLevel},
              {"level", b.drawnLevel},
+             {"drawn_block", b.drawnBlock},
              {"wanted_level", b.wanted.level},
              {"fallback", b.fallback},
              {"step", b.wanted.step},

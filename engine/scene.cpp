@@ -22,6 +22,7 @@ namespace {
 
 constexpr double kDegree = 3.14159265358979323846 / 180.0;
 constexpr std::uint64_t kAlignment = 16;  // vertex stride, and a multiple of the index size
+constexpr std::uint32_t kNoParent = 0xFFFFFFFFu;
 
 std::uint64_t alignUp(std::uint64_t n) { return (n + kAlignment - 1) / kAlignment * kAlignment; }
 
@@ -114,7 +115,11 @@ struct BlockState {
     std::vector<format::Level> levels;
     std::uint64_t terrainTriangles = 0, riverEdges = 0;  // index data the levels use
     std::uint64_t fullBytes = 0;
-    Allocation coarse, full;  // coarse: the last level only, always resident
+    // coarse: the last level only, always resident, for a root (an entry with no tree parent:
+    // every block of a file without a tree); full: every level, streamed.
+    Allocation coarse, full;
+    std::uint32_t parent = kNoParent;
+    std::uint32_t treeLevel = 0;
     std::uint64_t lastUsedFrame = 0;
     std::uint64_t deniedEpoch = ~0ull;  // space epoch in which an upload did not fit
 };
@@ -229,6 +234,20 @@ struct StreamingScene::Impl {
         return true;
     }
 
+    // Whether drawing `level` of `b` needs its full geometry: any level of an entry below the
+    // root, a level finer than the coarse one of a root.
+    static bool needsFull(const BlockState& b, std::size_t level) {
+        return b.parent != kNoParent || level + 1 < b.levels.size();
+    }
+    // Whether some level of `b` can be drawn now.
+    static bool drawable(const BlockState& b) { return b.full.valid || b.coarse.valid; }
+    // The nearest entry above `index` that can be drawn now (a root always can).
+    std::uint32_t drawableAncestor(std::uint32_t index) const {
+        std::uint32_t a = blocks[index].parent;
+        while (a != kNoParent && !drawable(blocks[a])) a = blocks[a].parent;
+        return a;
+    }
+
     bool allocate(std::uint64_t size, std::uint64_t frame, std::int64_t completedFrame,
                   std::uint64_t& offset) {
         for (;;) {
@@ -269,12 +288,20 @@ bool StreamingScene::open(const Device& device, const std::string& path,
     // block fails the open with the file and block named, before anything is drawn.
     std::vector<Packed> coarse;
     std::uint64_t largest = 0;
+    std::vector<std::uint32_t> parent(s.reader.blocks().size(), kNoParent);
+    for (std::size_t i = 0; i < parent.size(); ++i) {
+        const format::BlockInfo& info = s.reader.blocks()[i];
+        for (std::uint32_t c = 0; c < info.childCount; ++c)
+            parent[info.firstChild + c] = std::uint32_t(i);  // links checked by the reader
+    }
     for (std::size_t i = 0; i < s.reader.blocks().size(); ++i) {
         format::BlockGeometry g;
         const int last = int(s.reader.blocks()[i].levelCount) - 1;
         if (!s.reader.readGeometry(i, last, g, error)) return false;
         BlockState b;
         b.info = s.reader.blocks()[i];
+        b.parent = parent[i];
+        b.treeLevel = b.info.level;
         b.originX = g.originX;
         b.originY = g.originY;
         b.boxMin[0] = g.minX, b.boxMin[1] = g.minY, b.boxMin[2] = g.minZ;
@@ -293,8 +320,10 @@ bool StreamingScene::open(const Device& device, const std::string& path,
         node.levels = nullptr;  // set below, once s.blocks no longer moves
         s.nodes.push_back(node);
         Packed p;
-        pack(g, g.terrainIndices.size(), g.riverIndices.size(), p);
-        s.coarseBytes += alignUp(p.bytes.size());
+        if (b.parent == kNoParent) {
+            pack(g, g.terrainIndices.size(), g.riverIndices.size(), p);
+            s.coarseBytes += alignUp(p.bytes.size());
+        }
         coarse.push_back(std::move(p));
         s.blocks.push_back(std::move(b));
     }
@@ -370,6 +399,7 @@ bool StreamingScene::open(const Device& device, const std::string& path,
     std::uint64_t at = 0;
     for (std::size_t i = 0; i < s.blocks.size(); ++i) {
         BlockState& b = s.blocks[i];
+        if (b.parent != kNoParent) continue;  // streamed whole (Impl::resident)
         const Packed& p = coarse[i];
         std::uint64_t offset = 0;
         const bool ok = s.allocator.allocate(p.bytes.size(), offset);
@@ -391,7 +421,8 @@ bool StreamingScene::open(const Device& device, const std::string& path,
         // Block by block through the first staging buffer (it holds the largest block).
         for (std::uint32_t i = 0; i < s.blocks.size(); ++i) {
             BlockState& b = s.blocks[i];
-            if (b.levels.size() < 2) continue;  // the coarse level is all there is
+            if (b.parent == kNoParent && b.levels.size() < 2)
+                continue;  // a root whose coarse level is all there is
             format::BlockGeometry g;
             if (!s.reader.readGeometry(i, format::kAllLevels, g, error)) {
                 close();
@@ -476,7 +507,13 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
     }
     for (const BlockSelection& sel : s.selection) {
         BlockState& b = s.blocks[sel.block];
-        if (sel.wanted.level + 1 < b.levels.size()) b.lastUsedFrame = frame;
+        if (!s.needsFull(b, sel.wanted.level)) continue;
+        b.lastUsedFrame = frame;
+        // Not resident: the entry above it that may be drawn in its place is kept too.
+        if (!b.full.valid && b.parent != kNoParent) {
+            const std::uint32_t a = s.drawableAncestor(sel.block);
+            if (a != kNoParent) s.blocks[a].lastUsedFrame = frame;
+        }
     }
 
     // 2. Uploads of what the loader has read, as far as the staging buffer and budget allow.
@@ -524,48 +561,99 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
         recordUploadBarrier(cmd);
     }
 
-    // 3. What is drawn: the wanted level where resident, else the coarse one.
+    // 3. What is drawn: the wanted level where resident. Else, for a root, its coarse level;
+    // below the root, the nearest entry above it that is resident (the root's coarse level at
+    // worst) is drawn ONCE in place of every cut entry below it, at its finest resident level,
+    // so the frame never shows a hole or draws an area twice. Requests: the entry and the
+    // entries between it and what is drawn for it, coarsest first.
     s.draws.clear();
     st.visibleBlocks = std::uint32_t(s.selection.size());
     st.fallbackBlocks = 0;
     st.triangles = st.riverEdges = 0;
     std::vector<std::uint32_t> requests;
+    auto requestable = [&](const BlockState& b) {
+        return b.deniedEpoch != s.spaceEpoch && b.deniedEpoch != ~0ull - 1;
+    };
+    std::vector<char> inPlace(s.blocks.size(), 0);  // drawn in place of entries below it
     for (BlockSelection& sel : s.selection) {
         const BlockState& b = s.blocks[sel.block];
-        const std::size_t coarseLevel = b.levels.size() - 1;
-        const bool needsFull = sel.wanted.level < coarseLevel;
+        sel.drawnBlock = sel.block;
+        if (!s.needsFull(b, sel.wanted.level) || b.full.valid) continue;
+        sel.fallback = true;
+        ++st.fallbackBlocks;
+        if (requestable(b)) requests.push_back(sel.block);
+        if (b.parent == kNoParent) continue;  // its own coarse level
+        const std::uint32_t a = s.drawableAncestor(sel.block);
+        assert(a != kNoParent && "a root's coarse level is always resident");
+        for (std::uint32_t up = b.parent; up != a; up = s.blocks[up].parent)
+            if (requestable(s.blocks[up])) requests.push_back(up);
+        inPlace[a] = 1;
+    }
+    // The topmost entry drawn in place covers every cut entry below it.
+    auto coveringEntry = [&](std::uint32_t index) {
+        std::uint32_t cover = kNoParent;
+        for (std::uint32_t up = s.blocks[index].parent; up != kNoParent; up = s.blocks[up].parent)
+            if (inPlace[up]) cover = up;
+        return cover;
+    };
+    auto addDraw = [&](const BlockState& b, bool full, std::size_t level) {
+        const Allocation* alloc = full ? &b.full : &b.coarse;
+        const format::Level& l = b.levels[level];
+        // The coarse allocation holds only its level, rebased to 0.
+        const std::uint64_t triangleFirst = full ? l.triangleFirst : 0;
+        const std::uint64_t riverFirst = full ? l.riverFirst : 0;
         DrawBlock d;
         d.originX = b.originX;
         d.originY = b.originY;
-        const Allocation* a;
-        if (needsFull && b.full.valid) {
-            sel.drawnLevel = sel.wanted.level;
-            a = &b.full;
-        } else {
-            sel.drawnLevel = coarseLevel;
-            a = &b.coarse;
-            if (needsFull) {
-                sel.fallback = true;
-                ++st.fallbackBlocks;
-                if (b.deniedEpoch != s.spaceEpoch && b.deniedEpoch != ~0ull - 1)
-                    requests.push_back(sel.block);
-            }
-        }
-        const format::Level& l = b.levels[sel.drawnLevel];
-        // The coarse allocation holds only its level, rebased to 0.
-        const std::uint64_t triangleFirst = a == &b.coarse ? 0 : l.triangleFirst;
-        const std::uint64_t riverFirst = a == &b.coarse ? 0 : l.riverFirst;
-        d.vertexOffset = a->offset;
-        d.terrainFirst = std::uint32_t((a->offset + a->vertexBytes) / 4 + triangleFirst * 3);
+        d.vertexOffset = alloc->offset;
+        d.terrainFirst = std::uint32_t((alloc->offset + alloc->vertexBytes) / 4 + triangleFirst * 3);
         d.terrainCount = l.triangleCount * 3;
-        d.riverFirst =
-            std::uint32_t((a->offset + a->vertexBytes + a->terrainBytes) / 4 + riverFirst * 2);
+        d.riverFirst = std::uint32_t(
+            (alloc->offset + alloc->vertexBytes + alloc->terrainBytes) / 4 + riverFirst * 2);
         d.riverCount = l.riverCount * 2;
-        sel.triangles = l.triangleCount;
-        sel.riverEdges = l.riverCount;
         st.triangles += l.triangleCount;
         st.riverEdges += l.riverCount;
         s.draws.push_back(d);
+    };
+    std::vector<char> drawnInPlace(s.blocks.size(), 0);
+    for (BlockSelection& sel : s.selection) {
+        const std::uint32_t cover = coveringEntry(sel.block);
+        if (cover != kNoParent) {
+            // Drawn through the entry above it: its finest resident level.
+            const BlockState& c = s.blocks[cover];
+            const std::size_t level = c.full.valid ? 0 : c.levels.size() - 1;
+            if (!sel.fallback) {
+                sel.fallback = true;
+                ++st.fallbackBlocks;
+            }
+            sel.drawnBlock = cover;
+            sel.drawnLevel = level;
+            sel.triangles = sel.riverEdges = 0;  // counted once, with the entry drawn
+            if (!drawnInPlace[cover]) {
+                drawnInPlace[cover] = 1;
+                addDraw(c, c.full.valid, level);
+            }
+            continue;
+        }
+        const BlockState& b = s.blocks[sel.block];
+        // Resident as wanted, or a root at its coarse level (wanted, or a fallback).
+        const bool full = s.needsFull(b, sel.wanted.level) && b.full.valid;
+        sel.drawnLevel = full ? sel.wanted.level : b.levels.size() - 1;
+        const format::Level& l = b.levels[sel.drawnLevel];
+        sel.triangles = l.triangleCount;
+        sel.riverEdges = l.riverCount;
+        addDraw(b, full, sel.drawnLevel);
+    }
+    // Coarsest first (nearest first within a tree level), each once.
+    std::stable_sort(requests.begin(), requests.end(), [&](std::uint32_t x, std::uint32_t y) {
+        return s.blocks[x].treeLevel > s.blocks[y].treeLevel;
+    });
+    {
+        std::vector<char> seen(s.blocks.size(), 0);
+        std::size_t kept = 0;
+        for (std::uint32_t i : requests)
+            if (!seen[i]) seen[i] = 1, requests[kept++] = i;
+        requests.resize(kept);
     }
 
     // 4. Requests, nearest first, replacing those of the previous frame.

@@ -1,15 +1,19 @@
 // The streamed scene (DESIGN.md "Engine", issue 5): the blocks of a .ulod file in one device
 // buffer under a memory budget, and the per-frame choice of what to draw.
 //
-// - At open, every block's levels are read and its coarsest level is uploaded and stays
-//   resident, so no block ever disappears; the budget must hold this coarse set.
+// - At open, every block's levels are read, and the coarsest level of every root (an entry with
+//   no tree parent: the tree's root, or every block of a file without a tree) is uploaded and
+//   stays resident, so no area ever disappears; the budget must hold this coarse set. Entries
+//   below the root are streamed whole (every level).
 // - Every frame, prepare() culls the blocks against the view, computes S and h_lim per visible
 //   block and picks the coarsest level with h_s <= h_lim (lod/cut.h selectCut). A block whose chosen level is
 //   finer than its resident coarse level needs its full LOD geometry (all levels' index data):
-//   it is requested from a loader thread, nearest first. Loaded blocks are uploaded by the
-//   frame's command buffer through a staging buffer (at most `uploadBytesPerFrame` per frame).
-//   Until a block is resident it is drawn at its coarse level ("fallback"): a frame never waits
-//   on disk.
+//   it is requested from a loader thread, coarsest tree level first, nearest first within one.
+//   Loaded blocks are uploaded by the frame's command buffer through a staging buffer (at most
+//   `uploadBytesPerFrame` per frame). Until a block is resident ("fallback") a root is drawn at
+//   its coarse level, an entry below the root through the nearest resident tree node above it
+//   (drawn once in place of every cut entry below that node, at its finest level): a frame
+//   never waits on disk and never shows a hole.
 // - Memory: one device-local buffer of `gpuBudget` bytes, sub-allocated by offset (first fit).
 //   When an upload does not fit, the least recently used full blocks not drawn in this frame
 //   are evicted; their memory returns to the allocator only once the frames that drew them have
@@ -60,7 +64,11 @@ struct SceneOptions {
 // One visible block's choice in the last prepared frame: the cut's choice (lod/cut.h) and what
 // was drawn.
 struct BlockSelection : NodeChoice {
-    std::size_t drawnLevel = 0;     // the level drawn (the coarse one while not resident)
+    // The entry drawn for it: itself, or (a fallback below the root) the nearest resident tree
+    // node above it, drawn once in place of every cut entry below it (its triangles and river
+    // edges are then counted in FrameStats, 0 here).
+    std::uint32_t drawnBlock = 0;
+    std::size_t drawnLevel = 0;     // the level drawn of drawnBlock
     bool fallback = false;          // drawn coarser than wanted: not resident yet
     std::uint32_t triangles = 0, riverEdges = 0;
 };

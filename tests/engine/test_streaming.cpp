@@ -1,8 +1,9 @@
 // Streaming under a GPU budget, frustum culling and camera paths, on lavapipe with validation on
 // (any validation message fails). The bundled data is built with 64-cell blocks (42 blocks) so
 // that views cull and stream.
-// - The first frame after open draws every visible block at its resident coarse level: a frame
-//   never waits on disk. Later frames bring in what h_lim asks for.
+// - The first frame after open draws the tree's root at its resident coarse level in place of
+//   the whole cut: a frame never waits on disk. Later frames bring in what h_lim asks for,
+//   coarsest tree level first, and every frame draws each part of the cut exactly once.
 // - A budget that holds about a third of the full blocks: over a path, memory in use never
 //   exceeds the budget, blocks are evicted, every visible block is drawn every frame.
 // - A tiny budget (just above the coarse set) still renders every block; below it the open
@@ -16,6 +17,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "camera.h"
 #include "capture.h"
@@ -80,35 +82,78 @@ fs::path Streaming::dir_;
 std::string Streaming::file_;
 format::Reader Streaming::reader_;
 
-TEST_F(Streaming, FirstFrameDrawsCoarseThenStreamsIn) {
+// Every cut entry is drawn exactly once: by itself, or through the entry above it that the
+// frame draws in its place, and then no other cut entry below that one is drawn by itself.
+void expectCoverage(const engine::StreamingScene& scene, const std::vector<std::uint32_t>& parent) {
+    std::set<std::uint32_t> inPlace;
+    for (const engine::BlockSelection& s : scene.selection())
+        if (s.drawnBlock != s.block) inPlace.insert(s.drawnBlock);
+    for (const engine::BlockSelection& s : scene.selection()) {
+        bool above = false;  // drawn by itself, or through an ancestor
+        for (std::uint32_t up = parent[s.block]; up != UINT32_MAX; up = parent[up]) {
+            if (up == s.drawnBlock) above = true;
+            // An entry drawn in place covers everything below it.
+            if (inPlace.count(up)) {
+                EXPECT_EQ(s.drawnBlock, up) << "entry " << s.block;
+            }
+        }
+        EXPECT_TRUE(s.drawnBlock == s.block || above) << "entry " << s.block;
+        if (s.drawnBlock != s.block) {
+            EXPECT_TRUE(s.fallback);
+            EXPECT_EQ(s.triangles, 0u);
+        }
+    }
+}
+
+TEST_F(Streaming, FirstFrameDrawsTheRootThenStreamsIn) {
+    const auto& infos = reader_.blocks();
+    std::vector<std::uint32_t> parent(infos.size(), UINT32_MAX);
+    for (std::size_t i = 0; i < infos.size(); ++i)
+        for (std::uint32_t c = 0; c < infos[i].childCount; ++c)
+            parent[infos[i].firstChild + c] = std::uint32_t(i);
+    const std::uint32_t root = std::uint32_t(infos.size() - 1);  // the tree's, last in the file
+    ASSERT_EQ(parent[root], UINT32_MAX);
+    ASSERT_GT(infos[root].level, 0u);
     engine::HeadlessRenderer r;
     std::string error;
     ASSERT_TRUE(r.open(options(engine::kDefaultGpuBudget), error)) << error;
     const engine::FrameView view = r.view(oblique(0.5));
     ASSERT_TRUE(r.renderFrame(view, true, nullptr, error)) << error;
     const engine::FrameStats first = r.scene().stats();
-    EXPECT_GT(first.visibleBlocks, 0u);
+    // Only the root's coarse level is resident: every cut entry below it is drawn through it.
+    EXPECT_GT(first.visibleBlocks, 1u);
     EXPECT_EQ(first.residentBlocks, 0u);
-    std::uint32_t wantFiner = 0;
+    const std::size_t rootCoarse = r.scene().levels(root).size() - 1;
+    std::uint32_t wantFull = 0;
     for (const engine::BlockSelection& s : r.scene().selection()) {
-        const bool finer = s.wanted.level + 1 < r.scene().levels(s.block).size();
-        wantFiner += finer;
-        EXPECT_EQ(s.fallback, finer);
-        EXPECT_EQ(s.drawnLevel, r.scene().levels(s.block).size() - 1);  // coarse
+        ASSERT_NE(s.block, root);  // the view wants more than the root
+        ++wantFull;
+        EXPECT_TRUE(s.fallback);
+        EXPECT_EQ(s.drawnBlock, root);
+        EXPECT_EQ(s.drawnLevel, rootCoarse);
     }
-    EXPECT_GT(wantFiner, 0u);
-    EXPECT_EQ(first.fallbackBlocks, wantFiner);
-    // Upload-only frames until settled, then nothing is drawn coarser than wanted.
+    EXPECT_EQ(first.fallbackBlocks, wantFull);
+    EXPECT_EQ(first.triangles, r.scene().levels(root)[rootCoarse].triangleCount);  // drawn once
+    expectCoverage(r.scene(), parent);
+    // Frames until settled: coarsest tree level first, so nodes above the cut come in and are
+    // drawn in place of their cut entries on the way; every frame covers the cut once.
+    std::set<std::uint32_t> drawnInPlace;
     for (int i = 0; i < 100000 && !r.scene().settled(); ++i) {
-        ASSERT_TRUE(r.renderFrame(view, false, nullptr, error)) << error;
+        ASSERT_TRUE(r.renderFrame(view, true, nullptr, error)) << error;
+        expectCoverage(r.scene(), parent);
+        for (const engine::BlockSelection& s : r.scene().selection())
+            if (s.drawnBlock != s.block) drawnInPlace.insert(s.drawnBlock);
         r.finish();
     }
+    EXPECT_GT(drawnInPlace.size(), 1u) << "nodes between the root and the cut were drawn";
     ASSERT_TRUE(r.renderFrame(view, true, nullptr, error)) << error;
     r.finish();
     EXPECT_EQ(r.scene().stats().fallbackBlocks, 0u);
-    EXPECT_EQ(r.scene().stats().residentBlocks, wantFiner);
-    for (const engine::BlockSelection& s : r.scene().selection())
+    EXPECT_GE(r.scene().stats().residentBlocks, wantFull);
+    for (const engine::BlockSelection& s : r.scene().selection()) {
+        EXPECT_EQ(s.drawnBlock, s.block);
         EXPECT_EQ(s.drawnLevel, s.wanted.level);
+    }
     const std::vector<std::string> messages = r.close();
     EXPECT_TRUE(messages.empty()) << messages.front();
 }
