@@ -56,6 +56,7 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
             });
         }
         del.extraSamples = &extra;
+        del.releaseExtraSamples = true;  // a root's are every original point of the model
     }
     DeletionRecords records;
     if (options.order == DeletionOrderKind::ThreeDdp) {

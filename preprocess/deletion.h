@@ -114,7 +114,8 @@ struct DeletionOptions {
     std::function<void(std::uint32_t)> afterStep;
     // Original points beyond the set's, counted in the `max` metric (modelerror.h ExtraSample;
     // max metric only). Must outlive the call.
-    const std::vector<ExtraSample>* extraSamples = nullptr;
+    std::vector<ExtraSample>* extraSamples = nullptr;
+    bool releaseExtraSamples = false;  // free them once placed (ModelError::init releaseExtra)
     // Issue 18's tree nodes (nodebuild.h), whose points are their children's coarsest vertices:
     // `errorFloor` is the error the running `max` starts from (the children's largest final
     // error: errors stay monotone up the tree); `chainSlack` is added to every chain deviation

@@ -67,7 +67,8 @@ double surfaceHeight(const PointSet& set, const Cdt& cdt, std::uint32_t t, Point
 }
 
 void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool paperMetric,
-                      const std::vector<ExtraSample>* extra) {
+                      const std::vector<ExtraSample>* extra,
+                      std::vector<ExtraSample>* releaseExtra) {
     assert((extra == nullptr || !paperMetric) && "extra samples: max metric only");
     set_ = &set;
     maxMetric_ = maxMetric;
@@ -138,6 +139,10 @@ void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool 
                     runningMax_ = std::max(runningMax_,
                                            std::fabs(e.z - heightGrid(set, cdt, t, e.gx, e.gy)));
             }
+        }
+        if (releaseExtra != nullptr) {
+            assert(releaseExtra == extra);
+            std::vector<ExtraSample>().swap(*releaseExtra);
         }
         std::uint32_t offset = 0;
         for (std::uint32_t t = 0; t < rangeCount_.size(); ++t) {

@@ -49,9 +49,13 @@ class ModelError {
 public:
     // `cdt`: the full triangulation of `set` (before any deletion). `extra` (max metric only):
     // more original points, counted in M like the set's; each is located in the triangulation
-    // (exact, closed), and one outside the domain has no vertical error.
+    // (exact, closed), and one outside the domain has no vertical error. `releaseExtra` (null,
+    // or the same vector as `extra`): its memory is freed as soon as the samples are placed, before
+    // the pool that keeps them is allocated (the caller no longer needs them: a tree root holds
+    // every original point of the model).
     void init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool paperMetric,
-              const std::vector<ExtraSample>* extra = nullptr);
+              const std::vector<ExtraSample>* extra = nullptr,
+              std::vector<ExtraSample>* releaseExtra = nullptr);
     // After a step: the destroyed pre-existing triangle slots and the created alive real slots.
     // Returns the step's own vertical error: the largest re-evaluated value (before the running
     // maximum).

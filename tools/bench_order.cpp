@@ -21,6 +21,10 @@
 // about 4 000 rivers at 16M points; tools/benchbuild.h as bench_build), built with the default
 // options; wall seconds and peak RSS.
 //
+// `--tree N`: issue 18's block hierarchy on a default build of a synthetic DEM of about N points
+// (treeBenchmark below): uniform cut vs a greedy TIN of the whole DEM, file vs leaf level, draws
+// per pass on a fly-over and an orbit.
+//
 // Every build and every TIN runs in its own child process (benchutil.h), so each peak RSS is that
 // step's alone.
 #include <unistd.h>
@@ -38,6 +42,7 @@
 #include <vector>
 
 #include "benchbuild.h"
+#include "cut.h"
 #include "benchutil.h"
 #include "dem.h"
 #include "greedytin.h"
@@ -90,6 +95,137 @@ unilod::PointSet readBlockPoints(const std::string& path) {
         set.points.push_back({x, y, double(v.z)});
     }
     return set;
+}
+
+// Every leaf block's vertices of a .ulod file as metres (origin + exact grid position), each
+// point once: a border point held by several leaves is kept once (its exact world position on the
+// 1 mm grid). The whole DEM as a greedy TIN sees it.
+unilod::PointSet readLeafPoints(const std::string& path) {
+    unilod::format::Reader reader;
+    std::string error;
+    if (!reader.open(path, error)) fail(error);
+    std::vector<std::pair<std::pair<std::int64_t, std::int64_t>, double>> all;
+    unilod::format::Block b;
+    for (std::size_t i = 0; i < reader.blocks().size(); ++i) {
+        if (reader.blocks()[i].level != 0) continue;
+        if (!reader.readBlock(i, b, error)) fail(error);
+        for (std::size_t k = 0; k < b.vertices.size(); ++k) {
+            const double x = b.originX + b.grid[k].x * unilod::format::kGridUnit;
+            const double y = b.originY + b.grid[k].y * unilod::format::kGridUnit;
+            all.push_back({{std::llround(x * 1000), std::llround(y * 1000)}, double(b.vertices[k].z)});
+        }
+    }
+    std::sort(all.begin(), all.end());
+    unilod::PointSet set;
+    for (std::size_t k = 0; k < all.size(); ++k) {
+        if (k > 0 && all[k].first == all[k - 1].first) continue;
+        set.points.push_back({double(all[k].first.first) / 1000, double(all[k].first.second) / 1000,
+                              all[k].second});
+    }
+    return set;
+}
+
+// Issue 18's targets on a model with the block hierarchy: the cut for a uniform h_lim (the
+// triangles the engine draws, stats.h computeErrorStats) against a greedy TIN of the whole DEM
+// (every leaf point once) at the same error; the file's bytes against its leaf level's; and the
+// draws per pass (entries of the cut, lod/cut.h selectCut) at every frame of a fly-over (south-west
+// to north-east, a fifth of the width above the top, 25 degrees down: `unilod bench`'s default
+// path) and of an orbit (72 frames around the centre at 0.6 of the width, 0.3 of it above the top,
+// looking at the centre), 1920 x 1080, 60 degrees, P = 1, nearest distance.
+json treeBenchmark(const std::string& path, const std::vector<double>& errors) {
+    json out;
+    {
+        unilod::ErrorStatsTable table;
+        std::string error;
+        if (!unilod::computeErrorStats(path, errors, unilod::format::kMetricMax, table, error))
+            fail(error);
+        out["leaf_blocks"] = table.blocks;
+        out["tree_nodes"] = table.nodes;
+        json cuts = json::array();
+        for (const unilod::ErrorStatsRow& r : table.rows)
+            cuts.push_back({{"error", r.error},
+                            {"triangles", r.levelTriangles},
+                            {"exact_triangles", r.exactTriangles},
+                            {"nodes", r.nodes}});
+        out["cuts"] = cuts;
+    }
+    unilod::format::Reader reader;
+    std::string error;
+    if (!reader.open(path, error)) fail(error);
+    std::uint64_t leafBytes = 0, allBytes = 0;
+    for (const unilod::format::BlockInfo& b : reader.blocks()) {
+        allBytes += b.size;
+        if (b.level == 0) leafBytes += b.size;
+    }
+    out["file_bytes"] = fs::file_size(path);
+    out["block_bytes"] = allBytes;
+    out["leaf_block_bytes"] = leafBytes;
+    out["file_ratio_vs_leaf_level"] = double(allBytes) / double(leafBytes);
+    out["file_target"] = 1.3;
+
+    // The nodes as the engine sees them: boxes, links and level tables (coarsest level read).
+    const std::size_t count = reader.blocks().size();
+    std::vector<std::vector<unilod::format::Level>> levels(count);
+    std::vector<unilod::engine::LodNode> nodes(count);
+    for (std::size_t i = 0; i < count; ++i) {
+        unilod::format::BlockGeometry g;
+        if (!reader.readGeometry(i, int(reader.blocks()[i].levelCount) - 1, g, error)) fail(error);
+        nodes[i] = unilod::engine::lodNode(g);
+        levels[i] = std::move(g.levels);
+        nodes[i].levels = &levels[i];
+    }
+    const unilod::format::Header& h = reader.header();
+    const double w = std::max(h.maxX - h.minX, h.maxY - h.minY);
+    const double cx = (h.minX + h.maxX) / 2, cy = (h.minY + h.maxY) / 2;
+    auto measure = [&](const std::vector<unilod::engine::Camera>& cameras) {
+        std::size_t maxDraws = 0;
+        double sumDraws = 0;
+        std::uint64_t maxTriangles = 0;
+        std::vector<unilod::engine::NodeChoice> cut;
+        for (const unilod::engine::Camera& c : cameras) {
+            unilod::engine::ViewSpec v;
+            v.camera = c;
+            v.widthPixels = 1920;
+            v.heightPixels = 1080;
+            unilod::engine::selectCut(v, nodes, unilod::format::kMetricMax, cut);
+            std::uint64_t triangles = 0;
+            for (const unilod::engine::NodeChoice& n : cut)
+                triangles += (*nodes[n.block].levels)[n.wanted.level].triangleCount;
+            maxDraws = std::max(maxDraws, cut.size());
+            sumDraws += double(cut.size());
+            maxTriangles = std::max(maxTriangles, triangles);
+        }
+        return json{{"frames", cameras.size()},
+                    {"max_draws_per_pass", maxDraws},
+                    {"mean_draws_per_pass", sumDraws / double(cameras.size())},
+                    {"max_triangles", maxTriangles}};
+    };
+    std::vector<unilod::engine::Camera> fly, orbit;
+    for (int f = 0; f < 200; ++f) {
+        const double t = 0.1 + 0.8 * f / 199.0;
+        unilod::engine::Camera c;
+        c.eye[0] = h.minX + t * (h.maxX - h.minX);
+        c.eye[1] = h.minY + t * (h.maxY - h.minY);
+        c.eye[2] = h.maxZ + 0.2 * w;
+        c.yawDegrees = 45;
+        c.pitchDegrees = -25;
+        fly.push_back(c);
+    }
+    for (int f = 0; f < 72; ++f) {
+        const double a = f * 5.0 * 3.14159265358979323846 / 180;
+        unilod::engine::Camera c;
+        c.eye[0] = cx + 0.6 * w * std::sin(a);
+        c.eye[1] = cy - 0.6 * w * std::cos(a);
+        c.eye[2] = h.maxZ + 0.3 * w;
+        c.yawDegrees = std::fmod(f * 5.0, 360.0);  // towards the centre (0 = north)
+        c.pitchDegrees = -std::atan2(0.3 * w + (h.maxZ - h.minZ) / 2, 0.6 * w) * 180 /
+                         3.14159265358979323846;
+        orbit.push_back(c);
+    }
+    out["fly_over"] = measure(fly);
+    out["orbit"] = measure(orbit);
+    out["draws_target"] = 64;
+    return out;
 }
 
 // Rivers as a baseline needs them: each river chain of the one block (full-resolution river
@@ -389,6 +525,11 @@ int main(int argc, char** argv) {
     app.add_option("--build-time", buildTime,
                    "only time a default build of a synthetic DEM of about N points")
         ->check(CLI::Range(std::size_t{1000}, std::size_t{100000000}));
+    std::size_t treePoints = 0;
+    app.add_option("--tree", treePoints,
+                   "only issue 18's block-hierarchy benchmark on a default build of a synthetic "
+                   "DEM of about N points (reuses the model kept with --keep)")
+        ->check(CLI::Range(std::size_t{1000}, std::size_t{100000000}));
     bool masked = false;
     app.add_flag("--masked", masked,
                  "only the domain benchmark: the bundled DEM masked by a crescent against the "
@@ -404,6 +545,62 @@ int main(int argc, char** argv) {
     if (masked) {
         const json result = maskedBenchmark(work, errors, threads);
         if (keep.empty()) fs::remove_all(work);
+        std::printf("%s\n", unilod::jsonText(result, 2).c_str());
+        return 0;
+    }
+    if (treePoints > 0) {
+        const std::string dir = work + "/synthetic_" + std::to_string(treePoints);
+        std::fprintf(stderr, "bench_order: synthetic inputs of %zu points...\n", treePoints);
+        const json inputs = unilod::bench::runInChild([&] {
+            unilod::SyntheticOptions so;
+            so.targetPoints = treePoints;
+            so.seed = 1;
+            return unilod::bench::ensureSyntheticInputs(dir, so);
+        });
+        unilod::BuildOptions o;
+        o.demPath = dir + "/dem.tif";
+        o.riversPath = dir + "/rivers.geojson";
+        o.outPath = work + "/synthetic_" + std::to_string(treePoints) + "_tree.ulod";
+        o.threads = threads;
+        o.force = true;
+        json build = {{"reused", true}};
+        if (keep.empty() || !fs::exists(o.outPath)) {
+            std::fprintf(stderr, "bench_order: building...\n");
+            build = unilod::bench::runInChild([&] {
+                return unilod::bench::measureBuild("synthetic_" + std::to_string(treePoints), o);
+            });
+        }
+        if (errors == std::vector<double>{5, 10, 20}) errors = {100, 50, 20};
+        std::fprintf(stderr, "bench_order: cuts, file and draws...\n");
+        json tree = unilod::bench::runInChild([&] { return treeBenchmark(o.outPath, errors); });
+        std::fprintf(stderr, "bench_order: greedy TIN of the whole DEM...\n");
+        const json tin = unilod::bench::runInChild([&] {
+            const unilod::PointSet set = readLeafPoints(o.outPath);
+            const auto start = std::chrono::steady_clock::now();
+            std::vector<std::uint64_t> counts;
+            std::string error;
+            if (!unilod::greedyTinTriangles(set, errors, counts, error)) fail(error);
+            return json{{"points", set.points.size()},
+                        {"triangles", counts},
+                        {"seconds", std::chrono::duration<double>(
+                                        std::chrono::steady_clock::now() - start)
+                                        .count()},
+                        {"max_rss_bytes", peakRssBytes()}};
+        });
+        for (std::size_t i = 0; i < errors.size(); ++i) {
+            json& cut = tree["cuts"][i];
+            const auto t = tin["triangles"][i].get<std::uint64_t>();
+            cut["tin_triangles"] = t;
+            cut["ratio_vs_tin"] = t ? cut["triangles"].get<double>() / double(t) : 0.0;
+            cut["target"] = 1.5;
+        }
+        if (keep.empty()) fs::remove_all(work);
+        const json result = {{"benchmark", "block_hierarchy"},
+                             {"target_points", treePoints},
+                             {"inputs", inputs},
+                             {"build", build},
+                             {"tin", tin},
+                             {"tree", tree}};
         std::printf("%s\n", unilod::jsonText(result, 2).c_str());
         return 0;
     }
