@@ -73,17 +73,8 @@ std::size_t peakRssBytes() {
     return std::size_t(ru.ru_maxrss) * 1024;
 }
 
-// The one block's vertices of a .ulod file as metres: origin + exact grid position.
-unilod::PointSet readBlockPoints(const std::string& path) {
-    unilod::format::Reader reader;
-    std::string error;
-    if (!reader.open(path, error)) fail(error);
-    if (reader.blocks().size() != 1) {
-        fail("'" + path + "': expected one block, found " +
-             std::to_string(reader.blocks().size()));
-    }
-    unilod::format::Block b;
-    if (!reader.readBlock(0, b, error)) fail(error);
+// A block's vertices as metres: origin + exact grid position.
+unilod::PointSet blockPoints(const unilod::format::Block& b) {
     unilod::PointSet set;
     set.points.reserve(b.vertices.size());
     for (std::size_t i = 0; i < b.vertices.size(); ++i) {
@@ -97,32 +88,70 @@ unilod::PointSet readBlockPoints(const std::string& path) {
     return set;
 }
 
-// Every leaf block's vertices of a .ulod file as metres (origin + exact grid position), each
-// point once: a border point held by several leaves is kept once (its exact world position on the
-// 1 mm grid). The whole DEM as a greedy TIN sees it.
-unilod::PointSet readLeafPoints(const std::string& path) {
+// The one block's vertices of a .ulod file.
+unilod::PointSet readBlockPoints(const std::string& path) {
     unilod::format::Reader reader;
     std::string error;
     if (!reader.open(path, error)) fail(error);
-    std::vector<std::pair<std::pair<std::int64_t, std::int64_t>, double>> all;
+    if (reader.blocks().size() != 1) {
+        fail("'" + path + "': expected one block, found " +
+             std::to_string(reader.blocks().size()));
+    }
+    unilod::format::Block b;
+    if (!reader.readBlock(0, b, error)) fail(error);
+    return blockPoints(b);
+}
+
+// The whole model at full resolution as ONE block: every leaf block's vertices once (a border
+// point held by several leaves is merged by its exact world position on the 1 mm grid), on one
+// grid from the header's origin, and every leaf's full-resolution river edges (level 0 only).
+// What a whole-DEM TIN sees.
+unilod::format::Block mergedLeaves(const std::string& path) {
+    unilod::format::Reader reader;
+    std::string error;
+    if (!reader.open(path, error)) fail(error);
+    const double u = unilod::format::kGridUnit;
+    unilod::format::Block out;
+    out.originX = reader.header().originX;
+    out.originY = reader.header().originY;
+    std::vector<std::pair<std::pair<std::int64_t, std::int64_t>, std::uint32_t>> keys;
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> edges;  // global vertex numbers
+    std::vector<float> z;
     unilod::format::Block b;
     for (std::size_t i = 0; i < reader.blocks().size(); ++i) {
         if (reader.blocks()[i].level != 0) continue;
         if (!reader.readBlock(i, b, error)) fail(error);
+        const std::uint64_t first = z.size();
         for (std::size_t k = 0; k < b.vertices.size(); ++k) {
-            const double x = b.originX + b.grid[k].x * unilod::format::kGridUnit;
-            const double y = b.originY + b.grid[k].y * unilod::format::kGridUnit;
-            all.push_back({{std::llround(x * 1000), std::llround(y * 1000)}, double(b.vertices[k].z)});
+            const double x = b.originX + b.grid[k].x * u, y = b.originY + b.grid[k].y * u;
+            keys.push_back({{std::llround((x - out.originX) / u), std::llround((y - out.originY) / u)},
+                            std::uint32_t(z.size())});
+            z.push_back(b.vertices[k].z);
         }
+        const unilod::format::Level& full = b.levels.front();
+        for (std::uint32_t e = full.riverFirst; e < full.riverFirst + full.riverCount; ++e)
+            edges.push_back({first + b.riverIndices[e].a, first + b.riverIndices[e].b});
     }
-    std::sort(all.begin(), all.end());
-    unilod::PointSet set;
-    for (std::size_t k = 0; k < all.size(); ++k) {
-        if (k > 0 && all[k].first == all[k - 1].first) continue;
-        set.points.push_back({double(all[k].first.first) / 1000, double(all[k].first.second) / 1000,
-                              all[k].second});
+    std::sort(keys.begin(), keys.end());
+    std::vector<std::uint32_t> id(z.size());
+    for (std::size_t k = 0; k < keys.size(); ++k) {
+        if (k == 0 || keys[k].first != keys[k - 1].first) {
+            out.grid.push_back({std::int32_t(keys[k].first.first), std::int32_t(keys[k].first.second)});
+            out.vertices.push_back({float(keys[k].first.first * u), float(keys[k].first.second * u),
+                                    z[keys[k].second], 0});
+        }
+        id[keys[k].second] = std::uint32_t(out.vertices.size() - 1);
     }
-    return set;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> merged;
+    for (const auto& [ea, eb] : edges)
+        merged.push_back(std::minmax(id[ea], id[eb]));
+    std::sort(merged.begin(), merged.end());
+    merged.erase(std::unique(merged.begin(), merged.end()), merged.end());
+    for (const auto& [ea, eb] : merged) out.riverIndices.push_back({ea, eb});
+    unilod::format::Level full;
+    full.riverCount = std::uint32_t(out.riverIndices.size());
+    out.levels.push_back(full);
+    return out;
 }
 
 // Issue 18's targets on a model with the block hierarchy: the cut for a uniform h_lim (the
@@ -281,13 +310,8 @@ std::vector<std::vector<std::uint32_t>> riverChains(const unilod::format::Block&
     return chains;
 }
 
-std::vector<RiverDp> riverDpVertices(const std::string& path,
+std::vector<RiverDp> riverDpVertices(const unilod::format::Block& b,
                                      const std::vector<double>& tolerances) {
-    unilod::format::Reader reader;
-    std::string error;
-    if (!reader.open(path, error)) fail(error);
-    unilod::format::Block b;
-    if (!reader.readBlock(0, b, error)) fail(error);
     const std::vector<std::vector<std::uint32_t>> chains = riverChains(b);
     auto pos = [&](std::uint32_t v, int k) {
         return k == 0 ? b.grid[v].x * unilod::format::kGridUnit
@@ -368,6 +392,16 @@ std::vector<RiverDp> riverDpVertices(const std::string& path,
         counts.push_back({n, bound});
     }
     return counts;
+}
+
+std::vector<RiverDp> riverDpVertices(const std::string& path,
+                                     const std::vector<double>& tolerances) {
+    unilod::format::Reader reader;
+    std::string error;
+    if (!reader.open(path, error)) fail(error);
+    unilod::format::Block b;
+    if (!reader.readBlock(0, b, error)) fail(error);
+    return riverDpVertices(b, tolerances);
 }
 
 struct Dataset {
@@ -573,26 +607,55 @@ int main(int argc, char** argv) {
         if (errors == std::vector<double>{5, 10, 20}) errors = {100, 50, 20};
         std::fprintf(stderr, "bench_order: cuts, file and draws...\n");
         json tree = unilod::bench::runInChild([&] { return treeBenchmark(o.outPath, errors); });
-        std::fprintf(stderr, "bench_order: greedy TIN of the whole DEM...\n");
+        // The baselines on the whole model's points (every leaf point once): the greedy TIN,
+        // the best known method that also holds the rivers (a greedy TIN with the rivers
+        // simplified to e by 3D Douglas-Peucker as constraints, one run per e) and the strict
+        // lower bound of any model whose river error is <= e (RiverDp).
+        std::fprintf(stderr, "bench_order: greedy TINs of the whole DEM...\n");
         const json tin = unilod::bench::runInChild([&] {
-            const unilod::PointSet set = readLeafPoints(o.outPath);
-            const auto start = std::chrono::steady_clock::now();
-            std::vector<std::uint64_t> counts;
+            const unilod::format::Block all = mergedLeaves(o.outPath);
+            const unilod::PointSet set = blockPoints(all);
+            auto start = std::chrono::steady_clock::now();
+            std::vector<std::uint64_t> counts, held;
             std::string error;
             if (!unilod::greedyTinTriangles(set, errors, counts, error)) fail(error);
+            const double seconds =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            std::vector<unilod::Polyline> chains;
+            for (const std::vector<std::uint32_t>& c : riverChains(all))
+                chains.emplace_back(c.begin(), c.end());
+            start = std::chrono::steady_clock::now();
+            for (double e : errors) {
+                unilod::GreedyTin t;
+                if (!t.init(set, chains, e, error)) fail(error);
+                t.refineTo(e);
+                held.push_back(t.triangleCount());
+            }
+            const double heldSeconds =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            json bounds = json::array();
+            for (const RiverDp& r : riverDpVertices(all, errors))
+                bounds.push_back(r.lowerBoundTriangles());
             return json{{"points", set.points.size()},
+                        {"river_edges", all.riverIndices.size()},
                         {"triangles", counts},
-                        {"seconds", std::chrono::duration<double>(
-                                        std::chrono::steady_clock::now() - start)
-                                        .count()},
+                        {"seconds", seconds},
+                        {"constrained_triangles", held},
+                        {"constrained_seconds", heldSeconds},
+                        {"rivers_lower_bound_triangles", bounds},
                         {"max_rss_bytes", peakRssBytes()}};
         });
         for (std::size_t i = 0; i < errors.size(); ++i) {
             json& cut = tree["cuts"][i];
             const auto t = tin["triangles"][i].get<std::uint64_t>();
+            const auto held = tin["constrained_triangles"][i].get<std::uint64_t>();
             cut["tin_triangles"] = t;
             cut["ratio_vs_tin"] = t ? cut["triangles"].get<double>() / double(t) : 0.0;
             cut["target"] = 1.5;
+            cut["constrained_tin_triangles"] = held;
+            cut["ratio_vs_constrained_tin"] =
+                held ? cut["triangles"].get<double>() / double(held) : 0.0;
+            cut["rivers_lower_bound_triangles"] = tin["rivers_lower_bound_triangles"][i];
         }
         if (keep.empty()) fs::remove_all(work);
         const json result = {{"benchmark", "block_hierarchy"},

@@ -37,8 +37,9 @@ bool outlineMovesImpl(const format::Vertex* vertices, const format::Triangle* tr
     return false;
 }
 
+// Box, position and tree links: what the directory holds of any entry.
 template <typename B>
-LodNode nodeOf(const B& b, bool moves) {
+LodNode placedNode(const B& b) {
     LodNode n;
     n.boxMin[0] = b.minX;
     n.boxMin[1] = b.minY;
@@ -46,13 +47,19 @@ LodNode nodeOf(const B& b, bool moves) {
     n.boxMax[0] = b.maxX;
     n.boxMax[1] = b.maxY;
     n.boxMax[2] = b.maxZ;
-    n.horizontal = (!b.levels.empty() && b.levels.front().riverCount > 0) || moves;
-    n.levels = &b.levels;
     n.col = b.col;
     n.row = b.row;
     n.level = b.level;
     n.firstChild = b.firstChild;
     n.childCount = b.childCount;
+    return n;
+}
+
+template <typename B>
+LodNode nodeOf(const B& b, bool moves) {
+    LodNode n = placedNode(b);
+    n.horizontal = (!b.levels.empty() && b.levels.front().riverCount > 0) || moves;
+    n.levels = &b.levels;
     return n;
 }
 
@@ -75,6 +82,7 @@ bool outlineMoves(const format::Block& b) {
 
 LodNode lodNode(const format::BlockGeometry& g) { return nodeOf(g, outlineMoves(g)); }
 LodNode lodNode(const format::Block& b) { return nodeOf(b, outlineMoves(b)); }
+LodNode lodNode(const format::BlockInfo& info) { return placedNode(info); }
 
 bool nodeVisible(const ViewSpec& view, const double boxMin[3], const double boxMax[3]) {
     if (view.kind == ViewSpec::Kind::Uniform || !view.cull || !view.direction) return true;

@@ -68,6 +68,9 @@ bool outlineMoves(const format::Block& block);
 // A block as a node: `g` holds its coarsest level (its levels: all of them), `block` is whole.
 LodNode lodNode(const format::BlockGeometry& g);
 LodNode lodNode(const format::Block& block);
+// An entry known from the directory only: box, position and links; no levels (a node outside
+// the view, which the cut skips with its subtree without looking at its levels).
+LodNode lodNode(const format::BlockInfo& info);
 
 // One drawn node of the cut.
 struct NodeChoice {

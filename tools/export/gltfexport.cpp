@@ -238,11 +238,7 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
             levels[i] = std::move(block.levels);
         } else {
             // Outside the view: only its box and links matter (the cut skips its subtree).
-            engine::LodNode& n = nodes[i];
-            n.boxMin[0] = info.minX, n.boxMin[1] = info.minY, n.boxMin[2] = info.minZ;
-            n.boxMax[0] = info.maxX, n.boxMax[1] = info.maxY, n.boxMax[2] = info.maxZ;
-            n.col = info.col, n.row = info.row, n.level = info.level;
-            n.firstChild = info.firstChild, n.childCount = info.childCount;
+            nodes[i] = engine::lodNode(info);
             levels[i].push_back(format::Level{});
         }
         nodes[i].levels = &levels[i];
