@@ -65,6 +65,7 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
         // The greedy key needs the max metric; its BAI factors are the 3ddp order's (Eq. 2).
         del.maxError = true;
         del.stopTriangles = options.stopTriangles;
+        del.stopKey = options.stopKey;
         std::vector<float> weight;
         if (options.importance.useBai) {
             const int baiRow = options.importance.baiTable.findRow(options.importance.baiRow);

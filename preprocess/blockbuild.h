@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <functional>
 #include <string>
 #include <vector>
@@ -30,6 +31,8 @@ struct BlockBuildOptions {
     // Greedy order: stop at this many alive triangles (0: run to the end): the hand-over of a
     // block or node to its parent in issue 18's tree (nodebuild.h).
     std::uint32_t stopTriangles = 0;
+    // Greedy order: also stop before a step whose key exceeds this (DeletionOptions::stopKey).
+    double stopKey = std::numeric_limits<double>::infinity();
 };
 
 struct BlockBuildStats {

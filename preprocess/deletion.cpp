@@ -654,6 +654,7 @@ bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
     while (!heap_.empty() && !stopped()) {
         const PointId x = heap_.top();
         const double key = heap_.topKey();
+        if (key > options_.stopKey) break;
         heap_.pop();
         assert(state_[x] == State::Pending);
         KeptReason reason = KeptReason::Locked;

@@ -110,6 +110,10 @@ struct DeletionOptions {
     // block or node of issue 18's tree hands over to its parent there (nodebuild.h); like
     // maxSteps, `kept` then lists no Deferred entries.
     std::uint32_t stopTriangles = 0;
+    // Greedy order: stop before a step whose key (the error it causes, times its BAI factor)
+    // exceeds this: a tree node hands over once its error would pass twice its starting error
+    // (nodebuild.h). Infinity: no such stop.
+    double stopKey = std::numeric_limits<double>::infinity();
     // Called after every step with the step count (tests run the checker here).
     std::function<void(std::uint32_t)> afterStep;
     // Original points beyond the set's, counted in the `max` metric (modelerror.h ExtraSample;

@@ -28,7 +28,8 @@ struct XYHash {
 std::uint32_t nodeHandoffTriangles(int side, std::uint32_t level) {
     const std::uint64_t s = std::uint64_t(std::max(side, 1));
     const std::uint64_t border = 8 * s << std::min<std::uint32_t>(level, 31);
-    return std::uint32_t(std::clamp<std::uint64_t>(std::max(s * s / 8, border), 64, 1u << 30));
+    const std::uint64_t count = level == 0 ? std::max(s * s / 8, border) : border;
+    return std::uint32_t(std::clamp<std::uint64_t>(count, 64, 1u << 30));
 }
 
 PointSet nodePointSet(const std::vector<const CoarseState*>& children, const NodeBorder& border) {
@@ -164,7 +165,10 @@ bool buildNode(const std::vector<const CoarseState*>& children, const NodeBorder
     for (const CoarseState* child : children)
         input.errorFloor = std::max(input.errorFloor, child->errorMax);
     const PointSet set = nodePointSet(children, border);
-    return buildBlock(set, col, row, options, block, stats, error, &input, &coarse);
+    BlockBuildOptions nodeOptions = options;
+    // A node with a parent hands over before its error passes twice its starting error.
+    if (options.stopTriangles > 0) nodeOptions.stopKey = 2 * input.errorFloor;
+    return buildBlock(set, col, row, nodeOptions, block, stats, error, &input, &coarse);
 }
 
 }  // namespace unilod

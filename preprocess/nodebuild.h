@@ -19,10 +19,12 @@
 // records, errors, levels and index data are stored like a block's.
 //
 // Hand-over: a block or node that has a parent stops deleting once it has
-// nodeHandoffTriangles(side, level) triangles or fewer (its coarsest state; the root runs to the end).
-// Every node then spans about the same triangle range, ~4x that count (four children's
-// hand-over states, less their shared borders) down to it: the chunked-LOD rule that a drawn
-// node costs about the same at every level, and the far views draw few nodes. Without it the
+// nodeHandoffTriangles(side, level) triangles or fewer (its coarsest state; the root runs to the
+// end), a node above the blocks also once its next deletion would cost more than twice its
+// starting error. Errors then about double per tree level, as the view distance at which a node
+// is drawn does (the chunked-LOD rule), and a node's outer border, locked at full resolution, is
+// not what its error is spent on (measured, 16M points: with the triangle rule alone the root's
+// children reached 327 m and a uniform 100 m cut had to draw 5 nodes of 16-32k triangles). Without it the
 // children would delete to their very end (only locked points, errors of the whole relief or
 // of a collapsed outline) and no node could start below that error.
 //
@@ -41,10 +43,12 @@
 namespace unilod {
 
 // The hand-over triangle count of a node of tree `level` (0: a block) for blocks of `side`
-// sampled cells: side^2 / 8 (1/16 of a full block's 2 side^2 triangles; 8192 for 256-cell
-// blocks, 512 for 64-cell ones), but at least twice the node's locked border (4 side 2^level
-// points), which no deletion removes: below that the node would be its border alone, with an
-// error of the whole relief.
+// sampled cells: twice the node's locked border (4 side 2^level points), which no deletion
+// removes: below that the node would be its border alone, with an error of the whole relief;
+// for a block at least side^2 / 8 (1/16 of its 2 side^2 triangles; 8192 for 256-cell blocks, 512
+// for 64-cell ones). A node above the blocks also hands over before its error passes twice its
+// starting error (buildNode: DeletionOptions::stopKey), so errors about double per tree level
+// as the view distance that draws a node does.
 std::uint32_t nodeHandoffTriangles(int side, std::uint32_t level);
 
 // The lines of a node's outer border (cell-centre coordinates of its first and last column and
