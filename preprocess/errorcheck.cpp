@@ -240,6 +240,8 @@ void NodeOriginalError::add(const format::Block& leaf) {
     for (std::uint32_t v = 0; v < leaf.vertices.size() && v < leaf.grid.size(); ++v) {
         const double qx = (leaf.originX + double(leaf.grid[v].x) * u - node_.originX) / u;
         const double qy = (leaf.originY + double(leaf.grid[v].y) * u - node_.originY) / u;
+        // Far outside the node's grid (|coordinate| < 2^28: ulod.h): in none of its triangles.
+        if (!(std::fabs(qx) < 0x1p40 && std::fabs(qy) < 0x1p40)) continue;
         const std::int64_t x0 = std::int64_t(std::ceil(qx - 1 - 1e-6));
         const std::int64_t x1 = std::int64_t(std::floor(qx + 1 + 1e-6));
         const std::int64_t y0 = std::int64_t(std::ceil(qy - 1 - 1e-6));
