@@ -582,21 +582,28 @@ int main(int argc, char** argv) {
         std::printf("%s\n", unilod::jsonText(result, 2).c_str());
         return 0;
     }
-    if (treePoints > 0) {
-        const std::string dir = work + "/synthetic_" + std::to_string(treePoints);
-        std::fprintf(stderr, "bench_order: synthetic inputs of %zu points...\n", treePoints);
-        const json inputs = unilod::bench::runInChild([&] {
+    // A synthetic DEM of about `points` points with its rivers under `work` (reused), and the
+    // default build options for it, output `work`/synthetic_N`suffix`.ulod.
+    const auto syntheticBuild = [&](std::size_t points, const std::string& suffix, json& inputs) {
+        const std::string dir = work + "/synthetic_" + std::to_string(points);
+        std::fprintf(stderr, "bench_order: synthetic inputs of %zu points...\n", points);
+        inputs = unilod::bench::runInChild([&] {
             unilod::SyntheticOptions so;
-            so.targetPoints = treePoints;
+            so.targetPoints = points;
             so.seed = 1;
             return unilod::bench::ensureSyntheticInputs(dir, so);
         });
         unilod::BuildOptions o;
         o.demPath = dir + "/dem.tif";
         o.riversPath = dir + "/rivers.geojson";
-        o.outPath = work + "/synthetic_" + std::to_string(treePoints) + "_tree.ulod";
+        o.outPath = work + "/synthetic_" + std::to_string(points) + suffix + ".ulod";
         o.threads = threads;
         o.force = true;
+        return o;
+    };
+    if (treePoints > 0) {
+        json inputs;
+        const unilod::BuildOptions o = syntheticBuild(treePoints, "_tree", inputs);
         json build = {{"reused", true}};
         if (keep.empty() || !fs::exists(o.outPath)) {
             std::fprintf(stderr, "bench_order: building...\n");
@@ -668,20 +675,8 @@ int main(int argc, char** argv) {
         return 0;
     }
     if (buildTime > 0) {
-        const std::string dir = work + "/synthetic_" + std::to_string(buildTime);
-        std::fprintf(stderr, "bench_order: synthetic inputs of %zu points...\n", buildTime);
-        const json inputs = unilod::bench::runInChild([&] {
-            unilod::SyntheticOptions so;
-            so.targetPoints = buildTime;
-            so.seed = 1;
-            return unilod::bench::ensureSyntheticInputs(dir, so);
-        });
-        unilod::BuildOptions o;
-        o.demPath = dir + "/dem.tif";
-        o.riversPath = dir + "/rivers.geojson";
-        o.outPath = work + "/synthetic_" + std::to_string(buildTime) + ".ulod";
-        o.threads = threads;
-        o.force = true;
+        json inputs;
+        const unilod::BuildOptions o = syntheticBuild(buildTime, "", inputs);
         std::fprintf(stderr, "bench_order: building...\n");
         const auto start = std::chrono::steady_clock::now();
         json build = unilod::bench::runInChild(
