@@ -7,6 +7,7 @@
 
 #include "cdt.h"
 #include "deletion.h"
+#include "blockcodec.h"
 #include "lodindex.h"
 
 namespace unilod {
@@ -109,6 +110,7 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
     in.originX = block.originX;
     in.originY = block.originY;
     in.ratio = options.lodRatio;
+    in.zQuantum = format::kDefaultZQuantum;
     in.maxError = options.maxError;
     in.paperError = del.paperError;
     if (!buildLodIndex(in, block, error)) return false;

@@ -1,6 +1,8 @@
 // Block partition (blocks.h).
 #include "blocks.h"
 
+#include "blockcodec.h"
+
 #include <algorithm>
 #include <cassert>
 #include <cmath>
@@ -290,6 +292,10 @@ PointSet BlockSource::points(std::size_t b) const {
         Point& p = set.points[k];
         if (p.x == x0 || p.x == x1 || p.y == y0 || p.y == y1) p.locked = true;
     }
+    // Heights on the file's z quantum (format/blockcodec.h): the compact block encoding stores
+    // them as integers; every stored error includes the quantum (lodindex.h).
+    for (Point& p : set.points)
+        p.z = format::quantizeZ(p.z, format::kDefaultZQuantum);
     return set;
 }
 

@@ -118,6 +118,8 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
         {"bai_table", o.baiTablePath},
         {"lod_triangle_ratio", blockOptions.lodRatio},
         {"grid_unit_m", format::kGridUnit},
+        {"z_quantum_m", header.zQuantum},
+        {"encoding", o.rawBlocks ? "raw" : "compact"},
     };
     recordIngestOptions(o, info);
     header.buildInfo = jsonText(info);
@@ -200,6 +202,7 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     const int side = blockSize / std::max(o.stride, 1);  // sampled cells per block side
     format::Writer writer;
     if (!writer.open(o.outPath, header, n, outputOptions(o), error)) return false;
+    writer.storeRaw(o.rawBlocks);
     const unsigned threads =
         o.threads > 0 ? unsigned(o.threads) : std::max(1u, std::thread::hardware_concurrency());
     const std::size_t window = 4 * std::size_t(threads);

@@ -1,6 +1,9 @@
 // LOD index data of one block: retention order, stored levels, paired index layout (lodindex.h).
 #include "lodindex.h"
 
+#include "blockcodec.h"
+#include "lodlayout.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -8,148 +11,15 @@ namespace unilod {
 
 namespace {
 
-constexpr std::uint32_t kAlive = 0xFFFFFFFFu;  // death step of an element alive at the end
+constexpr std::uint32_t kAlive = 0xFFFFFFFFu;  // no vertex index yet
 
-// Flat open-addressing table from an element to its index in the lifetime list. Every element
-// is inserted once and erased at most once, so erased slots simply stay as tombstones and the
-// table is sized once for every insertion: no rehashing, no per-node allocation.
+// Each step's removed triangles and edges in (a, b, c) order: the compact block encoding
+// (blockcodec.h) derives a step's removals from the mesh and lists them in that order.
 template <class T>
-class LifeTable {
-public:
-    explicit LifeTable(std::size_t insertions) {
-        std::size_t cap = 16;
-        while (cap < 2 * insertions + 16)
-            cap *= 2;
-        keys_.resize(cap);
-        values_.assign(cap, kEmpty);
-        mask_ = cap - 1;
-    }
-    bool insert(const T& key, std::uint32_t value) {
-        for (std::size_t i = hash(key) & mask_;; i = (i + 1) & mask_) {
-            if (values_[i] == kEmpty) {
-                keys_[i] = key;
-                values_[i] = value;
-                return true;
-            }
-            if (values_[i] != kErased && keys_[i] == key) return false;
-        }
-    }
-    // Removes the key; returns its value or kEmpty when absent.
-    std::uint32_t erase(const T& key) {
-        for (std::size_t i = hash(key) & mask_;; i = (i + 1) & mask_) {
-            if (values_[i] == kEmpty) return kEmpty;
-            if (values_[i] != kErased && keys_[i] == key) {
-                const std::uint32_t v = values_[i];
-                values_[i] = kErased;
-                return v;
-            }
-        }
-    }
-    static constexpr std::uint32_t kEmpty = 0xFFFFFFFFu, kErased = 0xFFFFFFFEu;
-
-private:
-    static std::size_t hash(const TriangleTriple& t) {
-        std::uint64_t h = t.v[0] * 0x9E3779B97F4A7C15ULL;
-        h = (h ^ t.v[1]) * 0xBF58476D1CE4E5B9ULL;
-        h = (h ^ t.v[2]) * 0x94D049BB133111EBULL;
-        return std::size_t(h ^ (h >> 32));
-    }
-    static std::size_t hash(const RiverEdge& e) {
-        const std::uint64_t h = (std::uint64_t(e.a) << 32 | e.b) * 0x9E3779B97F4A7C15ULL;
-        return std::size_t(h ^ (h >> 32));
-    }
-    std::vector<T> keys_;
-    std::vector<std::uint32_t> values_;
-    std::size_t mask_ = 0;
-};
-
-bool lessIndex(const format::Triangle& l, const format::Triangle& r) {
-    return l.a != r.a ? l.a < r.a : (l.b != r.b ? l.b < r.b : l.c < r.c);
-}
-bool lessIndex(const format::Edge& l, const format::Edge& r) {
-    return l.a != r.a ? l.a < r.a : l.b < r.b;
-}
-
-// Errors are stored as float, rounded up so that "h_s <= h_lim" never accepts a level whose
-// double-precision error exceeds h_lim.
-float roundUp(double e) {
-    const auto f = static_cast<float>(e);
-    return double(f) < e ? std::nextafter(f, HUGE_VALF) : f;
-}
-
-template <class T>
-struct Life {
-    T item;
-    std::uint32_t birth, death;  // alive after k steps iff birth <= k < death
-    bool aliveAt(std::uint32_t k) const { return birth <= k && k < death; }
-};
-
-// Lifetimes of every triangle (or edge) from the initial set and the per-step removals/additions.
-template <class T>
-bool lifetimes(const std::vector<T>& initial, const std::vector<std::uint32_t>& removedOffset,
-               const std::vector<T>& removed, const std::vector<std::uint32_t>& addedOffset,
-               const std::vector<T>& added, std::vector<Life<T>>& out, std::string& error) {
-    LifeTable<T> alive(initial.size() + added.size());
-    out.clear();
-    out.reserve(initial.size() + added.size());
-    for (const T& t : initial) {
-        alive.insert(t, static_cast<std::uint32_t>(out.size()));
-        out.push_back({t, 0, kAlive});
-    }
-    const std::size_t steps = removedOffset.empty() ? 0 : removedOffset.size() - 1;
-    for (std::size_t s = 0; s < steps; ++s) {
-        const auto step = static_cast<std::uint32_t>(s + 1);
-        for (std::uint32_t i = removedOffset[s]; i < removedOffset[s + 1]; ++i) {
-            const std::uint32_t at = alive.erase(removed[i]);
-            if (at == LifeTable<T>::kEmpty) {
-                error = "step " + std::to_string(step) + " removes an element that is not alive";
-                return false;
-            }
-            out[at].death = step;
-        }
-        for (std::uint32_t i = addedOffset[s]; i < addedOffset[s + 1]; ++i) {
-            if (!alive.insert(added[i], static_cast<std::uint32_t>(out.size()))) {
-                error = "step " + std::to_string(step) + " adds an element that is alive";
-                return false;
-            }
-            out.push_back({added[i], step, kAlive});
-        }
-    }
-    return true;
-}
-
-// Appends the paired layout of `lives` for the level steps; sets first/count per level.
-template <class T, class Out, class Map>
-void layOut(const std::vector<Life<T>>& lives, const std::vector<std::uint32_t>& levelSteps,
-            Map map, std::vector<Out>& indices, std::vector<std::uint32_t>& first,
-            std::vector<std::uint32_t>& count) {
-    const std::size_t n = levelSteps.size();
-    first.assign(n, 0);
-    count.assign(n, 0);
-    std::vector<Out> parts[3];
-    for (std::size_t j = 0; j < n; j += 2) {
-        const std::uint32_t f = levelSteps[j];
-        const bool paired = j + 1 < n;
-        const std::uint32_t c = paired ? levelSteps[j + 1] : f;
-        for (auto& p : parts)
-            p.clear();
-        for (const Life<T>& life : lives) {
-            const bool inF = life.aliveAt(f), inC = paired && life.aliveAt(c);
-            if (inF || inC) parts[inF && inC ? 1 : (inF ? 0 : 2)].push_back(map(life.item));
-        }
-        for (auto& p : parts) {
-            std::sort(p.begin(), p.end(),
-                      [](const Out& l, const Out& r) { return lessIndex(l, r); });
-        }
-        const auto start = static_cast<std::uint32_t>(indices.size());
-        for (auto& p : parts)
-            indices.insert(indices.end(), p.begin(), p.end());
-        first[j] = start;
-        count[j] = static_cast<std::uint32_t>(parts[0].size() + parts[1].size());
-        if (paired) {
-            first[j + 1] = start + static_cast<std::uint32_t>(parts[0].size());
-            count[j + 1] = static_cast<std::uint32_t>(parts[1].size() + parts[2].size());
-        }
+void sortPerStep(const std::vector<std::uint32_t>& offset, std::vector<T>& items) {
+    for (std::size_t s = 0; s + 1 < offset.size(); ++s) {
+        std::sort(items.begin() + offset[s], items.begin() + offset[s + 1],
+                  [](const T& l, const T& r) { return format::lessIndex(l, r); });
     }
 }
 
@@ -184,13 +54,16 @@ bool buildLodIndex(const LodIndexInput& in, format::Block& block, std::string& e
         }
         index[id] = i;
         const Point& p = pts[id];
-        block.vertices[i] = {float(p.x - in.originX), float(p.y - in.originY), float(p.z),
+        // x, y from the exact grid position (a grid unit = 1 mm), so that the compact encoding
+        // stores the grid alone; z as the point's (quantised at ingest, pointset.cpp).
+        block.vertices[i] = {float(double(cdt.gx[id]) * format::kGridUnit),
+                             float(double(cdt.gy[id]) * format::kGridUnit), float(p.z),
                              (p.kind == PointKind::River ? format::kVertexRiver : 0u) |
                                  (cdt.locked[id] ? format::kVertexLocked : 0u)};
         block.grid[i] = {cdt.gx[id], cdt.gy[id]};
     }
     auto tri = [&](const TriangleTriple& t) {
-        return format::Triangle{index[t.v[0]], index[t.v[1]], index[t.v[2]]};
+        return format::canonicalTriangle({index[t.v[0]], index[t.v[1]], index[t.v[2]]});
     };
     auto edge = [&](const RiverEdge& e) {
         const std::uint32_t a = index[e.a], b = index[e.b];
@@ -219,6 +92,8 @@ bool buildLodIndex(const LodIndexInput& in, format::Block& block, std::string& e
         block.removedEdges.push_back(edge(e));
     for (const auto& e : rec.addedEdges)
         block.addedEdges.push_back(edge(e));
+    sortPerStep(block.removedTriangleOffset, block.removedTriangles);
+    sortPerStep(block.removedEdgeOffset, block.removedEdges);
     if ((in.maxError && rec.errorMax.size() != steps) ||
         (in.paperError && rec.errorPaper.size() != steps)) {
         error = "error tables do not match the deletion steps";
@@ -227,14 +102,14 @@ bool buildLodIndex(const LodIndexInput& in, format::Block& block, std::string& e
     block.errorMax.clear();
     block.errorPaper.clear();
     if (in.maxError) {
-        block.errorMax.push_back(roundUp(rec.initialErrorMax));
+        block.errorMax.push_back(format::quantizeError(rec.initialErrorMax + in.zQuantum, in.zQuantum));
         for (double e : rec.errorMax)
-            block.errorMax.push_back(roundUp(e));
+            block.errorMax.push_back(format::quantizeError(e + in.zQuantum, in.zQuantum));
     }
     if (in.paperError) {
-        block.errorPaper.push_back(roundUp(rec.initialErrorPaper));
+        block.errorPaper.push_back(format::quantizeError(rec.initialErrorPaper + in.zQuantum, in.zQuantum));
         for (double e : rec.errorPaper)
-            block.errorPaper.push_back(roundUp(e));
+            block.errorPaper.push_back(format::quantizeError(e + in.zQuantum, in.zQuantum));
     }
     // Rounding must not break monotonicity.
     for (auto* e : {&block.errorMax, &block.errorPaper}) {
@@ -254,30 +129,21 @@ bool buildLodIndex(const LodIndexInput& in, format::Block& block, std::string& e
     }
     if (levelSteps.back() != steps) levelSteps.push_back(steps);
 
-    std::vector<Life<TriangleTriple>> triLives;
-    std::vector<Life<RiverEdge>> edgeLives;
-    if (!lifetimes(in.initialTriangles, rec.removedTriangleOffset, rec.removedTriangles,
-                   rec.addedTriangleOffset, rec.addedTriangles, triLives, error) ||
-        !lifetimes(in.initialEdges, rec.removedEdgeOffset, rec.removedEdges, rec.addedEdgeOffset,
-                   rec.addedEdges, edgeLives, error)) {
-        return false;
-    }
-    block.terrainIndices.clear();
-    block.riverIndices.clear();
-    std::vector<std::uint32_t> tFirst, tCount, rFirst, rCount;
-    layOut(triLives, levelSteps, tri, block.terrainIndices, tFirst, tCount);
-    layOut(edgeLives, levelSteps, edge, block.riverIndices, rFirst, rCount);
+    block.levels.assign(levelSteps.size(), format::Level{});
+    for (std::size_t j = 0; j < levelSteps.size(); ++j)
+        block.levels[j].step = levelSteps[j];
+    std::vector<format::Triangle> initialTriangles;
+    std::vector<format::Edge> initialEdges;
+    for (const auto& t : in.initialTriangles)
+        initialTriangles.push_back(tri(t));
+    for (const auto& e : in.initialEdges)
+        initialEdges.push_back(edge(e));
+    if (!format::layOutLevels(block, initialTriangles, initialEdges, error)) return false;
 
-    block.levels.resize(levelSteps.size());
     for (std::size_t j = 0; j < levelSteps.size(); ++j) {
         const std::uint32_t k = levelSteps[j];
         format::Level& l = block.levels[j];
-        l.step = k;
         l.vertexCount = vertexCount - k;
-        l.triangleFirst = tFirst[j];
-        l.triangleCount = tCount[j];
-        l.riverFirst = rFirst[j];
-        l.riverCount = rCount[j];
         l.errorMax = block.errorMax.empty() ? 0.0f : block.errorMax[k];
         l.errorPaper = block.errorPaper.empty() ? 0.0f : block.errorPaper[k];
         if (l.triangleCount != trianglesAt(k)) {

@@ -10,10 +10,10 @@
 // is <= h_s(k*) <= h_lim (errors are non-decreasing) and it draws at most ratio x the triangles of
 // the exact step.
 //
-// Layout. Levels are stored in pairs (fine F, coarse C) as [F \ C | F n C | C \ F]: F is the first
-// two parts, C the last two, and the triangles the two share are stored once. With geometric
-// levels that keeps the index memory near 2.5-3.6x the full-resolution list instead of the
-// 1 / (1 - 1/ratio) = 4.3x of one list per level. River edges are laid out the same way.
+// Layout: format/lodlayout.h (paired levels, [F \ C | F n C | C \ F]), with geometric levels
+// 2.5-3.6x the full-resolution list instead of the 1 / (1 - 1/ratio) = 4.3x of one list per level.
+// Every triangle is stored with its smallest vertex index first and each step's removals sorted,
+// the canonical form the compact encoding (format/blockcodec.h) reproduces.
 #pragma once
 
 #include <cstdint>
@@ -39,6 +39,9 @@ struct LodIndexInput {
     // Which metrics the deletion computed (a block without any deletion step still has its
     // step-0 error for each of them).
     bool maxError = true, paperError = true;
+    // The height quantum of the points' z (blocks.cpp quantises them): added to every stored
+    // error, which is then rounded up to a multiple of it (format::quantizeError).
+    double zQuantum = format::kDefaultZQuantum;
 };
 
 // Fills vertices (retention order), the records (renumbered to vertex indices), errors, levels

@@ -19,17 +19,21 @@
 namespace unilod::test {
 
 struct UlodBytes {
-    // README.md: file header 136 bytes, directory entries 104, trailer 8, block header 136.
-    static constexpr std::size_t kHeaderSize = 136, kEntrySize = 104, kBlockHeaderSize = 136;
+    // README.md: file header 144 bytes, directory entries 104, trailer 8, block header 144. The
+    // array accessors describe raw blocks (`build --encoding raw`); a compact block's payload
+    // starts at kBlockHeaderSize and is kPayloadSize bytes long.
+    static constexpr std::size_t kHeaderSize = 144, kEntrySize = 104, kBlockHeaderSize = 144;
     // Header fields.
     static constexpr std::size_t kOriginX = 24, kMinX = 40, kMinY = 48, kMinZ = 56, kMaxX = 64,
                                  kMaxY = 72, kMaxZ = 80, kBlockWidth = 88, kBlockHeight = 96,
                                  kBlocksX = 104, kBlocksY = 108, kBlockCount = 120,
-                                 kCrsWktSize = 124, kBuildInfoSize = 128;
+                                 kCrsWktSize = 124, kBuildInfoSize = 128, kZQuantum = 136;
     // Directory entry fields.
-    static constexpr std::size_t kEntryOffset = 56, kEntrySizeField = 64, kEntryChecksum = 72;
+    static constexpr std::size_t kEntryOffset = 56, kEntrySizeField = 64, kEntryChecksum = 72,
+                                 kEntryEncoding = 100;
     // Block header fields; the 16 array counts start at kCounts, in array order.
-    static constexpr std::size_t kBlockOriginX = 8, kBlockMinX = 24, kCounts = 72;
+    static constexpr std::size_t kBlockOriginX = 8, kBlockMinX = 24, kCounts = 72,
+                                 kEncoding = 136, kPayloadSize = 140;
     // The arrays of a block in file order and their element sizes.
     enum Array {
         kVertices,

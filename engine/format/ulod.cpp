@@ -24,6 +24,7 @@
 #include <tuple>
 #include <utility>
 
+#include "blockcodec.h"
 #include "predicates.h"
 
 namespace unilod::format {
@@ -51,8 +52,9 @@ struct FileHeader {
     std::uint32_t crsWktSize;
     std::uint32_t buildInfoSize;
     std::uint32_t reserved;  // 0
+    double zQuantum;         // vertex heights are multiples of it
 };
-static_assert(sizeof(FileHeader) == 136);
+static_assert(sizeof(FileHeader) == 144);
 static_assert(offsetof(FileHeader, fileSize) == 16);
 static_assert(offsetof(FileHeader, blocksX) == 104);
 static_assert(offsetof(FileHeader, reserved) == 132);
@@ -67,7 +69,7 @@ struct DirEntry {
     std::uint32_t fullTriangles;
     std::uint16_t level, childCount;  // tree links (Block)
     std::uint32_t firstChild;
-    std::uint32_t reserved;  // 0
+    std::uint32_t encoding;  // BlockEncoding, as in the block header
 };
 static_assert(sizeof(DirEntry) == 104);
 static_assert(offsetof(DirEntry, offset) == 56);
@@ -96,8 +98,10 @@ struct BlockHeader {
     std::uint32_t terrainTriangleCount;
     std::uint32_t riverEdgeCount;
     std::uint32_t gridCount;
+    std::uint32_t encoding;     // BlockEncoding
+    std::uint32_t payloadSize;  // compact: the encoded bytes after this header; raw: 0
 };
-static_assert(sizeof(BlockHeader) == 136);
+static_assert(sizeof(BlockHeader) == 144);
 static_assert(offsetof(BlockHeader, vertexCount) == 72);
 static_assert(offsetof(BlockHeader, gridCount) == 132);
 
@@ -225,6 +229,28 @@ std::uint64_t blockByteSize(const BlockHeader& h) {
     return size;
 }
 
+// The counts a compact block's decoder is held to.
+BlockCounts compactCounts(const BlockHeader& h) {
+    BlockCounts c;
+    c.vertices = h.vertexCount;
+    c.steps = h.stepCount;
+    c.levels = h.levelCount;
+    c.removedTriangles = h.removedTriangleCount;
+    c.addedTriangles = h.addedTriangleCount;
+    c.removedEdges = h.removedEdgeCount;
+    c.addedEdges = h.addedEdgeCount;
+    c.terrainTriangles = h.terrainTriangleCount;
+    c.riverEdges = h.riverEdgeCount;
+    c.errorMax = h.errorMaxCount > 0;
+    c.errorPaper = h.errorPaperCount > 0;
+    return c;
+}
+
+// A compact block decodes to at most this many times its stored bytes (plus 1 MiB): the reader
+// refuses larger counts before it decodes, so a hostile block cannot ask for a huge allocation.
+// Built blocks expand about 10-40 times.
+constexpr std::uint64_t kMaxExpansion = 1024;
+
 bool metricsValid(std::uint32_t metrics, std::uint32_t defaultMetric, std::string& error) {
     const std::uint32_t all = kMetricMax | kMetricPaper;
     if (metrics == 0 || (metrics & ~all) != 0) {
@@ -263,6 +289,10 @@ bool headerValid(const Header& h, std::uint64_t fileSize, std::string& error) {
     }
     if (h.minX > h.maxX || h.minY > h.maxY || h.minZ > h.maxZ) {
         error = "header extents are inverted (a min above its max)";
+        return false;
+    }
+    if (!(h.zQuantum > 0 && h.zQuantum <= 1)) {
+        error = "z quantum " + std::to_string(h.zQuantum) + " is not in (0, 1] m";
         return false;
     }
     if (h.blockWidth <= 0 || h.blockHeight <= 0) {
@@ -765,10 +795,28 @@ void fillBlockHeader(const Block& b, BlockHeader& h) {
     forEachArray(b, [&](const auto& v) { counts[i++] = static_cast<std::uint32_t>(v.size()); });
 }
 
-void serializeBlock(const Block& b, std::vector<unsigned char>& out) {
+// The block's bytes: compact (blockcodec.h) when asked for and the block is in canonical form
+// (proved by decoding it again and comparing), raw otherwise.
+void serializeBlock(const Block& b, bool compact, double zQuantum,
+                    std::vector<unsigned char>& out) {
     BlockHeader h;
     fillBlockHeader(b, h);
     out.clear();
+    std::vector<unsigned char> payload;
+    std::string why;
+    if (compact && encodeCompact(b, zQuantum, payload, why) &&
+        payload.size() <= std::numeric_limits<std::uint32_t>::max()) {
+        Block back;
+        if (decodeCompact(payload.data(), payload.size(), countsOf(b), zQuantum, back, why) &&
+            sameArrays(back, b)) {
+            h.encoding = std::uint32_t(BlockEncoding::kCompact);
+            h.payloadSize = static_cast<std::uint32_t>(payload.size());
+            appendPadded(out, &h, sizeof(h));
+            appendPadded(out, payload.data(), payload.size());
+            return;
+        }
+    }
+    h.encoding = std::uint32_t(BlockEncoding::kRaw);
     out.reserve(blockByteSize(h));
     appendPadded(out, &h, sizeof(h));
     forEachArray(b, [&](const auto& v) { appendPadded(out, v.data(), v.size() * sizeof(v[0])); });
@@ -802,12 +850,15 @@ struct Writer::Impl {
     std::uint64_t dataStart = 0, offset = 0;
     std::vector<unsigned char> bytes;
     bool open = false;
+    bool raw = false;
 };
 
 Writer::Writer() : impl_(std::make_unique<Impl>()) {}
 Writer::~Writer() = default;  // an unfinished temporary file is removed (AtomicFile)
 
 Header& Writer::header() { return impl_->header; }
+
+void Writer::storeRaw(bool raw) { impl_->raw = raw; }
 
 bool Writer::open(const std::string& path, const Header& header, std::size_t blockCount,
                   const OutputOptions& output, std::string& error) {
@@ -853,7 +904,7 @@ bool Writer::writeBlock(const Block& b, std::string& error) {
     if (b.level > kMaxTreeLevel) return fail(blockName(b.col, b.row, b.level) + ": tree level too high");
     std::string why;
     if (!validateBlock(b, w.header.metrics, why)) return fail(why);
-    serializeBlock(b, w.bytes);
+    serializeBlock(b, !w.raw, w.header.zQuantum, w.bytes);
     DirEntry e{};
     e.col = b.col;
     e.row = b.row;
@@ -873,6 +924,7 @@ bool Writer::writeBlock(const Block& b, std::string& error) {
     e.level = std::uint16_t(b.level);
     e.childCount = std::uint16_t(std::min<std::uint32_t>(b.childCount, 0xFFFF));
     e.firstChild = b.firstChild;
+    std::memcpy(&e.encoding, w.bytes.data() + offsetof(BlockHeader, encoding), 4);
     // Tree links are checked as a whole in finish() (treeValid); positions here, early.
     {
         std::vector<DirEntry> one = {e};
@@ -936,6 +988,7 @@ bool Writer::finish(std::string& error) {
     fh.crsWktSize = static_cast<std::uint32_t>(header.crsWkt.size());
     fh.buildInfoSize = static_cast<std::uint32_t>(header.buildInfo.size());
     fh.fileSize = w.offset;
+    fh.zQuantum = header.zQuantum;
 
     std::vector<unsigned char> bytes;
     appendPadded(bytes, &fh, sizeof(fh));
@@ -1083,6 +1136,7 @@ bool Reader::open(const std::string& path, std::string& error) {
     h.blockHeight = fh.blockHeight;
     h.metrics = fh.metrics;
     h.defaultMetric = fh.defaultMetric;
+    h.zQuantum = fh.zQuantum;
     if (!headerValid(h, actualSize, why)) return fail(why);
 
     r.blocks.resize(fh.blockCount);
@@ -1096,7 +1150,8 @@ bool Reader::open(const std::string& path, std::string& error) {
         const DirEntry& e = dir[i];
         const std::string name = "directory entry " + std::to_string(i) + " (" +
                                  blockName(e.col, e.row, e.level) + ")";
-        if (e.reserved != 0) return fail(name + ": reserved field not 0");
+        if (e.encoding > std::uint32_t(BlockEncoding::kCompact))
+            return fail(name + ": unknown block encoding " + std::to_string(e.encoding));
         // Overflow-safe: offset <= actualSize is checked before actualSize - offset.
         if (e.offset < dataStart || e.offset % kAlign != 0 || e.offset > actualSize ||
             e.size > actualSize - e.offset || e.size < sizeof(BlockHeader)) {
@@ -1122,6 +1177,7 @@ bool Reader::open(const std::string& path, std::string& error) {
         info.stepCount = e.stepCount;
         info.levelCount = e.levelCount;
         info.fullTriangles = e.fullTriangles;
+        info.encoding = e.encoding;
         info.level = e.level;
         info.firstChild = e.firstChild;
         info.childCount = e.childCount;
@@ -1153,20 +1209,35 @@ bool Reader::readBlock(std::size_t index, Block& block, std::string& error) cons
     }
     if (crc32Of(bytes.data(), bytes.size()) != info.checksum) return fail("checksum mismatch");
 
+    if (info.size < sizeof(BlockHeader)) return fail("shorter than a block header");
     BlockHeader h;
     std::memcpy(&h, bytes.data(), sizeof(h));
     if (h.col != info.col || h.row != info.row) {
         return fail("block header says " + blockName(h.col, h.row, info.level));
     }
-    // Counts are checked against the byte size before any array is allocated.
-    const std::uint64_t expected = blockByteSize(h);
-    if (expected != info.size) {
-        return fail("its counts need " + std::to_string(expected) + " bytes, the directory gives " +
-                    std::to_string(info.size));
+    if (h.encoding != info.encoding) return fail("encoding differs from the directory");
+    if (h.encoding == std::uint32_t(BlockEncoding::kRaw) ? h.payloadSize != 0
+                                                          : alignUp(sizeof(BlockHeader) +
+                                                                    std::uint64_t(h.payloadSize)) !=
+                                                                info.size) {
+        return fail("payload size " + std::to_string(h.payloadSize) + " does not fit the block's " +
+                    std::to_string(info.size) + " bytes");
     }
     if (h.vertexCount != info.vertexCount || h.stepCount != info.stepCount ||
         h.levelCount != info.levelCount) {
         return fail("vertex, step or level count differs from the directory");
+    }
+    // Counts are checked against the byte size before any array is allocated.
+    const std::uint64_t expected = blockByteSize(h);
+    if (h.encoding == std::uint32_t(BlockEncoding::kRaw) && expected != info.size) {
+        return fail("its counts need " + std::to_string(expected) + " bytes, the directory gives " +
+                    std::to_string(info.size));
+    }
+    if (h.encoding == std::uint32_t(BlockEncoding::kCompact) &&
+        expected > kMaxExpansion * info.size + (1u << 20)) {
+        return fail("its counts need " + std::to_string(expected) +
+                    " bytes, more than a compact block of " + std::to_string(info.size) +
+                    " bytes can hold");
     }
 
     Block b;
@@ -1183,17 +1254,30 @@ bool Reader::readBlock(std::size_t index, Block& block, std::string& error) cons
     b.maxX = h.maxX;
     b.maxY = h.maxY;
     b.maxZ = h.maxZ;
-    const std::uint32_t* counts = &h.vertexCount;
-    std::uint64_t at = sizeof(BlockHeader);
-    int i = 0;
-    forEachArray(b, [&](auto& v) {
-        const std::uint64_t n = counts[i++];
-        v.resize(n);
-        const std::uint64_t size = n * sizeof(v[0]);
-        if (size > 0) std::memcpy(v.data(), bytes.data() + at, size);  // data() may be null
-        at += alignUp(size);
-    });
-    assert(at == info.size);
+    if (h.encoding == std::uint32_t(BlockEncoding::kRaw)) {
+        const std::uint32_t* counts = &h.vertexCount;
+        std::uint64_t at = sizeof(BlockHeader);
+        int i = 0;
+        forEachArray(b, [&](auto& v) {
+            const std::uint64_t n = counts[i++];
+            v.resize(n);
+            const std::uint64_t size = n * sizeof(v[0]);
+            if (size > 0) std::memcpy(v.data(), bytes.data() + at, size);  // data() may be null
+            at += alignUp(size);
+        });
+        assert(at == info.size);
+    } else {
+        for (std::size_t at = sizeof(BlockHeader) + h.payloadSize; at < bytes.size(); ++at)
+            if (bytes[at] != 0) return fail("padding not 0");
+        std::string why;
+        if (!decodeCompact(bytes.data() + sizeof(BlockHeader), h.payloadSize, compactCounts(h),
+                           r.header.zQuantum, b, why))
+            return fail(why);
+        BlockHeader back;
+        fillBlockHeader(b, back);
+        if (std::memcmp(&h.vertexCount, &back.vertexCount, kArrayCount * 4) != 0)
+            return fail("compact data: decoded array sizes differ from the block header's counts");
+    }
 
     const double dirBox[6] = {info.minX, info.minY, info.minZ, info.maxX, info.maxY, info.maxZ};
     const double blockBox[6] = {b.minX, b.minY, b.minZ, b.maxX, b.maxY, b.maxZ};

@@ -13,8 +13,13 @@
 namespace unilod::format {
 
 inline constexpr char kMagic[8] = {'U', 'L', 'O', 'D', '\r', '\n', '\x1a', '\n'};
-// Version 2 (issue 18): the directory holds the block hierarchy's tree links.
-inline constexpr std::uint32_t kVersion = 2;
+// Version 2 (issue 18): the directory holds the block hierarchy's tree links. Version 3 (issue
+// 19): blocks are stored compactly (blockcodec.h) or raw, the header states the z quantum.
+inline constexpr std::uint32_t kVersion = 3;
+
+// The height quantum of built models (Header::zQuantum): 1/128 m. A binary fraction, so k / 128
+// is exact in a double and, for |z| < 131 km, in the float a vertex stores.
+inline constexpr double kDefaultZQuantum = 1.0 / 128;
 
 // Tree links (issue 18's block hierarchy, preprocess/nodebuild.h): no child.
 inline constexpr std::uint32_t kNoChild = ~0u;
@@ -117,6 +122,9 @@ struct Header {
     std::uint32_t metrics = kMetricMax | kMetricPaper;  // bit mask of Metric
     std::uint32_t defaultMetric = kMetricMax;
     std::string buildInfo;  // provenance as JSON text (command options, inputs, version)
+    // Vertex heights are multiples of it (a compact block stores z / zQuantum); every stored
+    // error already includes it. In (0, 1] metres.
+    double zQuantum = kDefaultZQuantum;
 };
 
 // What the directory says about a block without reading it.
@@ -128,6 +136,7 @@ struct BlockInfo {
     std::uint32_t checksum = 0;          // CRC-32 of those bytes
     std::uint32_t vertexCount = 0, stepCount = 0, levelCount = 0;
     std::uint32_t fullTriangles = 0;  // triangles at full resolution
+    std::uint32_t encoding = 0;       // the block's encoding (blockcodec.h BlockEncoding)
 };
 
 // Tolerances of the geometric checks (README.md "What the reader validates"). A vertex stores
@@ -192,6 +201,10 @@ public:
 
     bool open(const std::string& path, const Header& header, std::size_t blockCount,
               const OutputOptions& output, std::string& error);
+    // Blocks written after this are stored raw (plain arrays, README.md) instead of compactly;
+    // for tests and tools that edit the bytes. A block that is not in canonical form is stored
+    // raw anyway (blockcodec.h).
+    void storeRaw(bool raw);
     bool writeBlock(const Block& block, std::string& error);
     Header& header();
     bool finish(std::string& error);

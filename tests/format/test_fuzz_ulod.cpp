@@ -88,7 +88,7 @@ constexpr double kInterestingDouble[] = {std::numeric_limits<double>::quiet_NaN(
                                          4.9e-324};
 
 // Header fields (offsets, README.md): doubles and u32s.
-constexpr std::size_t kHeaderDoubles[] = {24, 32, 40, 48, 56, 64, 72, 80, 88, 96};
+constexpr std::size_t kHeaderDoubles[] = {24, 32, 40, 48, 56, 64, 72, 80, 88, 96, 136};
 constexpr std::size_t kHeaderWords[] = {8, 12, 104, 108, 112, 116, 120, 124, 128, 132};
 
 template <typename T, std::size_t N>

@@ -23,9 +23,9 @@ namespace fs = std::filesystem;
 namespace {
 
 // Layout constants from README.md (the test pins the documented layout).
-constexpr std::size_t kFileHeaderSize = 136;
+constexpr std::size_t kFileHeaderSize = 144;
 constexpr std::size_t kDirEntrySize = 104;
-constexpr std::size_t kBlockHeaderSize = 136;
+constexpr std::size_t kBlockHeaderSize = 144;
 
 std::size_t align8(std::size_t n) {
     return (n + 7) / 8 * 8;

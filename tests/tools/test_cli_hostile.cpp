@@ -40,7 +40,9 @@ protected:
     static void SetUpTestSuite() {
         dir = new test::TempDir("hostile");
         model = dir->file("j.ulod");
-        const auto r = runCli("build -q " + q(kDem) + " " + q(kRivers) + " -o " + q(model));
+        // Raw blocks: the damage below edits arrays in place (tests/ulodbytes.h).
+        const auto r = runCli("build -q --encoding raw " + q(kDem) + " " + q(kRivers) + " -o " +
+                              q(model));
         ASSERT_EQ(r.code, 0) << r.err;
         format::Reader reader;
         std::string error;

@@ -18,6 +18,7 @@ namespace {
 struct BuildCli {
     BuildOptions o;
     std::string metric = "max";
+    std::string encoding = "compact";
     std::string order = "greedy";
     bool noBai = false;
     bool quiet = false;
@@ -42,6 +43,7 @@ int run(BuildCli& c) {
     c.o.useBai = !c.noBai;
     c.o.order = c.order == "3ddp" ? DeletionOrderKind::ThreeDdp : DeletionOrderKind::Greedy;
     c.o.defaultMetric = c.metric == "paper" ? format::kMetricPaper : format::kMetricMax;
+    c.o.rawBlocks = c.encoding == "raw";
     const bool tty = isatty(STDERR_FILENO) != 0;
     if (!c.quiet) {
         std::fprintf(stderr, "unilod build: %s + %s -> %s\n", c.o.demPath.c_str(),
@@ -131,6 +133,10 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
                   "build the block hierarchy (default; greedy order, max metric only): tree "
                   "nodes above the blocks whose shared borders simplify, so far views draw a few "
                   "nodes; --no-tree: the flat block grid");
+    sub->add_option("--encoding", c->encoding,
+                    "block encoding: compact (default; about 10 bytes per point) or raw (plain "
+                    "arrays, about 25 times larger, for tools that read the layout directly)")
+        ->check(CLI::IsMember({"compact", "raw"}));
     sub->add_flag("-q,--quiet", c->quiet, "no progress output");
     sub->callback([c, &exitCode] { exitCode = run(*c); });
 }

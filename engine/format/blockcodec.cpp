@@ -1,0 +1,640 @@
+// Compact block encoding (blockcodec.h). Integers are LEB128 varints (signed ones zigzag coded);
+// each stream is one zstd frame. The encoder and the decoder replay the records on the same
+// structure (Replay), so what the encoder leaves out is exactly what the decoder derives.
+#include "blockcodec.h"
+
+#include <zstd.h>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstring>
+
+#include "lodlayout.h"
+#include "predicates.h"
+
+namespace unilod::format {
+
+namespace {
+
+// The streams of a compact block, in payload order.
+enum Stream {
+    kPermutation,  // per spatial position: the vertex's retention index
+    kPositions,    // per spatial position: grid x, y deltas
+    kHeights,      // per spatial position: z / quantum deltas
+    kFlags,        // per spatial position: vertex flags
+    kMesh,         // full-resolution triangles and river edges (spatial numbering)
+    kStepCounts,   // per step: extra removals, additions (triangles, then edges)
+    kStepRefs,     // per step: the vertex references of those records
+    kErrors,       // both metrics' error bit patterns, delta coded
+    kLevelSteps,   // level steps, delta coded
+    kStreamCount
+};
+
+constexpr int kZstdLevel = 6;
+constexpr std::int64_t kMaxErrorSteps = std::int64_t(1) << 24;  // k * q exact in a float
+constexpr std::int64_t kMaxHeightSteps = std::int64_t(1) << 40;
+
+// ---- varints ------------------------------------------------------------------------------------
+
+void putU(std::vector<unsigned char>& out, std::uint64_t v) {
+    while (v >= 0x80) {
+        out.push_back(static_cast<unsigned char>(v | 0x80));
+        v >>= 7;
+    }
+    out.push_back(static_cast<unsigned char>(v));
+}
+void putS(std::vector<unsigned char>& out, std::int64_t v) {
+    putU(out, (std::uint64_t(v) << 1) ^ std::uint64_t(v >> 63));
+}
+
+// Reads varints from a byte range; past the end or on an over-long varint it sets `ok` false and
+// returns 0 from then on.
+struct In {
+    const unsigned char* p = nullptr;
+    const unsigned char* end = nullptr;
+    bool ok = true;
+    std::uint64_t u() {
+        std::uint64_t v = 0;
+        for (int shift = 0; shift < 64; shift += 7) {
+            if (p == end) break;
+            const unsigned char c = *p++;
+            v |= std::uint64_t(c & 0x7F) << shift;
+            if ((c & 0x80) == 0) return v;
+        }
+        ok = false;
+        p = end;
+        return 0;
+    }
+    std::int64_t s() {
+        const std::uint64_t v = u();
+        return std::int64_t(v >> 1) ^ -std::int64_t(v & 1);
+    }
+    // A value < limit, or failure.
+    std::uint64_t below(std::uint64_t limit) {
+        const std::uint64_t v = u();
+        if (v >= limit) ok = false;
+        return ok ? v : 0;
+    }
+};
+
+// ---- zstd -----------------------------------------------------------------------------------------
+
+struct ZstdContexts {
+    ZSTD_CCtx* c = ZSTD_createCCtx();
+    ZSTD_DCtx* d = ZSTD_createDCtx();
+    ~ZstdContexts() {
+        ZSTD_freeCCtx(c);
+        ZSTD_freeDCtx(d);
+    }
+};
+ZstdContexts& zstd() {
+    thread_local ZstdContexts contexts;
+    return contexts;
+}
+
+// Appends: varint raw size, varint frame size, frame.
+void putStream(std::vector<unsigned char>& out, const std::vector<unsigned char>& raw) {
+    putU(out, raw.size());
+    if (raw.empty()) {
+        putU(out, 0);
+        return;
+    }
+    std::vector<unsigned char> frame(ZSTD_compressBound(raw.size()));
+    const std::size_t n =
+        ZSTD_compressCCtx(zstd().c, frame.data(), frame.size(), raw.data(), raw.size(), kZstdLevel);
+    frame.resize(ZSTD_isError(n) ? 0 : n);
+    putU(out, frame.size());
+    out.insert(out.end(), frame.begin(), frame.end());
+}
+
+// ---- replay ---------------------------------------------------------------------------------------
+
+bool hasVertex(const Triangle& t, std::uint32_t v) { return t.a == v || t.b == v || t.c == v; }
+bool hasVertex(const Edge& e, std::uint32_t v) { return e.a == v || e.b == v; }
+bool same(const Triangle& l, const Triangle& r) { return l.a == r.a && l.b == r.b && l.c == r.c; }
+bool same(const Edge& l, const Edge& r) { return l.a == r.a && l.b == r.b; }
+void forVertices(const Triangle& t, auto&& f) {
+    f(t.a);
+    f(t.b);
+    f(t.c);
+}
+void forVertices(const Edge& e, auto&& f) {
+    f(e.a);
+    f(e.b);
+}
+
+// Alive elements (triangles or edges) with, per vertex, the slots that ever held it.
+template <class T>
+class AliveSet {
+public:
+    explicit AliveSet(std::size_t vertices) : incident_(vertices) {}
+    void add(const T& t) {
+        const auto slot = static_cast<std::uint32_t>(items_.size());
+        items_.push_back(t);
+        alive_.push_back(1);
+        ++count_;
+        forVertices(t, [&](std::uint32_t v) { incident_[v].push_back(slot); });
+    }
+    // The alive elements at v, sorted.
+    void star(std::uint32_t v, std::vector<T>& out) const {
+        out.clear();
+        for (std::uint32_t slot : incident_[v])
+            if (alive_[slot]) out.push_back(items_[slot]);
+        std::sort(out.begin(), out.end(), [](const T& l, const T& r) { return lessIndex(l, r); });
+    }
+    bool remove(const T& t) {
+        if (t.a >= incident_.size()) return false;
+        for (std::uint32_t slot : incident_[t.a]) {
+            if (alive_[slot] && same(items_[slot], t)) {
+                alive_[slot] = 0;
+                --count_;
+                return true;
+            }
+        }
+        return false;
+    }
+    std::uint32_t count() const { return count_; }
+
+private:
+    std::vector<T> items_;
+    std::vector<std::uint8_t> alive_;
+    std::vector<std::vector<std::uint32_t>> incident_;
+    std::uint32_t count_ = 0;
+};
+
+// The vertices of `items` other than v, sorted and unique (a step's hole vertices).
+template <class T>
+void holeOf(const std::vector<T>& items, std::uint32_t v, std::vector<std::uint32_t>& hole) {
+    for (const T& t : items)
+        forVertices(t, [&](std::uint32_t x) {
+            if (x != v) hole.push_back(x);
+        });
+    std::sort(hole.begin(), hole.end());
+    hole.erase(std::unique(hole.begin(), hole.end()), hole.end());
+}
+
+std::uint64_t refOf(const std::vector<std::uint32_t>& hole, std::uint32_t x) {
+    const auto it = std::lower_bound(hole.begin(), hole.end(), x);
+    if (it != hole.end() && *it == x) return std::uint64_t(it - hole.begin());
+    return hole.size() + std::uint64_t(x);
+}
+
+// ---- spatial order ------------------------------------------------------------------------------
+
+std::vector<std::uint32_t> spatialOrder(const std::vector<GridXY>& grid) {
+    std::vector<std::uint32_t> order(grid.size());
+    for (std::uint32_t i = 0; i < order.size(); ++i)
+        order[i] = i;
+    std::sort(order.begin(), order.end(), [&](std::uint32_t l, std::uint32_t r) {
+        const GridXY a = grid[l], b = grid[r];
+        return a.y != b.y ? a.y < b.y : (a.x != b.x ? a.x < b.x : l < r);
+    });
+    return order;
+}
+
+template <class T>
+bool sameBytes(const std::vector<T>& a, const std::vector<T>& b) {
+    return a.size() == b.size() &&
+           (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+}
+
+std::uint32_t floatBits(float f) { return std::bit_cast<std::uint32_t>(f); }
+
+}  // namespace
+
+double quantizeZ(double z, double q) {
+    return double(std::llround(z / q)) * q;
+}
+
+float quantizeError(double e, double q) {
+    const double k = std::ceil(e / q);
+    if (k >= 0 && k < double(kMaxErrorSteps)) return static_cast<float>(k * q);  // exact
+    auto f = static_cast<float>(e);
+    return double(f) < e ? std::nextafter(f, HUGE_VALF) : f;
+}
+
+BlockCounts countsOf(const Block& b) {
+    BlockCounts c;
+    c.vertices = std::uint32_t(b.vertices.size());
+    c.steps = std::uint32_t(b.steps.size());
+    c.levels = std::uint32_t(b.levels.size());
+    c.removedTriangles = std::uint32_t(b.removedTriangles.size());
+    c.addedTriangles = std::uint32_t(b.addedTriangles.size());
+    c.removedEdges = std::uint32_t(b.removedEdges.size());
+    c.addedEdges = std::uint32_t(b.addedEdges.size());
+    c.terrainTriangles = std::uint32_t(b.terrainIndices.size());
+    c.riverEdges = std::uint32_t(b.riverIndices.size());
+    c.errorMax = !b.errorMax.empty();
+    c.errorPaper = !b.errorPaper.empty();
+    return c;
+}
+
+bool sameArrays(const Block& a, const Block& b) {
+    return sameBytes(a.vertices, b.vertices) && sameBytes(a.steps, b.steps) &&
+           sameBytes(a.removedTriangleOffset, b.removedTriangleOffset) &&
+           sameBytes(a.addedTriangleOffset, b.addedTriangleOffset) &&
+           sameBytes(a.removedEdgeOffset, b.removedEdgeOffset) &&
+           sameBytes(a.addedEdgeOffset, b.addedEdgeOffset) &&
+           sameBytes(a.removedTriangles, b.removedTriangles) &&
+           sameBytes(a.addedTriangles, b.addedTriangles) &&
+           sameBytes(a.removedEdges, b.removedEdges) && sameBytes(a.addedEdges, b.addedEdges) &&
+           sameBytes(a.errorMax, b.errorMax) && sameBytes(a.errorPaper, b.errorPaper) &&
+           sameBytes(a.levels, b.levels) && sameBytes(a.terrainIndices, b.terrainIndices) &&
+           sameBytes(a.riverIndices, b.riverIndices) && sameBytes(a.grid, b.grid);
+}
+
+bool encodeCompact(const Block& b, double q, std::vector<unsigned char>& out, std::string& why) {
+    const auto n = static_cast<std::uint32_t>(b.vertices.size());
+    const auto steps = static_cast<std::uint32_t>(b.steps.size());
+    if (b.grid.size() != n) return why = "no grid positions", false;
+    if (b.levels.empty() || b.levels[0].step != 0) return why = "no full-resolution level", false;
+    std::vector<unsigned char> s[kStreamCount];
+
+    // Vertices in spatial order.
+    const std::vector<std::uint32_t> order = spatialOrder(b.grid);
+    std::vector<std::uint32_t> spatial(n);
+    std::int64_t px = 0, py = 0, pz = 0;
+    for (std::uint32_t k = 0; k < n; ++k) {
+        const std::uint32_t i = order[k];
+        spatial[i] = k;
+        const Vertex& v = b.vertices[i];
+        const GridXY g = b.grid[i];
+        if (floatBits(v.x) != floatBits(float(double(g.x) * kGridUnit)) ||
+            floatBits(v.y) != floatBits(float(double(g.y) * kGridUnit))) {
+            return why = "vertex " + std::to_string(i) + " is not at its grid position", false;
+        }
+        const double zk = std::round(double(v.z) / q);
+        if (!(std::fabs(zk) < double(kMaxHeightSteps)) ||
+            floatBits(v.z) != floatBits(float(zk * q))) {
+            return why = "vertex " + std::to_string(i) + " height is not on the z quantum", false;
+        }
+        const auto z = std::int64_t(zk);
+        putU(s[kPermutation], i);
+        putS(s[kPositions], std::int64_t(g.x) - px);
+        putS(s[kPositions], std::int64_t(g.y) - py);
+        putS(s[kHeights], z - pz);
+        s[kFlags].push_back(static_cast<unsigned char>(v.flags));
+        px = g.x, py = g.y, pz = z;
+    }
+
+    // The full-resolution mesh, in spatial numbering.
+    const Level& full = b.levels[0];
+    std::vector<Triangle> tris;
+    for (std::uint32_t t = full.triangleFirst; t < full.triangleFirst + full.triangleCount; ++t) {
+        const Triangle& x = b.terrainIndices[t];
+        tris.push_back(canonicalTriangle({spatial[x.a], spatial[x.b], spatial[x.c]}));
+    }
+    std::sort(tris.begin(), tris.end(), [](auto& l, auto& r) { return lessIndex(l, r); });
+    putU(s[kMesh], tris.size());
+    std::uint32_t prev = 0;
+    for (const Triangle& t : tris) {
+        putU(s[kMesh], t.a - prev);
+        putU(s[kMesh], t.b - t.a);
+        putU(s[kMesh], t.c - t.a);
+        prev = t.a;
+    }
+    std::vector<Edge> edges;
+    for (std::uint32_t e = full.riverFirst; e < full.riverFirst + full.riverCount; ++e) {
+        const Edge& x = b.riverIndices[e];
+        edges.push_back({std::min(spatial[x.a], spatial[x.b]), std::max(spatial[x.a], spatial[x.b])});
+    }
+    std::sort(edges.begin(), edges.end(), [](auto& l, auto& r) { return lessIndex(l, r); });
+    putU(s[kMesh], edges.size());
+    prev = 0;
+    for (const Edge& e : edges) {
+        putU(s[kMesh], e.a - prev);
+        putU(s[kMesh], e.b - e.a);
+        prev = e.a;
+    }
+
+    // Records: what the replayed mesh does not imply.
+    AliveSet<Triangle> aliveTris(n);
+    AliveSet<Edge> aliveEdges(n);
+    for (std::uint32_t t = full.triangleFirst; t < full.triangleFirst + full.triangleCount; ++t)
+        aliveTris.add(b.terrainIndices[t]);
+    for (std::uint32_t e = full.riverFirst; e < full.riverFirst + full.riverCount; ++e)
+        aliveEdges.add(b.riverIndices[e]);
+    std::vector<Triangle> star, removedAtV;
+    std::vector<Edge> edgeStar, edgesAtV;
+    std::vector<std::uint32_t> hole;
+    for (std::uint32_t st = 0; st < steps; ++st) {
+        const std::string at = "step " + std::to_string(st + 1) + ": ";
+        const std::uint32_t v = n - 1 - st;
+        if (b.steps[st].vertex != v) return why = at + "not the retention order's vertex", false;
+        aliveTris.star(v, star);
+        aliveEdges.star(v, edgeStar);
+        hole.clear();
+        holeOf(star, v, hole);
+        const auto rBegin = b.removedTriangles.begin() + b.removedTriangleOffset[st];
+        const auto rEnd = b.removedTriangles.begin() + b.removedTriangleOffset[st + 1];
+        removedAtV.clear();
+        std::vector<Triangle> extra;
+        for (auto it = rBegin; it != rEnd; ++it)
+            (hasVertex(*it, v) ? removedAtV : extra).push_back(*it);
+        if (!sameBytes(removedAtV, star)) return why = at + "removals are not the vertex's star", false;
+        putU(s[kStepCounts], extra.size());
+        for (const Triangle& t : extra)
+            forVertices(t, [&](std::uint32_t x) { putU(s[kStepRefs], refOf(hole, x)); });
+        holeOf(extra, v, hole);
+        putU(s[kStepCounts], b.addedTriangleOffset[st + 1] - b.addedTriangleOffset[st]);
+        for (std::uint32_t i = b.addedTriangleOffset[st]; i < b.addedTriangleOffset[st + 1]; ++i)
+            forVertices(b.addedTriangles[i], [&](std::uint32_t x) { putU(s[kStepRefs], refOf(hole, x)); });
+
+        const auto eBegin = b.removedEdges.begin() + b.removedEdgeOffset[st];
+        const auto eEnd = b.removedEdges.begin() + b.removedEdgeOffset[st + 1];
+        edgesAtV.clear();
+        std::vector<Edge> extraEdges;
+        for (auto it = eBegin; it != eEnd; ++it)
+            (hasVertex(*it, v) ? edgesAtV : extraEdges).push_back(*it);
+        if (!sameBytes(edgesAtV, edgeStar)) return why = at + "river removals are not the vertex's", false;
+        putU(s[kStepCounts], extraEdges.size());
+        for (const Edge& e : extraEdges)
+            forVertices(e, [&](std::uint32_t x) { putU(s[kStepRefs], refOf(hole, x)); });
+        putU(s[kStepCounts], b.addedEdgeOffset[st + 1] - b.addedEdgeOffset[st]);
+        for (std::uint32_t i = b.addedEdgeOffset[st]; i < b.addedEdgeOffset[st + 1]; ++i)
+            forVertices(b.addedEdges[i], [&](std::uint32_t x) { putU(s[kStepRefs], refOf(hole, x)); });
+
+        for (auto it = rBegin; it != rEnd; ++it)
+            if (!aliveTris.remove(*it)) return why = at + "removes a triangle not alive", false;
+        for (std::uint32_t i = b.addedTriangleOffset[st]; i < b.addedTriangleOffset[st + 1]; ++i)
+            aliveTris.add(b.addedTriangles[i]);
+        for (auto it = eBegin; it != eEnd; ++it)
+            if (!aliveEdges.remove(*it)) return why = at + "removes a river edge not alive", false;
+        for (std::uint32_t i = b.addedEdgeOffset[st]; i < b.addedEdgeOffset[st + 1]; ++i)
+            aliveEdges.add(b.addedEdges[i]);
+    }
+
+    for (const std::vector<float>* e : {&b.errorMax, &b.errorPaper}) {
+        std::int64_t last = 0;
+        for (float f : *e) {
+            const double k = std::round(double(f) / q);
+            if (!(k >= double(last) && k < double(kMaxErrorSteps)) ||
+                floatBits(f) != floatBits(float(k * q)))
+                return why = "errors are not on the z quantum", false;
+            putU(s[kErrors], std::uint64_t(std::int64_t(k) - last));
+            last = std::int64_t(k);
+        }
+    }
+    std::uint32_t lastStep = 0;
+    for (const Level& l : b.levels) {
+        putU(s[kLevelSteps], l.step - lastStep);
+        lastStep = l.step;
+    }
+
+    out.clear();
+    for (const auto& stream : s)
+        putStream(out, stream);
+    return true;
+}
+
+bool decodeCompact(const unsigned char* data, std::size_t size, const BlockCounts& c, double q,
+                   Block& b, std::string& error) {
+    const std::uint32_t n = c.vertices;
+    auto fail = [&](const std::string& what) {
+        error = "compact data: " + what;
+        return false;
+    };
+    // Every stream holds at most a few varints per counted element; a hostile raw size beyond
+    // that is refused before anything is allocated.
+    const std::uint64_t elements = std::uint64_t(n) + c.steps + c.levels + c.removedTriangles +
+                                   c.addedTriangles + c.removedEdges + c.addedEdges +
+                                   c.terrainTriangles + c.riverEdges;
+    const std::uint64_t maxRaw = 10 * 4 * (elements + 1) + 64;
+    std::vector<unsigned char> raw[kStreamCount];
+    In frames{data, data + size};
+    for (int k = 0; k < kStreamCount; ++k) {
+        const std::uint64_t rawSize = frames.u(), frameSize = frames.u();
+        if (!frames.ok || rawSize > maxRaw || frameSize > std::uint64_t(frames.end - frames.p) ||
+            (rawSize == 0) != (frameSize == 0)) {
+            return fail("stream " + std::to_string(k) + " header is damaged");
+        }
+        raw[k].resize(rawSize);
+        if (rawSize > 0) {
+            const std::size_t got =
+                ZSTD_decompressDCtx(zstd().d, raw[k].data(), rawSize, frames.p, frameSize);
+            if (ZSTD_isError(got) || got != rawSize) {
+                return fail("stream " + std::to_string(k) + " does not decompress");
+            }
+        }
+        frames.p += frameSize;
+    }
+    if (frames.p != frames.end) return fail("bytes after the last stream");
+    auto in = [&](Stream k) { return In{raw[k].data(), raw[k].data() + raw[k].size()}; };
+
+    // Vertices.
+    Block d;
+    d.vertices.resize(n);
+    d.grid.resize(n);
+    std::vector<std::uint32_t> order(n);
+    {
+        In perm = in(kPermutation), pos = in(kPositions), hz = in(kHeights);
+        if (raw[kFlags].size() != n) return fail("flags stream has the wrong size");
+        std::vector<std::uint8_t> seen(n, 0);
+        std::int64_t px = 0, py = 0, pz = 0;
+        for (std::uint32_t k = 0; k < n; ++k) {
+            const auto i = std::uint32_t(perm.below(n));
+            if (!perm.ok || seen[i]) return fail("the vertex permutation is damaged");
+            seen[i] = 1;
+            order[k] = i;
+            const std::int64_t dx = pos.s(), dy = pos.s(), dz = hz.s();
+            // Bounded steps keep the sums far from overflow; the range is checked after.
+            if (std::abs(dx) > (std::int64_t(1) << 33) || std::abs(dy) > (std::int64_t(1) << 33) ||
+                std::abs(dz) > 2 * kMaxHeightSteps)
+                return fail("a vertex delta is out of range");
+            px += dx, py += dy, pz += dz;
+            if (std::abs(px) > kMaxGridCoordinate || std::abs(py) > kMaxGridCoordinate ||
+                std::abs(pz) >= kMaxHeightSteps)
+                return fail("vertex " + std::to_string(i) + " lies beyond the grid");
+            d.grid[i] = {std::int32_t(px), std::int32_t(py)};
+            d.vertices[i] = {float(double(px) * kGridUnit), float(double(py) * kGridUnit),
+                             float(double(pz) * q), raw[kFlags][k]};
+        }
+        if (!perm.ok || !pos.ok || !hz.ok || perm.p != perm.end || pos.p != pos.end ||
+            hz.p != hz.end)
+            return fail("vertex streams are damaged");
+    }
+
+    // Full-resolution mesh.
+    std::vector<Triangle> initialTris;
+    std::vector<Edge> initialEdges;
+    {
+        In mesh = in(kMesh);
+        const std::uint64_t tn = mesh.u();
+        if (!mesh.ok || tn > c.terrainTriangles) return fail("the mesh has too many triangles");
+        initialTris.resize(tn);
+        std::uint64_t a = 0;
+        for (Triangle& t : initialTris) {
+            a += mesh.u();
+            const std::uint64_t bb = a + mesh.u(), cc = a + mesh.u();
+            if (!mesh.ok || a >= n || bb >= n || cc >= n) return fail("a mesh triangle is damaged");
+            t = canonicalTriangle({order[a], order[bb], order[cc]});
+        }
+        const std::uint64_t en = mesh.u();
+        if (!mesh.ok || en > c.riverEdges) return fail("the mesh has too many river edges");
+        initialEdges.resize(en);
+        a = 0;
+        for (Edge& e : initialEdges) {
+            a += mesh.u();
+            const std::uint64_t bb = a + mesh.u();
+            if (!mesh.ok || a >= n || bb >= n) return fail("a mesh river edge is damaged");
+            e = {std::min(order[a], order[bb]), std::max(order[a], order[bb])};
+        }
+        if (mesh.p != mesh.end) return fail("the mesh stream is damaged");
+    }
+
+    // Records, replayed.
+    {
+        In counts = in(kStepCounts), refs = in(kStepRefs);
+        AliveSet<Triangle> aliveTris(n);
+        AliveSet<Edge> aliveEdges(n);
+        for (const Triangle& t : initialTris)
+            aliveTris.add(t);
+        for (const Edge& e : initialEdges)
+            aliveEdges.add(e);
+        d.steps.resize(c.steps);
+        for (auto* o : {&d.removedTriangleOffset, &d.addedTriangleOffset, &d.removedEdgeOffset,
+                        &d.addedEdgeOffset}) {
+            o->assign(1, 0);
+            o->reserve(std::size_t(c.steps) + 1);
+        }
+        std::vector<Triangle> star;
+        std::vector<Edge> edgeStar;
+        std::vector<std::uint32_t> hole;
+        auto vertex = [&](std::uint64_t ref) -> std::uint32_t {
+            if (ref < hole.size()) return hole[ref];
+            const std::uint64_t x = ref - hole.size();
+            if (x >= n) {
+                refs.ok = false;
+                return 0;
+            }
+            return std::uint32_t(x);
+        };
+        auto room = [&](std::uint64_t have, std::uint64_t more, std::uint32_t limit) {
+            return more <= limit && have + more <= limit;
+        };
+        for (std::uint32_t st = 0; st < c.steps; ++st) {
+            const std::uint32_t v = n - 1 - st;
+            if (st >= n) return fail("more steps than vertices");
+            aliveTris.star(v, star);
+            aliveEdges.star(v, edgeStar);
+            hole.clear();
+            holeOf(star, v, hole);
+            const std::uint64_t extra = counts.u();
+            if (!room(d.removedTriangles.size(), star.size() + extra, c.removedTriangles))
+                return fail("step " + std::to_string(st + 1) + " removes too many triangles");
+            const std::size_t first = d.removedTriangles.size();
+            d.removedTriangles.insert(d.removedTriangles.end(), star.begin(), star.end());
+            for (std::uint64_t i = 0; i < extra; ++i) {
+                const std::uint32_t x = vertex(refs.u()), y = vertex(refs.u()), z = vertex(refs.u());
+                d.removedTriangles.push_back(canonicalTriangle({x, y, z}));
+            }
+            std::vector<Triangle> extraTris(d.removedTriangles.begin() + first + star.size(),
+                                            d.removedTriangles.end());
+            std::sort(d.removedTriangles.begin() + first, d.removedTriangles.end(),
+                      [](auto& l, auto& r) { return lessIndex(l, r); });
+            holeOf(extraTris, v, hole);
+            const std::uint64_t added = counts.u();
+            if (!room(d.addedTriangles.size(), added, c.addedTriangles))
+                return fail("step " + std::to_string(st + 1) + " adds too many triangles");
+            for (std::uint64_t i = 0; i < added; ++i) {
+                const std::uint32_t x = vertex(refs.u()), y = vertex(refs.u()), z = vertex(refs.u());
+                d.addedTriangles.push_back({x, y, z});
+            }
+
+            const std::uint64_t extraEdges = counts.u();
+            if (!room(d.removedEdges.size(), edgeStar.size() + extraEdges, c.removedEdges))
+                return fail("step " + std::to_string(st + 1) + " removes too many river edges");
+            const std::size_t firstEdge = d.removedEdges.size();
+            d.removedEdges.insert(d.removedEdges.end(), edgeStar.begin(), edgeStar.end());
+            for (std::uint64_t i = 0; i < extraEdges; ++i) {
+                const std::uint32_t x = vertex(refs.u()), y = vertex(refs.u());
+                d.removedEdges.push_back({std::min(x, y), std::max(x, y)});
+            }
+            std::sort(d.removedEdges.begin() + firstEdge, d.removedEdges.end(),
+                      [](auto& l, auto& r) { return lessIndex(l, r); });
+            const std::uint64_t addedEdges = counts.u();
+            if (!room(d.addedEdges.size(), addedEdges, c.addedEdges))
+                return fail("step " + std::to_string(st + 1) + " adds too many river edges");
+            for (std::uint64_t i = 0; i < addedEdges; ++i) {
+                const std::uint32_t x = vertex(refs.u()), y = vertex(refs.u());
+                d.addedEdges.push_back({std::min(x, y), std::max(x, y)});
+            }
+            if (!counts.ok || !refs.ok) return fail("step " + std::to_string(st + 1) + " is damaged");
+
+            for (std::size_t i = first; i < d.removedTriangles.size(); ++i)
+                if (!aliveTris.remove(d.removedTriangles[i]))
+                    return fail("step " + std::to_string(st + 1) + " removes a triangle not alive");
+            for (std::size_t i = d.addedTriangles.size() - added; i < d.addedTriangles.size(); ++i)
+                aliveTris.add(d.addedTriangles[i]);
+            for (std::size_t i = firstEdge; i < d.removedEdges.size(); ++i)
+                if (!aliveEdges.remove(d.removedEdges[i]))
+                    return fail("step " + std::to_string(st + 1) + " removes a river edge not alive");
+            for (std::size_t i = d.addedEdges.size() - addedEdges; i < d.addedEdges.size(); ++i)
+                aliveEdges.add(d.addedEdges[i]);
+            d.steps[st] = {v, aliveTris.count(), aliveEdges.count()};
+            d.removedTriangleOffset.push_back(std::uint32_t(d.removedTriangles.size()));
+            d.addedTriangleOffset.push_back(std::uint32_t(d.addedTriangles.size()));
+            d.removedEdgeOffset.push_back(std::uint32_t(d.removedEdges.size()));
+            d.addedEdgeOffset.push_back(std::uint32_t(d.addedEdges.size()));
+        }
+        if (counts.p != counts.end || refs.p != refs.end) return fail("the record streams are damaged");
+    }
+
+    // Errors and levels.
+    {
+        In errors = in(kErrors);
+        for (auto [present, e] : {std::pair{c.errorMax, &d.errorMax}, {c.errorPaper, &d.errorPaper}}) {
+            if (!present) continue;
+            e->resize(std::size_t(c.steps) + 1);
+            std::uint64_t k = 0;
+            for (float& f : *e) {
+                k += errors.u();
+                if (!errors.ok || k >= std::uint64_t(kMaxErrorSteps))
+                    return fail("the error stream is damaged");
+                f = static_cast<float>(double(k) * q);
+            }
+        }
+        if (errors.p != errors.end) return fail("the error stream is damaged");
+        In lv = in(kLevelSteps);
+        d.levels.resize(c.levels);
+        std::uint64_t step = 0;
+        for (Level& l : d.levels) {
+            step += lv.u();
+            if (!lv.ok || step > c.steps) return fail("a level step is out of range");
+            l.step = std::uint32_t(step);
+            l.vertexCount = n - l.step;
+            l.errorMax = d.errorMax.empty() ? 0.0f : d.errorMax[l.step];
+            l.errorPaper = d.errorPaper.empty() ? 0.0f : d.errorPaper[l.step];
+        }
+        if (lv.p != lv.end) return fail("the level stream is damaged");
+    }
+    // The index data the layout will write, bounded before it is allocated: each pair of levels
+    // stores at least the larger of its two alive sets, so the header's counts cap the total.
+    {
+        auto alive = [&](std::uint32_t k, bool tris) -> std::uint64_t {
+            if (k == 0) return tris ? initialTris.size() : initialEdges.size();
+            return tris ? d.steps[k - 1].trianglesAlive : d.steps[k - 1].riverEdgesAlive;
+        };
+        std::uint64_t tris = 0, edges = 0;
+        for (std::size_t j = 0; j < d.levels.size(); j += 2) {
+            const std::uint32_t f = d.levels[j].step;
+            const std::uint32_t cs = j + 1 < d.levels.size() ? d.levels[j + 1].step : f;
+            tris += std::max(alive(f, true), alive(cs, true));
+            edges += std::max(alive(f, false), alive(cs, false));
+        }
+        if (tris > c.terrainTriangles || edges > c.riverEdges)
+            return fail("the levels need more index data than the block header counts");
+    }
+    if (!layOutLevels(d, initialTris, initialEdges, error)) return fail(error);
+    if (d.terrainIndices.size() != c.terrainTriangles || d.riverIndices.size() != c.riverEdges)
+        return fail("the derived index data does not match the block header's counts");
+    d.col = b.col, d.row = b.row, d.level = b.level, d.firstChild = b.firstChild;
+    d.childCount = b.childCount, d.originX = b.originX, d.originY = b.originY;
+    d.minX = b.minX, d.minY = b.minY, d.minZ = b.minZ, d.maxX = b.maxX, d.maxY = b.maxY;
+    d.maxZ = b.maxZ;
+    b = std::move(d);
+    return true;
+}
+
+}  // namespace unilod::format

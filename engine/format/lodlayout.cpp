@@ -1,0 +1,184 @@
+// Paired level layout from lifetimes (lodlayout.h).
+#include "lodlayout.h"
+
+#include <algorithm>
+
+namespace unilod::format {
+
+namespace {
+
+constexpr std::uint32_t kAlive = 0xFFFFFFFFu;  // death step of an element alive at the end
+
+std::size_t hashOf(const Triangle& t) {
+    std::uint64_t h = t.a * 0x9E3779B97F4A7C15ULL;
+    h = (h ^ t.b) * 0xBF58476D1CE4E5B9ULL;
+    h = (h ^ t.c) * 0x94D049BB133111EBULL;
+    return std::size_t(h ^ (h >> 32));
+}
+std::size_t hashOf(const Edge& e) {
+    const std::uint64_t h = (std::uint64_t(e.a) << 32 | e.b) * 0x9E3779B97F4A7C15ULL;
+    return std::size_t(h ^ (h >> 32));
+}
+bool same(const Triangle& l, const Triangle& r) { return l.a == r.a && l.b == r.b && l.c == r.c; }
+bool same(const Edge& l, const Edge& r) { return l.a == r.a && l.b == r.b; }
+
+// Flat open-addressing table from an element to its index in the lifetime list. Every element
+// is inserted once and erased at most once, so erased slots simply stay as tombstones and the
+// table is sized once for every insertion: no rehashing, no per-node allocation.
+template <class T>
+class LifeTable {
+public:
+    explicit LifeTable(std::size_t insertions) {
+        std::size_t cap = 16;
+        while (cap < 2 * insertions + 16)
+            cap *= 2;
+        keys_.resize(cap);
+        values_.assign(cap, kEmpty);
+        mask_ = cap - 1;
+    }
+    bool insert(const T& key, std::uint32_t value) {
+        for (std::size_t i = hashOf(key) & mask_;; i = (i + 1) & mask_) {
+            if (values_[i] == kEmpty) {
+                keys_[i] = key;
+                values_[i] = value;
+                return true;
+            }
+            if (values_[i] != kErased && same(keys_[i], key)) return false;
+        }
+    }
+    // Removes the key; returns its value or kEmpty when absent.
+    std::uint32_t erase(const T& key) {
+        for (std::size_t i = hashOf(key) & mask_;; i = (i + 1) & mask_) {
+            if (values_[i] == kEmpty) return kEmpty;
+            if (values_[i] != kErased && same(keys_[i], key)) {
+                const std::uint32_t v = values_[i];
+                values_[i] = kErased;
+                return v;
+            }
+        }
+    }
+    static constexpr std::uint32_t kEmpty = 0xFFFFFFFFu, kErased = 0xFFFFFFFEu;
+
+private:
+    std::vector<T> keys_;
+    std::vector<std::uint32_t> values_;
+    std::size_t mask_ = 0;
+};
+
+template <class T>
+struct Life {
+    T item;
+    std::uint32_t birth, death;  // alive after k steps iff birth <= k < death
+    bool aliveAt(std::uint32_t k) const { return birth <= k && k < death; }
+};
+
+// Lifetimes of every triangle (or edge) from the initial set and the per-step removals/additions.
+template <class T>
+bool lifetimes(const std::vector<T>& initial, const std::vector<std::uint32_t>& removedOffset,
+               const std::vector<T>& removed, const std::vector<std::uint32_t>& addedOffset,
+               const std::vector<T>& added, std::vector<Life<T>>& out, std::string& error) {
+    LifeTable<T> alive(initial.size() + added.size());
+    out.clear();
+    out.reserve(initial.size() + added.size());
+    for (const T& t : initial) {
+        if (!alive.insert(t, static_cast<std::uint32_t>(out.size()))) {
+            error = "the full-resolution mesh holds an element twice";
+            return false;
+        }
+        out.push_back({t, 0, kAlive});
+    }
+    const std::size_t steps = removedOffset.empty() ? 0 : removedOffset.size() - 1;
+    if (addedOffset.size() != removedOffset.size()) {
+        error = "record offsets of different lengths";
+        return false;
+    }
+    for (std::size_t s = 0; s < steps; ++s) {
+        const auto step = static_cast<std::uint32_t>(s + 1);
+        if (removedOffset[s] > removedOffset[s + 1] || removedOffset[s + 1] > removed.size() ||
+            addedOffset[s] > addedOffset[s + 1] || addedOffset[s + 1] > added.size()) {
+            error = "step " + std::to_string(step) + ": record offsets out of range";
+            return false;
+        }
+        for (std::uint32_t i = removedOffset[s]; i < removedOffset[s + 1]; ++i) {
+            const std::uint32_t at = alive.erase(removed[i]);
+            if (at == LifeTable<T>::kEmpty) {
+                error = "step " + std::to_string(step) + " removes an element that is not alive";
+                return false;
+            }
+            out[at].death = step;
+        }
+        for (std::uint32_t i = addedOffset[s]; i < addedOffset[s + 1]; ++i) {
+            if (!alive.insert(added[i], static_cast<std::uint32_t>(out.size()))) {
+                error = "step " + std::to_string(step) + " adds an element that is alive";
+                return false;
+            }
+            out.push_back({added[i], step, kAlive});
+        }
+    }
+    return true;
+}
+
+// Appends the paired layout of `lives` for the level steps; sets first/count per level.
+template <class T>
+void layOut(const std::vector<Life<T>>& lives, const std::vector<std::uint32_t>& levelSteps,
+            std::vector<T>& indices, std::vector<std::uint32_t>& first,
+            std::vector<std::uint32_t>& count) {
+    const std::size_t n = levelSteps.size();
+    first.assign(n, 0);
+    count.assign(n, 0);
+    indices.clear();
+    std::vector<T> parts[3];
+    for (std::size_t j = 0; j < n; j += 2) {
+        const std::uint32_t f = levelSteps[j];
+        const bool paired = j + 1 < n;
+        const std::uint32_t c = paired ? levelSteps[j + 1] : f;
+        for (auto& p : parts)
+            p.clear();
+        for (const Life<T>& life : lives) {
+            const bool inF = life.aliveAt(f), inC = paired && life.aliveAt(c);
+            if (inF || inC) parts[inF && inC ? 1 : (inF ? 0 : 2)].push_back(life.item);
+        }
+        for (auto& p : parts) {
+            std::sort(p.begin(), p.end(), [](const T& l, const T& r) { return lessIndex(l, r); });
+        }
+        const auto start = static_cast<std::uint32_t>(indices.size());
+        for (auto& p : parts)
+            indices.insert(indices.end(), p.begin(), p.end());
+        first[j] = start;
+        count[j] = static_cast<std::uint32_t>(parts[0].size() + parts[1].size());
+        if (paired) {
+            first[j + 1] = start + static_cast<std::uint32_t>(parts[0].size());
+            count[j + 1] = static_cast<std::uint32_t>(parts[1].size() + parts[2].size());
+        }
+    }
+}
+
+}  // namespace
+
+bool layOutLevels(Block& b, const std::vector<Triangle>& initialTriangles,
+                  const std::vector<Edge>& initialEdges, std::string& error) {
+    std::vector<Life<Triangle>> triLives;
+    std::vector<Life<Edge>> edgeLives;
+    if (!lifetimes(initialTriangles, b.removedTriangleOffset, b.removedTriangles,
+                   b.addedTriangleOffset, b.addedTriangles, triLives, error) ||
+        !lifetimes(initialEdges, b.removedEdgeOffset, b.removedEdges, b.addedEdgeOffset,
+                   b.addedEdges, edgeLives, error)) {
+        return false;
+    }
+    std::vector<std::uint32_t> steps(b.levels.size());
+    for (std::size_t j = 0; j < steps.size(); ++j)
+        steps[j] = b.levels[j].step;
+    std::vector<std::uint32_t> tFirst, tCount, rFirst, rCount;
+    layOut(triLives, steps, b.terrainIndices, tFirst, tCount);
+    layOut(edgeLives, steps, b.riverIndices, rFirst, rCount);
+    for (std::size_t j = 0; j < steps.size(); ++j) {
+        Level& l = b.levels[j];
+        l.triangleFirst = tFirst[j];
+        l.triangleCount = tCount[j];
+        l.riverFirst = rFirst[j];
+        l.riverCount = rCount[j];
+    }
+    return true;
+}
+
+}  // namespace unilod::format
