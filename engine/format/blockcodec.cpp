@@ -230,6 +230,21 @@ BlockCounts countsOf(const Block& b) {
     return c;
 }
 
+bool compactStreamSizes(const unsigned char* data, std::size_t size, std::vector<StreamSize>& out) {
+    static constexpr const char* kNames[kStreamCount] = {
+        "permutation", "positions", "heights", "flags", "mesh", "step_counts", "step_refs",
+        "errors", "level_steps"};
+    out.clear();
+    In frames{data, data + size};
+    for (int k = 0; k < kStreamCount; ++k) {
+        const std::uint64_t decoded = frames.u(), stored = frames.u();
+        if (!frames.ok || stored > std::uint64_t(frames.end - frames.p)) return false;
+        frames.p += stored;
+        out.push_back({kNames[k], decoded, stored});
+    }
+    return frames.p == frames.end;
+}
+
 bool sameArrays(const Block& a, const Block& b) {
     return sameBytes(a.vertices, b.vertices) && sameBytes(a.steps, b.steps) &&
            sameBytes(a.removedTriangleOffset, b.removedTriangleOffset) &&

@@ -16,8 +16,9 @@
 //   (mostly 0 or 1 per step);
 // - the level steps; every level's index data and counts are derived again (lodlayout.h), as are
 //   the steps' vertex and alive counts and the record offsets.
-// A block that is not in this canonical form (hand-made, foreign) is stored raw instead
-// (BlockEncoding::kRaw): the writer encodes, decodes and compares before it trusts the encoding.
+// A block that is not in this canonical form (hand-made, foreign), or a tiny one whose streams
+// would cost more than its arrays, is stored raw instead (BlockEncoding::kRaw): the writer
+// encodes, decodes and compares before it trusts the encoding.
 #pragma once
 
 #include <cstdint>
@@ -57,6 +58,14 @@ bool encodeCompact(const Block& block, double zQuantum, std::vector<unsigned cha
 // result still needs validateBlock.
 bool decodeCompact(const unsigned char* data, std::size_t size, const BlockCounts& counts,
                    double zQuantum, Block& block, std::string& error);
+
+// The streams of a compact payload with their decoded and stored sizes (benchmarks: where the
+// bytes go). Returns false on a damaged payload.
+struct StreamSize {
+    const char* name;
+    std::uint64_t decoded = 0, stored = 0;
+};
+bool compactStreamSizes(const unsigned char* data, std::size_t size, std::vector<StreamSize>& out);
 
 // True when the arrays of two blocks are equal bit for bit.
 bool sameArrays(const Block& a, const Block& b);

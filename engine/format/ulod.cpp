@@ -804,7 +804,9 @@ void serializeBlock(const Block& b, bool compact, double zQuantum,
     out.clear();
     std::vector<unsigned char> payload;
     std::string why;
+    // Compact only when it is smaller (a tiny block's stream headers can cost more than raw).
     if (compact && encodeCompact(b, zQuantum, payload, why) &&
+        alignUp(sizeof(h) + payload.size()) < blockByteSize(h) &&
         payload.size() <= std::numeric_limits<std::uint32_t>::max()) {
         Block back;
         if (decodeCompact(payload.data(), payload.size(), countsOf(b), zQuantum, back, why) &&
@@ -1223,10 +1225,6 @@ bool Reader::readBlock(std::size_t index, Block& block, std::string& error) cons
         return fail("payload size " + std::to_string(h.payloadSize) + " does not fit the block's " +
                     std::to_string(info.size) + " bytes");
     }
-    if (h.vertexCount != info.vertexCount || h.stepCount != info.stepCount ||
-        h.levelCount != info.levelCount) {
-        return fail("vertex, step or level count differs from the directory");
-    }
     // Counts are checked against the byte size before any array is allocated.
     const std::uint64_t expected = blockByteSize(h);
     if (h.encoding == std::uint32_t(BlockEncoding::kRaw) && expected != info.size) {
@@ -1238,6 +1236,10 @@ bool Reader::readBlock(std::size_t index, Block& block, std::string& error) cons
         return fail("its counts need " + std::to_string(expected) +
                     " bytes, more than a compact block of " + std::to_string(info.size) +
                     " bytes can hold");
+    }
+    if (h.vertexCount != info.vertexCount || h.stepCount != info.stepCount ||
+        h.levelCount != info.levelCount) {
+        return fail("vertex, step or level count differs from the directory");
     }
 
     Block b;

@@ -1,5 +1,5 @@
 // The compact block encoding (issue 19, format/blockcodec.h): a real model (a synthetic world with
-// rivers, 2 x 2 blocks and their tree node) is built twice, compact and raw; every block decodes
+// rivers, a few blocks and their tree nodes) is built twice, compact and raw; every block decodes
 // to exactly the arrays the raw file stores (the uncompressed replay), `check` replays the
 // compact file, the stored errors carry the z quantum, and damaged compact data is rejected.
 #include <gtest/gtest.h>
@@ -63,19 +63,22 @@ TEST_F(BlockCodec, EveryBlockDecodesToTheUncompressedReplay) {
     std::string error;
     ASSERT_TRUE(c.open(compact, error)) << error;
     ASSERT_TRUE(r.open(raw, error)) << error;
-    ASSERT_EQ(c.blocks().size(), 5u);  // 2 x 2 blocks and the root
+    ASSERT_GE(c.blocks().size(), 5u);  // at least 2 x 2 blocks and a tree node
+    EXPECT_GT(c.blocks().back().level, 0u);
     ASSERT_EQ(r.blocks().size(), c.blocks().size());
     EXPECT_EQ(c.header().zQuantum, format::kDefaultZQuantum);
+    std::uint64_t compactBytes = 0, rawBytes = 0, compactBlocks = 0;
     for (std::size_t i = 0; i < c.blocks().size(); ++i) {
         SCOPED_TRACE("block " + std::to_string(i));
-        EXPECT_EQ(c.blocks()[i].encoding, std::uint32_t(format::BlockEncoding::kCompact));
+        compactBytes += c.blocks()[i].size;
+        rawBytes += r.blocks()[i].size;
+        compactBlocks += c.blocks()[i].encoding == std::uint32_t(format::BlockEncoding::kCompact);
         EXPECT_EQ(r.blocks()[i].encoding, std::uint32_t(format::BlockEncoding::kRaw));
-        // Compact is much smaller than raw.
-        EXPECT_LT(c.blocks()[i].size * 8, r.blocks()[i].size);
+        // Never larger than raw (a tiny block whose streams cost more is stored raw).
+        EXPECT_LE(c.blocks()[i].size, r.blocks()[i].size);
         format::Block a, b;
         ASSERT_TRUE(c.readBlock(i, a, error)) << error;
         ASSERT_TRUE(r.readBlock(i, b, error)) << error;
-        EXPECT_GT(a.steps.size(), 0u);
         expectSame(a.vertices, b.vertices, "vertices");
         expectSame(a.grid, b.grid, "grid");
         expectSame(a.steps, b.steps, "steps");
@@ -101,6 +104,9 @@ TEST_F(BlockCodec, EveryBlockDecodesToTheUncompressedReplay) {
         for (float e : a.errorMax)
             ASSERT_EQ(e, format::quantizeError(e, format::kDefaultZQuantum));
     }
+    // Every block with deletion steps is compact, and the whole is far smaller than raw.
+    EXPECT_GE(compactBlocks, c.blocks().size() - 2);
+    EXPECT_LT(compactBytes * 8, rawBytes);
 }
 
 TEST_F(BlockCodec, CheckReplaysTheCompactFile) {
@@ -109,7 +115,7 @@ TEST_F(BlockCodec, CheckReplaysTheCompactFile) {
     UlodCheckSummary s;
     std::string error;
     ASSERT_TRUE(checkUlod(compact, o, s, error)) << error;
-    EXPECT_EQ(s.blocks, 5u);
+    EXPECT_GE(s.blocks, 5u);
 }
 
 TEST(BlockCodecUnit, QuantizedErrorsRoundUpMonotonically) {
@@ -126,7 +132,8 @@ TEST(BlockCodecUnit, QuantizedErrorsRoundUpMonotonically) {
     EXPECT_EQ(format::quantizeError(2.0, q), 2.0f);
     EXPECT_EQ(format::quantizeError(2.0001, q), float(2 + q));
     EXPECT_EQ(format::quantizeZ(312.4, q), 312.3984375);
-    EXPECT_EQ(format::quantizeZ(-0.004, q), 0.0);
+    EXPECT_EQ(format::quantizeZ(-0.003, q), 0.0);
+    EXPECT_EQ(format::quantizeZ(-0.004, q), -q);
 }
 
 // A block not in canonical form (here: no grid positions) is stored raw, and reads back.

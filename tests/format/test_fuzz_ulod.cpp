@@ -1,7 +1,9 @@
 // Deterministic mutation fuzzing of every .ulod reader path (issue 16, part 5): Reader::open,
 // readBlock, readGeometry (all levels, one level, levels only), hence validateBlock and
 // validateLevelGeometry, and `unilod check`'s deeper replay (checkUlod) on whatever the reader
-// accepts. The seed is a small synthetic model with rivers (2 x 2 blocks) built here. Each case
+// accepts. The seeds are a small synthetic model with rivers (2 x 2 blocks) built here twice:
+// with compact blocks (format/blockcodec.h, the default: mutations reach the zstd streams and the
+// record replay) and with raw blocks (the field-aware array edits below apply to those). Each case
 // applies 1 to 3 mutations: bit flips, bytes and words set to interesting values (0, -1, NaN,
 // infinities, huge counts), field-aware edits of the header, the directory and a block's arrays
 // (an index moved to another vertex, a triangle flipped or duplicated, a vertex or grid position
@@ -315,9 +317,10 @@ void exercise(const std::string& path, Tally& tally) {
 class Fuzz : public ::testing::Test {
 protected:
     static inline test::TempDir* dir = nullptr;
-    static inline UlodBytes seed;
+    static inline UlodBytes seed, rawSeed;
 
-    // A small synthetic world with rivers in 2 x 2 blocks.
+    // A small synthetic world with rivers in 2 x 2 blocks, with compact blocks (the default) and
+    // with raw blocks (whose arrays the field-aware edits reach).
     static void SetUpTestSuite() {
         dir = new test::TempDir("fuzz");
         SyntheticOptions so;
@@ -338,6 +341,14 @@ protected:
         ASSERT_TRUE(runBuild(o, summary, error)) << error;
         seed = UlodBytes::load(o.outPath);
         ASSERT_EQ(seed.blockCount(), 5u);  // 2 x 2 blocks and the root of their tree
+        std::size_t compact = 0;
+        for (std::size_t i = 0; i < seed.blockCount(); ++i)
+            compact += seed.get<std::uint32_t>(seed.entry(i) + UlodBytes::kEntryEncoding) == 1;
+        ASSERT_GE(compact, 4u);
+        o.outPath = dir->file("raw_seed.ulod");
+        o.rawBlocks = true;
+        ASSERT_TRUE(runBuild(o, summary, error)) << error;
+        rawSeed = UlodBytes::load(o.outPath);
     }
     static void TearDownTestSuite() {
         delete dir;
@@ -345,10 +356,10 @@ protected:
     }
 };
 
-TEST_F(Fuzz, EveryMutationEndsCleanly) {
+void fuzz(const UlodBytes& seed, std::uint64_t defaultCases) {
     const std::uint64_t seconds = envNumber("UNILOD_FUZZ_SECONDS", 0);
     const std::uint64_t cases =
-        envNumber("UNILOD_FUZZ_CASES", seconds > 0 ? ~std::uint64_t(0) : kDefaultCases);
+        envNumber("UNILOD_FUZZ_CASES", seconds > 0 ? ~std::uint64_t(0) : defaultCases);
     const std::uint64_t rngSeed = envNumber("UNILOD_FUZZ_SEED", 1);
     const char* last = std::getenv("UNILOD_FUZZ_LAST");
     // The case file lives in memory (memfd): no disk traffic per case.
@@ -387,7 +398,7 @@ TEST_F(Fuzz, EveryMutationEndsCleanly) {
                      ")");
         exercise(path, tally);
         ++done;
-        if (HasFatalFailure()) break;
+        if (::testing::Test::HasFatalFailure()) break;
     }
     ::close(fd);
     std::printf(
@@ -398,11 +409,19 @@ TEST_F(Fuzz, EveryMutationEndsCleanly) {
         (unsigned long long)tally.semanticRejected, (unsigned long long)tally.accepted,
         (unsigned long long)tally.checkRejected);
     // The mutations reach every outcome, so the semantic checks (not only the CRCs) ran.
-    if (done >= kDefaultCases) {
+    if (done >= defaultCases) {
         EXPECT_GT(tally.openRejected, 0u);
         EXPECT_GT(tally.semanticRejected, 0u);
         EXPECT_GT(tally.accepted, 0u);
     }
+}
+
+TEST_F(Fuzz, EveryMutationOfACompactFileEndsCleanly) {
+    fuzz(seed, kDefaultCases);
+}
+
+TEST_F(Fuzz, EveryMutationOfARawFileEndsCleanly) {
+    fuzz(rawSeed, kDefaultCases / 2);
 }
 
 }  // namespace

@@ -450,7 +450,7 @@ TEST_F(UlodTest, WrongVersionRejectedWithTheVersion) {
         std::string error;
         EXPECT_FALSE(reader.open(path, error));
         EXPECT_NE(error.find("unsupported .ulod version " + std::to_string(version) +
-                             " (this build reads 2)"),
+                             " (this build reads 3)"),
                   std::string::npos)
             << error;
     }
@@ -458,13 +458,13 @@ TEST_F(UlodTest, WrongVersionRejectedWithTheVersion) {
 
 TEST_F(UlodTest, HeaderSizeMismatchRejected) {
     std::vector<char> bytes = readBytes(writeStandard());
-    store<std::uint32_t>(bytes, 12, 144);
+    store<std::uint32_t>(bytes, 12, 152);
     const std::string path = file("hsize.ulod");
     writeBytes(path, bytes.data(), bytes.size());
     Reader reader;
     std::string error;
     EXPECT_FALSE(reader.open(path, error));
-    EXPECT_NE(error.find("header size 144"), std::string::npos) << error;
+    EXPECT_NE(error.find("header size 152"), std::string::npos) << error;
 }
 
 // Hostile files with valid checksums: the structural checks alone must catch them.

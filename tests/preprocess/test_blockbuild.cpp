@@ -158,7 +158,9 @@ TEST(LodIndex, LevelsMatchRecordsAndBounds) {
         }
         EXPECT_TRUE(std::is_sorted(b.errorMax.begin(), b.errorMax.end()));
         EXPECT_TRUE(std::is_sorted(b.errorPaper.begin(), b.errorPaper.end()));
-        EXPECT_EQ(b.errorMax.front(), 0.0f);  // full resolution reproduces every point
+        // Full resolution reproduces every point up to the height quantum, which every stored
+        // error includes (lodindex.h).
+        EXPECT_EQ(b.errorMax.front(), float(format::kDefaultZQuantum));
 
         // Locked points (borders, river ends, junctions, crossings) are in the coarsest level.
         std::size_t lockedVertices = 0;
@@ -217,7 +219,7 @@ TEST(LodIndex, BlockWithoutDeletionSteps) {
         EXPECT_EQ(b.levels[0].vertexCount, 6u);
         EXPECT_EQ(b.levels[0].triangleCount, 4u);
         ASSERT_EQ(b.errorMax.size(), 1u);
-        EXPECT_EQ(b.errorMax[0], 0.0f);
+        EXPECT_EQ(b.errorMax[0], float(format::kDefaultZQuantum));
         EXPECT_EQ(b.errorPaper.size(), paper ? 1u : 0u);
         const std::uint32_t metrics = format::kMetricMax | (paper ? format::kMetricPaper : 0u);
         EXPECT_TRUE(format::validateBlock(b, metrics, err)) << err;

@@ -699,7 +699,9 @@ TEST(CliBuildAnyDem, StraightDemEdgesReduceToTheirCorners) {
     writeText(c.in("empty.geojson"), geoJson({}));
     expectAcceptedAndChecked(c, run("build -q " + q(c.in("dem.tif")) + " " +
                                     q(c.in("empty.geojson")) + " -o " + q(c.out())));
-    const Result r = run("stats " + q(c.out()) + " --error 0.01 --json");
+    // 2 cm: stored errors include the height quantum (1/128 m) and are rounded up to a multiple
+    // of it, so float noise of a plane stores 2/128 m.
+    const Result r = run("stats " + q(c.out()) + " --error 0.02 --json");
     ASSERT_EQ(r.code, 0) << r.err;
     const nlohmann::json s = nlohmann::json::parse(r.out);
     ASSERT_EQ(s["rows"].size(), 1u);

@@ -1,0 +1,193 @@
+// The .ulod size and decode benchmark (issue 19): builds one model twice in the same run, with
+// compact blocks (the default) and raw blocks (plain arrays, the version-2 layout: the baseline),
+// and prints JSON: bytes per DEM point and per model point for both, where the compact bytes go
+// (per stream), build time compact vs raw, and the decode speed of the compact blocks on one core
+// (decoded output = the raw arrays, per second; every block decoded, then once more through
+// Reader::readBlock with its checks).
+//
+//   bench_format                 the bundled Jacksboro DEM with the GRASS rivers
+//   bench_format --points N      a synthetic DEM with rivers of about N points (tools/synthetic.h)
+//   --keep DIR                   keep inputs and models in DIR (reused when present)
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "benchbuild.h"
+#include "benchutil.h"
+#include "blockcodec.h"
+#include "jsontext.h"
+#include "ulod.h"
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+[[noreturn]] void fail(const std::string& what) {
+    std::fprintf(stderr, "bench_format: %s\n", what.c_str());
+    std::exit(1);
+}
+
+double secondsSince(std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// Sizes per stream and decode speed of a compact model; `raw` is the same model with raw blocks.
+json measureFiles(const std::string& compact, const std::string& raw) {
+    unilod::format::Reader c, r;
+    std::string error;
+    if (!c.open(compact, error) || !r.open(raw, error)) fail(error);
+    if (c.blocks().size() != r.blocks().size()) fail("the two models differ in blocks");
+    std::vector<std::vector<unsigned char>> payloads;
+    std::vector<unilod::format::BlockCounts> counts;
+    std::uint64_t decodedBytes = 0, compactBlocks = 0, rawBlocks = 0, leafVertices = 0;
+    json streams = json::object();
+    for (std::size_t i = 0; i < c.blocks().size(); ++i) {
+        const auto& info = c.blocks()[i];
+        if (info.level == 0) leafVertices += info.vertexCount;
+        if (info.encoding != std::uint32_t(unilod::format::BlockEncoding::kCompact)) {
+            ++rawBlocks;
+            continue;
+        }
+        ++compactBlocks;
+        unilod::format::Block b;
+        if (!r.readBlock(i, b, error)) fail(error);
+        counts.push_back(unilod::format::countsOf(b));
+        decodedBytes += r.blocks()[i].size;
+        // The payload: after the 144-byte block header, its size in the header's last word.
+        std::vector<unsigned char> bytes(info.size);
+        FILE* f = std::fopen(compact.c_str(), "rb");
+        if (!f || fseeko(f, off_t(info.offset), SEEK_SET) != 0 ||
+            std::fread(bytes.data(), 1, bytes.size(), f) != bytes.size())
+            fail("cannot read " + compact);
+        std::fclose(f);
+        std::uint32_t payload = 0;
+        std::memcpy(&payload, bytes.data() + 140, 4);
+        payloads.emplace_back(bytes.begin() + 144, bytes.begin() + 144 + payload);
+        std::vector<unilod::format::StreamSize> sizes;
+        if (!unilod::format::compactStreamSizes(payloads.back().data(), payload, sizes))
+            fail("damaged payload");
+        for (const auto& s : sizes) {
+            json& e = streams[s.name];
+            e["decoded_bytes"] = e.value("decoded_bytes", std::uint64_t(0)) + s.decoded;
+            e["stored_bytes"] = e.value("stored_bytes", std::uint64_t(0)) + s.stored;
+        }
+    }
+    // Decode on one core (this thread): the codec alone, then the reader's whole path.
+    auto t = std::chrono::steady_clock::now();
+    for (std::size_t k = 0; k < payloads.size(); ++k) {
+        unilod::format::Block b;
+        if (!unilod::format::decodeCompact(payloads[k].data(), payloads[k].size(), counts[k],
+                                           c.header().zQuantum, b, error))
+            fail(error);
+    }
+    const double decodeSeconds = secondsSince(t);
+    t = std::chrono::steady_clock::now();
+    for (std::size_t i = 0; i < c.blocks().size(); ++i) {
+        unilod::format::Block b;
+        if (!c.readBlock(i, b, error)) fail(error);
+    }
+    const double readSeconds = secondsSince(t);
+    const double mb = double(decodedBytes) / 1e6;
+    return {{"blocks", c.blocks().size()},
+            {"compact_blocks", compactBlocks},
+            {"raw_blocks", rawBlocks},
+            {"leaf_vertices", leafVertices},
+            {"compact_file_bytes", fs::file_size(compact)},
+            {"raw_file_bytes", fs::file_size(raw)},
+            {"streams", streams},
+            {"decoded_megabytes", mb},
+            {"decode_seconds_one_core", decodeSeconds},
+            {"decode_mb_per_s_one_core", mb / decodeSeconds},
+            {"read_block_seconds_one_core", readSeconds},
+            {"read_block_mb_per_s_one_core", mb / readSeconds}};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"bench_format: .ulod bytes per point and decode speed, compact vs raw blocks"};
+    std::size_t points = 0;
+    std::string keep;
+    unsigned threads = 0;
+    app.add_option("--points", points, "synthetic DEM of about N points (0: the bundled data)");
+    app.add_option("--keep", keep, "keep inputs and models in this folder (reused when present)");
+    app.add_option("--threads", threads, "build threads (0: all cores)");
+    CLI11_PARSE(app, argc, argv);
+
+    const std::string work = keep.empty() ? (fs::temp_directory_path() /
+                                             ("bench_format_" + std::to_string(getpid())))
+                                                .string()
+                                          : keep;
+    fs::create_directories(work);
+    unilod::BuildOptions o;
+    json inputs;
+    std::string name = "jacksboro_grass";
+    if (points == 0) {
+        o.demPath = std::string(UNILOD_ASSETS_DIR) + "/jacksboro_dem.tif";
+        o.riversPath = std::string(UNILOD_ASSETS_DIR) + "/jacksboro_rivers_grass.geojson";
+    } else {
+        name = "synthetic_" + std::to_string(points);
+        const std::string dir = work + "/" + name;
+        inputs = unilod::bench::runInChild([&] {
+            unilod::SyntheticOptions so;
+            so.targetPoints = points;
+            so.seed = 1;
+            return unilod::bench::ensureSyntheticInputs(dir, so);
+        });
+        o.demPath = dir + "/dem.tif";
+        o.riversPath = dir + "/rivers.geojson";
+    }
+    o.threads = threads;
+    o.force = true;
+    unilod::BuildOptions rawOptions = o;
+    o.outPath = work + "/" + name + "_compact.ulod";
+    rawOptions.outPath = work + "/" + name + "_raw.ulod";
+    rawOptions.rawBlocks = true;
+    std::fprintf(stderr, "bench_format: building %s (raw blocks, then compact)...\n", name.c_str());
+    const json rawBuild =
+        unilod::bench::runInChild([&] { return unilod::bench::measureBuild(name, rawOptions); });
+    const json compactBuild =
+        unilod::bench::runInChild([&] { return unilod::bench::measureBuild(name, o); });
+    std::fprintf(stderr, "bench_format: sizes and decode...\n");
+    json files = unilod::bench::runInChild([&] { return measureFiles(o.outPath, rawOptions.outPath); });
+
+    const double demPoints = double(compactBuild["points"].get<std::uint64_t>() -
+                                    compactBuild["river_points"].get<std::uint64_t>());
+    const double modelPoints = double(compactBuild["points"].get<std::uint64_t>());
+    const double compactBytes = double(files["compact_file_bytes"].get<std::uint64_t>());
+    const double rawBytes = double(files["raw_file_bytes"].get<std::uint64_t>());
+    for (auto& [stream, e] : files["streams"].items())
+        e["bytes_per_dem_point"] = double(e["stored_bytes"].get<std::uint64_t>()) / demPoints;
+    const json result = {
+        {"benchmark", "ulod_format"},
+        {"case", name},
+        {"inputs", inputs},
+        {"dem_points", demPoints},
+        {"model_points", modelPoints},
+        {"compact",
+         {{"bytes_per_dem_point", compactBytes / demPoints},
+          {"bytes_per_model_point", compactBytes / modelPoints},
+          {"target_bytes_per_dem_point", 24},
+          // The engine reads whole blocks (every stream: the index data is derived from the
+          // records on the loader thread), so what it streams is the whole file.
+          {"engine_streamed_bytes_per_dem_point", compactBytes / demPoints},
+          {"target_engine_streamed_bytes_per_dem_point", 8}}},
+        {"raw_baseline", {{"bytes_per_dem_point", rawBytes / demPoints}}},
+        {"raw_over_compact", rawBytes / compactBytes},
+        {"build_seconds", {{"compact", compactBuild["seconds"]}, {"raw", rawBuild["seconds"]}}},
+        {"build_compact_over_raw",
+         compactBuild["seconds"].get<double>() / rawBuild["seconds"].get<double>()},
+        {"target_build_compact_over_raw", 1.10},
+        {"build_max_rss_bytes",
+         {{"compact", compactBuild["max_rss_bytes"]}, {"raw", rawBuild["max_rss_bytes"]}}},
+        {"files", files},
+        {"target_decode_mb_per_s_one_core", 300}};
+    std::printf("%s\n", unilod::jsonText(result).c_str());
+    if (keep.empty()) fs::remove_all(work);
+    return 0;
+}
