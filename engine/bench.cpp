@@ -37,6 +37,8 @@ struct RunData {
     std::vector<std::vector<DrawBlock>> drawLists;  // "resident" keeps them for "bare"
     double seconds = 0;
     std::uint64_t warmupBytesUploaded = 0;  // streamed during the unmeasured warm-up frames
+    std::uint64_t loaderBytesAtStart = 0;   // the loader's totals when the measured frames began
+    double loaderSecondsAtStart = 0;
 };
 
 nlohmann::json runJson(const RunData& r, bool perFrame) {
@@ -70,6 +72,14 @@ nlohmann::json runJson(const RunData& r, bool perFrame) {
         {"gpu_budget", r.stats.empty() ? 0 : r.stats.back().gpuBudget},
         {"evictions", evictions},
     };
+    if (!r.stats.empty()) {
+        // The loader thread's reads during the run (compact blocks decode there, not in a frame).
+        const double bytes = double(r.stats.back().loaderBytesRead - r.loaderBytesAtStart);
+        const double seconds = r.stats.back().loaderSeconds - r.loaderSecondsAtStart;
+        j["loader_bytes_read"] = std::uint64_t(bytes);
+        j["loader_read_decode_seconds"] = seconds;
+        j["loader_ms_per_mb"] = bytes > 0 ? seconds * 1000 / (bytes / 1e6) : 0.0;
+    }
     if (perFrame) {
         nlohmann::json frames = nlohmann::json::array();
         for (std::size_t i = 0; i < r.frameMs.size(); ++i)
@@ -100,6 +110,8 @@ bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
             data.warmupBytesUploaded += renderer.scene().stats().bytesUploaded;
     }
     renderer.finish();
+    data.loaderBytesAtStart = renderer.scene().stats().loaderBytesRead;
+    data.loaderSecondsAtStart = renderer.scene().stats().loaderSeconds;
     std::vector<FrameStats> stats;
     const auto start = Clock::now();
     auto last = start;
@@ -110,6 +122,8 @@ bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
             FrameStats s;
             for (const DrawBlock& d : (*bareLists)[i]) s.triangles += d.terrainCount / 3;
             s.visibleBlocks = std::uint32_t((*bareLists)[i].size());
+            s.loaderBytesRead = renderer.scene().stats().loaderBytesRead;
+            s.loaderSeconds = renderer.scene().stats().loaderSeconds;
             stats.push_back(s);
         } else {
             if (!renderer.renderFrame(view, true, nullptr, error)) return false;

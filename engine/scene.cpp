@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cassert>
+#include <chrono>
 #include <cmath>
 #include <condition_variable>
 #include <cstring>
@@ -165,6 +166,8 @@ struct StreamingScene::Impl {
     std::condition_variable wake;      // the loader waits for requests / room
     std::deque<std::uint32_t> queue;   // requested, nearest first
     std::int64_t loading = -1;         // the block being read
+    std::uint64_t loaderBytesRead = 0;  // file bytes the loader has read (and decoded)
+    double loaderSeconds = 0;           // its time reading, checking and decoding them
     std::vector<Loaded> ready;         // read, waiting for an upload
     bool stop = false;
     std::thread loader;
@@ -184,7 +187,11 @@ struct StreamingScene::Impl {
             Loaded item;
             item.block = index;
             format::BlockGeometry g;
-            if (reader.readGeometry(index, format::kAllLevels, g, item.error)) {
+            const auto t0 = std::chrono::steady_clock::now();
+            const bool read = reader.readGeometry(index, format::kAllLevels, g, item.error);
+            const double seconds =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            if (read) {
                 const BlockState& b = blocks[index];
                 if (g.terrainIndices.size() < b.terrainTriangles ||
                     g.riverIndices.size() < b.riverEdges)
@@ -195,6 +202,8 @@ struct StreamingScene::Impl {
             {
                 std::lock_guard lock(mutex);
                 loading = -1;
+                loaderBytesRead += reader.blocks()[index].size;
+                loaderSeconds += seconds;
                 ready.push_back(std::move(item));
             }
         }
@@ -668,6 +677,8 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
             s.queue.push_back(i);
         }
         st.loadsPending = std::uint32_t(s.queue.size() + s.ready.size() + (s.loading >= 0));
+        st.loaderBytesRead = s.loaderBytesRead;
+        st.loaderSeconds = s.loaderSeconds;
     }
     s.wake.notify_all();
     st.residentBlocks = 0;

@@ -86,6 +86,10 @@ struct FrameStats {
     std::uint64_t coarseBytes = 0;     // the always-resident coarse levels
     std::uint32_t loadsPending = 0;    // requested or loaded, not yet uploaded
     std::uint32_t evictions = 0;       // this frame
+    // Since open, on the loader thread (the render thread never reads or decodes a block): the
+    // file bytes of the blocks read and the seconds spent reading, checking and decoding them.
+    std::uint64_t loaderBytesRead = 0;
+    double loaderSeconds = 0;
 };
 
 class StreamingScene {

@@ -1,4 +1,4 @@
-// .ulod v1 reader and writer. The byte layout (every field, offset, alignment and checksum) is
+// .ulod reader and writer. The byte layout (every field, offset, alignment and checksum) is
 // described in README.md beside this file; the on-disk structs below are its source of truth and
 // each has a static_assert on its size so that the two cannot drift apart silently.
 //
@@ -439,8 +439,10 @@ bool vertexValid(const Block& b, std::uint64_t i, std::string& error) {
         error = name + " has unknown flags " + std::to_string(v.flags);
         return false;
     }
-    if (!insideWithSlack(b.originX + double(v.x), v.x, b.minX, b.maxX) ||
-        !insideWithSlack(b.originY + double(v.y), v.y, b.minY, b.maxY) ||
+    // x, y also up to a grid unit outside: a built vertex's x, y are its grid position (the exact
+    // position rounded to kGridUnit, blockcodec.h), the box the exact positions'.
+    if (!insideWithSlack(b.originX + double(v.x), v.x, b.minX - kGridUnit, b.maxX + kGridUnit) ||
+        !insideWithSlack(b.originY + double(v.y), v.y, b.minY - kGridUnit, b.maxY + kGridUnit) ||
         !insideWithSlack(double(v.z), v.z, b.minZ, b.maxZ)) {
         error = name + " (" + std::to_string(v.x) + ", " + std::to_string(v.y) + ", " +
                 std::to_string(v.z) + ") lies outside the block's bounding box";

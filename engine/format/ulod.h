@@ -1,4 +1,4 @@
-// The .ulod file, version 1: one unified LOD model (terrain + rivers) in blocks. Plain structs,
+// The .ulod file (version kVersion): one unified LOD model (terrain + rivers) in blocks. Plain structs,
 // no Vulkan, no GDAL: the engine streams it, preprocess writes it. Byte layout: README.md beside
 // this file. Little-endian; every on-disk struct has a fixed size (static_assert below).
 #pragma once

@@ -876,6 +876,11 @@ TEST_F(UlodValidateError, VertexOutsideTheBoxBeyondTheTolerance) {
     block = makeBlock(1, 0, kMetricMax | kMetricPaper, true);
     block.vertices[2].x = 10.5f;  // the box ends at x = 10
     EXPECT_NE(check(block).find("vertex 2 ("), std::string::npos) << check(block);
+    // x, y may miss the box by a grid unit (1 mm): built vertices sit on their grid position.
+    block.vertices[2].x = 10.0009f;
+    EXPECT_EQ(check(block), "");
+    block.vertices[2].x = 10.0021f;
+    EXPECT_NE(check(block).find("vertex 2 ("), std::string::npos) << check(block);
 }
 
 TEST_F(UlodValidateError, BoxAndOrigin) {
