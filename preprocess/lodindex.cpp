@@ -13,8 +13,9 @@ namespace {
 
 constexpr std::uint32_t kAlive = 0xFFFFFFFFu;  // no vertex index yet
 
-// Each step's removed triangles and edges in (a, b, c) order: the compact block encoding
-// (blockcodec.h) derives a step's removals from the mesh and lists them in that order.
+// Each step's removed triangles and edges and added triangles in (a, b, c) order: the compact
+// block encoding (blockcodec.h) derives a step's removals from the mesh and its additions from a
+// triangulation code, and lists them in that order.
 template <class T>
 void sortPerStep(const std::vector<std::uint32_t>& offset, std::vector<T>& items) {
     for (std::size_t s = 0; s + 1 < offset.size(); ++s) {
@@ -93,6 +94,7 @@ bool buildLodIndex(const LodIndexInput& in, format::Block& block, std::string& e
     for (const auto& e : rec.addedEdges)
         block.addedEdges.push_back(edge(e));
     sortPerStep(block.removedTriangleOffset, block.removedTriangles);
+    sortPerStep(block.addedTriangleOffset, block.addedTriangles);
     sortPerStep(block.removedEdgeOffset, block.removedEdges);
     if ((in.maxError && rec.errorMax.size() != steps) ||
         (in.paperError && rec.errorPaper.size() != steps)) {

@@ -73,8 +73,9 @@ json measureFiles(const std::string& compact, const std::string& raw) {
             fail("damaged payload");
         for (const auto& s : sizes) {
             json& e = streams[s.name];
-            e["decoded_bytes"] = e.value("decoded_bytes", std::uint64_t(0)) + s.decoded;
-            e["stored_bytes"] = e.value("stored_bytes", std::uint64_t(0)) + s.stored;
+            if (e.is_null()) e = {{"decoded_bytes", 0}, {"stored_bytes", 0}};
+            e["decoded_bytes"] = e["decoded_bytes"].get<std::uint64_t>() + s.decoded;
+            e["stored_bytes"] = e["stored_bytes"].get<std::uint64_t>() + s.stored;
         }
     }
     // Decode on one core (this thread): the codec alone, then the reader's whole path.

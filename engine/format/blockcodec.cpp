@@ -26,6 +26,7 @@ enum Stream {
     kMesh,         // full-resolution triangles and river edges (spatial numbering)
     kStepCounts,   // per step: extra removals, additions (triangles, then edges)
     kStepRefs,     // per step: the vertex references of those records
+    kStepApexes,   // per step in polygon mode: the apex codes of its triangulation
     kErrors,       // both metrics' error bit patterns, delta coded
     kLevelSteps,   // level steps, delta coded
     kStreamCount
@@ -124,42 +125,72 @@ void forVertices(const Edge& e, auto&& f) {
     f(e.b);
 }
 
-// Alive elements (triangles or edges) with, per vertex, the slots that ever held it.
+constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+template <class T>
+constexpr std::uint32_t kCorners = sizeof(T) / sizeof(std::uint32_t);
+
+// Every element (triangle or river edge) ever alive, with its life, and per vertex a singly
+// linked list through the elements that use it (flat arrays: no allocation per element). Dead
+// elements are unlinked as the lists are walked.
 template <class T>
 class AliveSet {
 public:
-    explicit AliveSet(std::size_t vertices) : incident_(vertices) {}
-    void add(const T& t) {
-        const auto slot = static_cast<std::uint32_t>(items_.size());
-        items_.push_back(t);
-        alive_.push_back(1);
+    explicit AliveSet(std::size_t vertices, std::size_t reserve = 0) : head_(vertices, kNone) {
+        lives_.reserve(reserve);
+        next_.reserve(reserve * kCorners<T>);
+    }
+    void add(const T& t, std::uint32_t step) {
+        const auto slot = static_cast<std::uint32_t>(lives_.size());
+        lives_.push_back({t, step, kAliveToTheEnd});
         ++count_;
-        forVertices(t, [&](std::uint32_t v) { incident_[v].push_back(slot); });
+        std::uint32_t c = 0;
+        forVertices(t, [&](std::uint32_t v) {
+            const std::uint32_t link = slot * kCorners<T> + c++;
+            next_.push_back(head_[v]);
+            head_[v] = link;
+        });
     }
     // The alive elements at v, sorted.
-    void star(std::uint32_t v, std::vector<T>& out) const {
+    void star(std::uint32_t v, std::vector<T>& out) {
         out.clear();
-        for (std::uint32_t slot : incident_[v])
-            if (alive_[slot]) out.push_back(items_[slot]);
+        walk(v, [&](std::uint32_t slot) {
+            out.push_back(lives_[slot].item);
+            return false;
+        });
         std::sort(out.begin(), out.end(), [](const T& l, const T& r) { return lessIndex(l, r); });
     }
-    bool remove(const T& t) {
-        if (t.a >= incident_.size()) return false;
-        for (std::uint32_t slot : incident_[t.a]) {
-            if (alive_[slot] && same(items_[slot], t)) {
-                alive_[slot] = 0;
-                --count_;
-                return true;
-            }
-        }
-        return false;
+    // Ends the life of the alive element t at `step`; false when none is alive.
+    bool remove(const T& t, std::uint32_t step) {
+        if (t.a >= head_.size()) return false;
+        bool found = false;
+        walk(t.a, [&](std::uint32_t slot) {
+            if (!same(lives_[slot].item, t)) return false;
+            lives_[slot].death = step;
+            --count_;
+            return found = true;
+        });
+        return found;
     }
     std::uint32_t count() const { return count_; }
+    std::vector<Life<T>>& lives() { return lives_; }
 
 private:
-    std::vector<T> items_;
-    std::vector<std::uint8_t> alive_;
-    std::vector<std::vector<std::uint32_t>> incident_;
+    // Calls f(slot) for each alive element at v until f returns true; unlinks dead ones.
+    template <class F>
+    void walk(std::uint32_t v, F&& f) {
+        std::uint32_t* at = &head_[v];
+        while (*at != kNone) {
+            const std::uint32_t link = *at, slot = link / kCorners<T>;
+            if (lives_[slot].death != kAliveToTheEnd) {
+                *at = next_[link];
+                continue;
+            }
+            if (f(slot)) return;
+            at = &next_[link];
+        }
+    }
+    std::vector<Life<T>> lives_;
+    std::vector<std::uint32_t> head_, next_;
     std::uint32_t count_ = 0;
 };
 
@@ -178,6 +209,100 @@ std::uint64_t refOf(const std::vector<std::uint32_t>& hole, std::uint32_t x) {
     const auto it = std::lower_bound(hole.begin(), hole.end(), x);
     if (it != hole.end() && *it == x) return std::uint64_t(it - hole.begin());
     return hole.size() + std::uint64_t(x);
+}
+
+// ---- polygon mode -------------------------------------------------------------------------------
+// A deletion that removes just the star of v and fills the hole with triangles of its link
+// polygon stores only that triangulation: for each sub-polygon p_i..p_j (base edge p_i p_j, the
+// whole polygon first with its closing edge p_0 p_(d-1)), the apex p_k of the triangle on the
+// base, i < k < j, as k - i - 1 when there is a choice (j - i >= 3); then p_i..p_k, then
+// p_k..p_j. The polygon starts at its smallest vertex index.
+
+// The link of v as a counter-clockwise cycle from its smallest vertex; false when the star is
+// not a closed fan (v on the mesh boundary, or a pinched link).
+bool linkPolygon(const std::vector<Triangle>& star, std::uint32_t v, std::vector<std::uint32_t>& out) {
+    out.clear();
+    const std::size_t d = star.size();
+    if (d < 3) return false;
+    // Directed link edges p -> q of the triangles (v, p, q), sorted by p.
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
+    edges.reserve(d);
+    for (const Triangle& t : star) {
+        if (t.a == v) edges.push_back({t.b, t.c});
+        else if (t.b == v) edges.push_back({t.c, t.a});
+        else edges.push_back({t.a, t.b});
+    }
+    std::sort(edges.begin(), edges.end());
+    for (std::size_t i = 1; i < d; ++i)
+        if (edges[i].first == edges[i - 1].first) return false;
+    std::uint32_t p = edges[0].first;
+    for (std::size_t i = 0; i < d; ++i) {
+        out.push_back(p);
+        const auto it = std::lower_bound(edges.begin(), edges.end(), std::pair{p, 0u});
+        if (it == edges.end() || it->first != p) return false;
+        p = it->second;
+    }
+    return p == out[0];
+}
+
+// The triangles of `polygon` for the apex codes that next() returns (kNone: none left), sorted;
+// false on a code out of range or a code missing.
+template <class Next>
+bool fillPolygon(const std::vector<std::uint32_t>& polygon, Next&& next, std::vector<Triangle>& out) {
+    const auto d = static_cast<std::uint32_t>(polygon.size());
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> bases{{0, d - 1}};
+    while (!bases.empty()) {
+        const auto [i, j] = bases.back();
+        bases.pop_back();
+        std::uint32_t k = i + 1;
+        if (j - i >= 3) {
+            const std::uint32_t code = next();
+            if (code >= j - i - 1) return false;
+            k = i + 1 + code;
+        }
+        out.push_back(canonicalTriangle({polygon[i], polygon[k], polygon[j]}));
+        if (j - k >= 2) bases.push_back({k, j});
+        if (k - i >= 2) bases.push_back({i, k});
+    }
+    std::sort(out.begin(), out.end(), [](auto& l, auto& r) { return lessIndex(l, r); });
+    return true;
+}
+
+// The apex codes of `added` as a triangulation of `polygon`; false when it is not one.
+bool apexCodes(const std::vector<std::uint32_t>& polygon, const std::vector<Triangle>& added,
+               std::vector<std::uint32_t>& codes) {
+    const auto d = static_cast<std::uint32_t>(polygon.size());
+    if (added.size() + 2 != d) return false;
+    auto position = [&](std::uint32_t x) {
+        for (std::uint32_t i = 0; i < d; ++i)
+            if (polygon[i] == x) return i;
+        return kNone;
+    };
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> bases{{0, d - 1}};
+    while (!bases.empty()) {
+        const auto [i, j] = bases.back();
+        bases.pop_back();
+        std::uint32_t k = kNone;
+        for (const Triangle& t : added) {
+            std::uint32_t pi = kNone, pj = kNone, other = kNone;
+            forVertices(t, [&](std::uint32_t x) {
+                if (x == polygon[i]) pi = x;
+                else if (x == polygon[j]) pj = x;
+                else other = x;
+            });
+            if (pi == kNone || pj == kNone || other == kNone) continue;
+            const std::uint32_t at = position(other);
+            if (at > i && at < j && at != kNone) {
+                k = at;
+                break;
+            }
+        }
+        if (k == kNone) return false;
+        if (j - i >= 3) codes.push_back(k - i - 1);
+        if (j - k >= 2) bases.push_back({k, j});
+        if (k - i >= 2) bases.push_back({i, k});
+    }
+    return true;
 }
 
 // ---- spatial order ------------------------------------------------------------------------------
@@ -233,7 +358,7 @@ BlockCounts countsOf(const Block& b) {
 bool compactStreamSizes(const unsigned char* data, std::size_t size, std::vector<StreamSize>& out) {
     static constexpr const char* kNames[kStreamCount] = {
         "permutation", "positions", "heights", "flags", "mesh", "step_counts", "step_refs",
-        "errors", "level_steps"};
+        "step_apexes", "errors", "level_steps"};
     out.clear();
     In frames{data, data + size};
     for (int k = 0; k < kStreamCount; ++k) {
@@ -324,19 +449,19 @@ bool encodeCompact(const Block& b, double q, std::vector<unsigned char>& out, st
     }
 
     // Records: what the replayed mesh does not imply.
-    AliveSet<Triangle> aliveTris(n);
-    AliveSet<Edge> aliveEdges(n);
+    AliveSet<Triangle> aliveTris(n, full.triangleCount + b.addedTriangles.size());
+    AliveSet<Edge> aliveEdges(n, full.riverCount + b.addedEdges.size());
     for (std::uint32_t t = full.triangleFirst; t < full.triangleFirst + full.triangleCount; ++t)
-        aliveTris.add(b.terrainIndices[t]);
+        aliveTris.add(b.terrainIndices[t], 0);
     for (std::uint32_t e = full.riverFirst; e < full.riverFirst + full.riverCount; ++e)
-        aliveEdges.add(b.riverIndices[e]);
-    std::vector<Triangle> star, removedAtV;
-    std::vector<Edge> edgeStar, edgesAtV;
-    std::vector<std::uint32_t> hole;
+        aliveEdges.add(b.riverIndices[e], 0);
+    std::vector<Triangle> star, removedAtV, extra, fill;
+    std::vector<Edge> edgeStar, edgesAtV, extraEdges;
+    std::vector<std::uint32_t> hole, polygon, codes;
     for (std::uint32_t st = 0; st < steps; ++st) {
-        const std::string at = "step " + std::to_string(st + 1) + ": ";
+        auto at = [&] { return "step " + std::to_string(st + 1) + ": "; };
         const std::uint32_t v = n - 1 - st;
-        if (b.steps[st].vertex != v) return why = at + "not the retention order's vertex", false;
+        if (b.steps[st].vertex != v) return why = at() + "not the retention order's vertex", false;
         aliveTris.star(v, star);
         aliveEdges.star(v, edgeStar);
         hole.clear();
@@ -344,25 +469,46 @@ bool encodeCompact(const Block& b, double q, std::vector<unsigned char>& out, st
         const auto rBegin = b.removedTriangles.begin() + b.removedTriangleOffset[st];
         const auto rEnd = b.removedTriangles.begin() + b.removedTriangleOffset[st + 1];
         removedAtV.clear();
-        std::vector<Triangle> extra;
+        extra.clear();
         for (auto it = rBegin; it != rEnd; ++it)
             (hasVertex(*it, v) ? removedAtV : extra).push_back(*it);
-        if (!sameBytes(removedAtV, star)) return why = at + "removals are not the vertex's star", false;
-        putU(s[kStepCounts], extra.size());
-        for (const Triangle& t : extra)
-            forVertices(t, [&](std::uint32_t x) { putU(s[kStepRefs], refOf(hole, x)); });
-        holeOf(extra, v, hole);
-        putU(s[kStepCounts], b.addedTriangleOffset[st + 1] - b.addedTriangleOffset[st]);
-        for (std::uint32_t i = b.addedTriangleOffset[st]; i < b.addedTriangleOffset[st + 1]; ++i)
-            forVertices(b.addedTriangles[i], [&](std::uint32_t x) { putU(s[kStepRefs], refOf(hole, x)); });
+        if (!sameBytes(removedAtV, star)) return why = at() + "removals are not the vertex's star", false;
+        const auto aBegin = b.addedTriangles.begin() + b.addedTriangleOffset[st];
+        const auto aEnd = b.addedTriangles.begin() + b.addedTriangleOffset[st + 1];
+        const std::vector<Triangle> added(aBegin, aEnd);
+        // Mode 0: the additions are a triangulation of the star's link polygon, given by apexes.
+        codes.clear();
+        bool polygonMode = extra.empty() && linkPolygon(star, v, polygon) &&
+                           apexCodes(polygon, added, codes);
+        if (polygonMode) {
+            fill.clear();
+            std::size_t next = 0;
+            polygonMode = fillPolygon(polygon, [&] { return next < codes.size() ? codes[next++] : kNone; },
+                                      fill) &&
+                          next == codes.size() && sameBytes(fill, added);
+        }
+        if (polygonMode) {
+            s[kStepCounts].push_back(0);
+            for (std::uint32_t c : codes)
+                putU(s[kStepApexes], c);
+        } else {
+            s[kStepCounts].push_back(1);
+            putU(s[kStepCounts], extra.size());
+            for (const Triangle& t : extra)
+                forVertices(t, [&](std::uint32_t x) { putU(s[kStepRefs], refOf(hole, x)); });
+            holeOf(extra, v, hole);
+            putU(s[kStepCounts], added.size());
+            for (const Triangle& t : added)
+                forVertices(t, [&](std::uint32_t x) { putU(s[kStepRefs], refOf(hole, x)); });
+        }
 
         const auto eBegin = b.removedEdges.begin() + b.removedEdgeOffset[st];
         const auto eEnd = b.removedEdges.begin() + b.removedEdgeOffset[st + 1];
         edgesAtV.clear();
-        std::vector<Edge> extraEdges;
+        extraEdges.clear();
         for (auto it = eBegin; it != eEnd; ++it)
             (hasVertex(*it, v) ? edgesAtV : extraEdges).push_back(*it);
-        if (!sameBytes(edgesAtV, edgeStar)) return why = at + "river removals are not the vertex's", false;
+        if (!sameBytes(edgesAtV, edgeStar)) return why = at() + "river removals are not the vertex's", false;
         putU(s[kStepCounts], extraEdges.size());
         for (const Edge& e : extraEdges)
             forVertices(e, [&](std::uint32_t x) { putU(s[kStepRefs], refOf(hole, x)); });
@@ -371,13 +517,13 @@ bool encodeCompact(const Block& b, double q, std::vector<unsigned char>& out, st
             forVertices(b.addedEdges[i], [&](std::uint32_t x) { putU(s[kStepRefs], refOf(hole, x)); });
 
         for (auto it = rBegin; it != rEnd; ++it)
-            if (!aliveTris.remove(*it)) return why = at + "removes a triangle not alive", false;
-        for (std::uint32_t i = b.addedTriangleOffset[st]; i < b.addedTriangleOffset[st + 1]; ++i)
-            aliveTris.add(b.addedTriangles[i]);
+            if (!aliveTris.remove(*it, st + 1)) return why = at() + "removes a triangle not alive", false;
+        for (auto it = aBegin; it != aEnd; ++it)
+            aliveTris.add(*it, st + 1);
         for (auto it = eBegin; it != eEnd; ++it)
-            if (!aliveEdges.remove(*it)) return why = at + "removes a river edge not alive", false;
+            if (!aliveEdges.remove(*it, st + 1)) return why = at() + "removes a river edge not alive", false;
         for (std::uint32_t i = b.addedEdgeOffset[st]; i < b.addedEdgeOffset[st + 1]; ++i)
-            aliveEdges.add(b.addedEdges[i]);
+            aliveEdges.add(b.addedEdges[i], st + 1);
     }
 
     for (const std::vector<float>* e : {&b.errorMax, &b.errorPaper}) {
@@ -499,23 +645,27 @@ bool decodeCompact(const unsigned char* data, std::size_t size, const BlockCount
     }
 
     // Records, replayed.
+    AliveSet<Triangle> aliveTris(n, initialTris.size() + c.addedTriangles);
+    AliveSet<Edge> aliveEdges(n, initialEdges.size() + c.addedEdges);
     {
-        In counts = in(kStepCounts), refs = in(kStepRefs);
-        AliveSet<Triangle> aliveTris(n);
-        AliveSet<Edge> aliveEdges(n);
+        In counts = in(kStepCounts), refs = in(kStepRefs), apexes = in(kStepApexes);
         for (const Triangle& t : initialTris)
-            aliveTris.add(t);
+            aliveTris.add(t, 0);
         for (const Edge& e : initialEdges)
-            aliveEdges.add(e);
+            aliveEdges.add(e, 0);
         d.steps.resize(c.steps);
         for (auto* o : {&d.removedTriangleOffset, &d.addedTriangleOffset, &d.removedEdgeOffset,
                         &d.addedEdgeOffset}) {
             o->assign(1, 0);
             o->reserve(std::size_t(c.steps) + 1);
         }
-        std::vector<Triangle> star;
+        d.removedTriangles.reserve(c.removedTriangles);
+        d.addedTriangles.reserve(c.addedTriangles);
+        d.removedEdges.reserve(c.removedEdges);
+        d.addedEdges.reserve(c.addedEdges);
+        std::vector<Triangle> star, extraTris, fill;
         std::vector<Edge> edgeStar;
-        std::vector<std::uint32_t> hole;
+        std::vector<std::uint32_t> hole, polygon;
         auto vertex = [&](std::uint64_t ref) -> std::uint32_t {
             if (ref < hole.size()) return hole[ref];
             const std::uint64_t x = ref - hole.size();
@@ -528,72 +678,95 @@ bool decodeCompact(const unsigned char* data, std::size_t size, const BlockCount
         auto room = [&](std::uint64_t have, std::uint64_t more, std::uint32_t limit) {
             return more <= limit && have + more <= limit;
         };
+        if (c.steps > n) return fail("more steps than vertices");
         for (std::uint32_t st = 0; st < c.steps; ++st) {
+            auto at = [&] { return "step " + std::to_string(st + 1) + " "; };
             const std::uint32_t v = n - 1 - st;
-            if (st >= n) return fail("more steps than vertices");
             aliveTris.star(v, star);
             aliveEdges.star(v, edgeStar);
             hole.clear();
             holeOf(star, v, hole);
-            const std::uint64_t extra = counts.u();
-            if (!room(d.removedTriangles.size(), star.size() + extra, c.removedTriangles))
-                return fail("step " + std::to_string(st + 1) + " removes too many triangles");
             const std::size_t first = d.removedTriangles.size();
-            d.removedTriangles.insert(d.removedTriangles.end(), star.begin(), star.end());
-            for (std::uint64_t i = 0; i < extra; ++i) {
-                const std::uint32_t x = vertex(refs.u()), y = vertex(refs.u()), z = vertex(refs.u());
-                d.removedTriangles.push_back(canonicalTriangle({x, y, z}));
-            }
-            std::vector<Triangle> extraTris(d.removedTriangles.begin() + first + star.size(),
-                                            d.removedTriangles.end());
-            std::sort(d.removedTriangles.begin() + first, d.removedTriangles.end(),
-                      [](auto& l, auto& r) { return lessIndex(l, r); });
-            holeOf(extraTris, v, hole);
-            const std::uint64_t added = counts.u();
-            if (!room(d.addedTriangles.size(), added, c.addedTriangles))
-                return fail("step " + std::to_string(st + 1) + " adds too many triangles");
-            for (std::uint64_t i = 0; i < added; ++i) {
-                const std::uint32_t x = vertex(refs.u()), y = vertex(refs.u()), z = vertex(refs.u());
-                d.addedTriangles.push_back({x, y, z});
+            const std::size_t firstAdded = d.addedTriangles.size();
+            const std::uint64_t mode = counts.u();
+            if (mode == 0) {  // the star, and a triangulation of its link polygon
+                if (!linkPolygon(star, v, polygon)) return fail(at() + "has no link polygon");
+                if (!room(d.removedTriangles.size(), star.size(), c.removedTriangles) ||
+                    !room(d.addedTriangles.size(), star.size() - 2, c.addedTriangles))
+                    return fail(at() + "changes too many triangles");
+                d.removedTriangles.insert(d.removedTriangles.end(), star.begin(), star.end());
+                fill.clear();
+                if (!fillPolygon(polygon, [&]() -> std::uint32_t {
+                        const std::uint64_t code = apexes.u();
+                        return apexes.ok && code < kNone ? std::uint32_t(code) : kNone;
+                    }, fill))
+                    return fail(at() + "has a damaged triangulation");
+                d.addedTriangles.insert(d.addedTriangles.end(), fill.begin(), fill.end());
+            } else if (mode == 1) {  // the star, extra removals, explicit additions
+                const std::uint64_t extra = counts.u();
+                if (!room(d.removedTriangles.size(), star.size() + extra, c.removedTriangles))
+                    return fail(at() + "removes too many triangles");
+                d.removedTriangles.insert(d.removedTriangles.end(), star.begin(), star.end());
+                extraTris.clear();
+                for (std::uint64_t i = 0; i < extra; ++i) {
+                    const std::uint32_t x = vertex(refs.u()), y = vertex(refs.u()), z = vertex(refs.u());
+                    extraTris.push_back(canonicalTriangle({x, y, z}));
+                }
+                d.removedTriangles.insert(d.removedTriangles.end(), extraTris.begin(), extraTris.end());
+                std::sort(d.removedTriangles.begin() + first, d.removedTriangles.end(),
+                          [](auto& l, auto& r) { return lessIndex(l, r); });
+                holeOf(extraTris, v, hole);
+                const std::uint64_t added = counts.u();
+                if (!room(d.addedTriangles.size(), added, c.addedTriangles))
+                    return fail(at() + "adds too many triangles");
+                for (std::uint64_t i = 0; i < added; ++i) {
+                    const std::uint32_t x = vertex(refs.u()), y = vertex(refs.u()), z = vertex(refs.u());
+                    d.addedTriangles.push_back({x, y, z});
+                }
+            } else {
+                return fail(at() + "has an unknown mode");
             }
 
             const std::uint64_t extraEdges = counts.u();
             if (!room(d.removedEdges.size(), edgeStar.size() + extraEdges, c.removedEdges))
-                return fail("step " + std::to_string(st + 1) + " removes too many river edges");
+                return fail(at() + "removes too many river edges");
             const std::size_t firstEdge = d.removedEdges.size();
             d.removedEdges.insert(d.removedEdges.end(), edgeStar.begin(), edgeStar.end());
             for (std::uint64_t i = 0; i < extraEdges; ++i) {
                 const std::uint32_t x = vertex(refs.u()), y = vertex(refs.u());
                 d.removedEdges.push_back({std::min(x, y), std::max(x, y)});
             }
-            std::sort(d.removedEdges.begin() + firstEdge, d.removedEdges.end(),
-                      [](auto& l, auto& r) { return lessIndex(l, r); });
+            if (extraEdges > 0)
+                std::sort(d.removedEdges.begin() + firstEdge, d.removedEdges.end(),
+                          [](auto& l, auto& r) { return lessIndex(l, r); });
             const std::uint64_t addedEdges = counts.u();
             if (!room(d.addedEdges.size(), addedEdges, c.addedEdges))
-                return fail("step " + std::to_string(st + 1) + " adds too many river edges");
+                return fail(at() + "adds too many river edges");
+            const std::size_t firstAddedEdge = d.addedEdges.size();
             for (std::uint64_t i = 0; i < addedEdges; ++i) {
                 const std::uint32_t x = vertex(refs.u()), y = vertex(refs.u());
                 d.addedEdges.push_back({std::min(x, y), std::max(x, y)});
             }
-            if (!counts.ok || !refs.ok) return fail("step " + std::to_string(st + 1) + " is damaged");
+            if (!counts.ok || !refs.ok) return fail(at() + "is damaged");
 
             for (std::size_t i = first; i < d.removedTriangles.size(); ++i)
-                if (!aliveTris.remove(d.removedTriangles[i]))
-                    return fail("step " + std::to_string(st + 1) + " removes a triangle not alive");
-            for (std::size_t i = d.addedTriangles.size() - added; i < d.addedTriangles.size(); ++i)
-                aliveTris.add(d.addedTriangles[i]);
+                if (!aliveTris.remove(d.removedTriangles[i], st + 1))
+                    return fail(at() + "removes a triangle not alive");
+            for (std::size_t i = firstAdded; i < d.addedTriangles.size(); ++i)
+                aliveTris.add(d.addedTriangles[i], st + 1);
             for (std::size_t i = firstEdge; i < d.removedEdges.size(); ++i)
-                if (!aliveEdges.remove(d.removedEdges[i]))
-                    return fail("step " + std::to_string(st + 1) + " removes a river edge not alive");
-            for (std::size_t i = d.addedEdges.size() - addedEdges; i < d.addedEdges.size(); ++i)
-                aliveEdges.add(d.addedEdges[i]);
+                if (!aliveEdges.remove(d.removedEdges[i], st + 1))
+                    return fail(at() + "removes a river edge not alive");
+            for (std::size_t i = firstAddedEdge; i < d.addedEdges.size(); ++i)
+                aliveEdges.add(d.addedEdges[i], st + 1);
             d.steps[st] = {v, aliveTris.count(), aliveEdges.count()};
             d.removedTriangleOffset.push_back(std::uint32_t(d.removedTriangles.size()));
             d.addedTriangleOffset.push_back(std::uint32_t(d.addedTriangles.size()));
             d.removedEdgeOffset.push_back(std::uint32_t(d.removedEdges.size()));
             d.addedEdgeOffset.push_back(std::uint32_t(d.addedEdges.size()));
         }
-        if (counts.p != counts.end || refs.p != refs.end) return fail("the record streams are damaged");
+        if (counts.p != counts.end || refs.p != refs.end || apexes.p != apexes.end)
+            return fail("the record streams are damaged");
     }
 
     // Errors and levels.
@@ -641,7 +814,7 @@ bool decodeCompact(const unsigned char* data, std::size_t size, const BlockCount
         if (tris > c.terrainTriangles || edges > c.riverEdges)
             return fail("the levels need more index data than the block header counts");
     }
-    if (!layOutLevels(d, initialTris, initialEdges, error)) return fail(error);
+    layOutLevels(d, aliveTris.lives(), aliveEdges.lives());
     if (d.terrainIndices.size() != c.terrainTriangles || d.riverIndices.size() != c.riverEdges)
         return fail("the derived index data does not match the block header's counts");
     d.col = b.col, d.row = b.row, d.level = b.level, d.firstChild = b.firstChild;

@@ -7,7 +7,7 @@ namespace unilod::format {
 
 namespace {
 
-constexpr std::uint32_t kAlive = 0xFFFFFFFFu;  // death step of an element alive at the end
+constexpr std::uint32_t kAlive = kAliveToTheEnd;
 
 std::size_t hashOf(const Triangle& t) {
     std::uint64_t h = t.a * 0x9E3779B97F4A7C15ULL;
@@ -65,13 +65,6 @@ private:
     std::size_t mask_ = 0;
 };
 
-template <class T>
-struct Life {
-    T item;
-    std::uint32_t birth, death;  // alive after k steps iff birth <= k < death
-    bool aliveAt(std::uint32_t k) const { return birth <= k && k < death; }
-};
-
 // Lifetimes of every triangle (or edge) from the initial set and the per-step removals/additions.
 template <class T>
 bool lifetimes(const std::vector<T>& initial, const std::vector<std::uint32_t>& removedOffset,
@@ -118,11 +111,16 @@ bool lifetimes(const std::vector<T>& initial, const std::vector<std::uint32_t>& 
     return true;
 }
 
-// Appends the paired layout of `lives` for the level steps; sets first/count per level.
+// The paired layout of `lives` for the level steps; sets first/count per level. The lives are
+// sorted once by (a, b, c) (ties cannot occur among elements alive together), so every part
+// comes out of one ordered pass.
 template <class T>
-void layOut(const std::vector<Life<T>>& lives, const std::vector<std::uint32_t>& levelSteps,
+void layOut(std::vector<Life<T>>& lives, const std::vector<std::uint32_t>& levelSteps,
             std::vector<T>& indices, std::vector<std::uint32_t>& first,
             std::vector<std::uint32_t>& count) {
+    std::sort(lives.begin(), lives.end(), [](const Life<T>& l, const Life<T>& r) {
+        return lessIndex(l.item, r.item) || (!lessIndex(r.item, l.item) && l.birth < r.birth);
+    });
     const std::size_t n = levelSteps.size();
     first.assign(n, 0);
     count.assign(n, 0);
@@ -137,9 +135,6 @@ void layOut(const std::vector<Life<T>>& lives, const std::vector<std::uint32_t>&
         for (const Life<T>& life : lives) {
             const bool inF = life.aliveAt(f), inC = paired && life.aliveAt(c);
             if (inF || inC) parts[inF && inC ? 1 : (inF ? 0 : 2)].push_back(life.item);
-        }
-        for (auto& p : parts) {
-            std::sort(p.begin(), p.end(), [](const T& l, const T& r) { return lessIndex(l, r); });
         }
         const auto start = static_cast<std::uint32_t>(indices.size());
         for (auto& p : parts)
@@ -165,12 +160,18 @@ bool layOutLevels(Block& b, const std::vector<Triangle>& initialTriangles,
                    b.addedEdges, edgeLives, error)) {
         return false;
     }
+    layOutLevels(b, triLives, edgeLives);
+    return true;
+}
+
+void layOutLevels(Block& b, std::vector<Life<Triangle>>& triangles,
+                  std::vector<Life<Edge>>& edges) {
     std::vector<std::uint32_t> steps(b.levels.size());
     for (std::size_t j = 0; j < steps.size(); ++j)
         steps[j] = b.levels[j].step;
     std::vector<std::uint32_t> tFirst, tCount, rFirst, rCount;
-    layOut(triLives, steps, b.terrainIndices, tFirst, tCount);
-    layOut(edgeLives, steps, b.riverIndices, rFirst, rCount);
+    layOut(triangles, steps, b.terrainIndices, tFirst, tCount);
+    layOut(edges, steps, b.riverIndices, rFirst, rCount);
     for (std::size_t j = 0; j < steps.size(); ++j) {
         Level& l = b.levels[j];
         l.triangleFirst = tFirst[j];
@@ -178,7 +179,6 @@ bool layOutLevels(Block& b, const std::vector<Triangle>& initialTriangles,
         l.riverFirst = rFirst[j];
         l.riverCount = rCount[j];
     }
-    return true;
 }
 
 }  // namespace unilod::format

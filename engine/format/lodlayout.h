@@ -29,7 +29,22 @@ inline bool lessIndex(const Edge& l, const Edge& r) {
     return l.a != r.a ? l.a < r.a : l.b < r.b;
 }
 
-// Fills block.terrainIndices, block.riverIndices and every level's triangleFirst/Count and
+// An element's life: alive after k deletion steps iff birth <= k < death (kAliveToTheEnd: never
+// removed).
+inline constexpr std::uint32_t kAliveToTheEnd = 0xFFFFFFFFu;
+template <class T>
+struct Life {
+    T item;
+    std::uint32_t birth, death;
+    bool aliveAt(std::uint32_t k) const { return birth <= k && k < death; }
+};
+
+// Fills block.terrainIndices, block.riverIndices and every level's ranges from the lives of every
+// triangle and river edge (the decoder's replay knows them) and the level steps in block.levels.
+void layOutLevels(Block& block, std::vector<Life<Triangle>>& triangles,
+                  std::vector<Life<Edge>>& edges);
+
+// The same from the records: fills block.terrainIndices, block.riverIndices and every level's triangleFirst/Count and
 // riverFirst/Count from the level steps already in block.levels, the records (removed/added
 // triangles and edges with their offsets) and the mesh before the first step. Returns false with
 // `error` when a step removes an element that is not alive or adds one that is.
