@@ -21,7 +21,7 @@ namespace {
 enum Stream {
     kPermutation,  // per spatial position: the vertex's retention index
     kPositions,    // per spatial position: grid x, y deltas
-    kHeights,      // per spatial position: z / quantum deltas
+    kHeights,      // per spatial position: z / quantum minus its prediction (HeightPredictor)
     kFlags,        // per spatial position: vertex flags
     kMesh,         // full-resolution triangles and river edges (spatial numbering)
     kStepCounts,   // per step: extra removals, additions (triangles, then edges)
@@ -126,46 +126,62 @@ void forVertices(const Edge& e, auto&& f) {
 }
 
 constexpr std::uint32_t kNone = 0xFFFFFFFFu;
-template <class T>
-constexpr std::uint32_t kCorners = sizeof(T) / sizeof(std::uint32_t);
+
+std::uint32_t maxVertex(const Triangle& t) { return std::max({t.a, t.b, t.c}); }
+std::uint32_t maxVertex(const Edge& e) { return std::max(e.a, e.b); }
 
 // Every element (triangle or river edge) ever alive, with its life, and per vertex a singly
-// linked list through the elements that use it (flat arrays: no allocation per element). Dead
-// elements are unlinked as the lists are walked.
+// linked list (flat arrays: no allocation per element) through the elements whose LARGEST vertex
+// index it is. Step s deletes vertex n - 1 - s, the largest index still alive, so the elements
+// alive at it are exactly the alive ones of its list: a star costs its own size, not the
+// vertex's whole history. Dead elements are unlinked as the lists are walked.
 template <class T>
 class AliveSet {
 public:
     explicit AliveSet(std::size_t vertices, std::size_t reserve = 0) : head_(vertices, kNone) {
         lives_.reserve(reserve);
-        next_.reserve(reserve * kCorners<T>);
+        dead_.reserve(reserve);
+        next_.reserve(reserve);
     }
     void add(const T& t, std::uint32_t step) {
         const auto slot = static_cast<std::uint32_t>(lives_.size());
         lives_.push_back({t, step, kAliveToTheEnd});
+        dead_.push_back(0);
         ++count_;
-        std::uint32_t c = 0;
-        forVertices(t, [&](std::uint32_t v) {
-            const std::uint32_t link = slot * kCorners<T> + c++;
-            next_.push_back(head_[v]);
-            head_[v] = link;
-        });
+        const std::uint32_t key = maxVertex(t);
+        next_.push_back(head_[key]);
+        head_[key] = slot;
     }
-    // The alive elements at v, sorted.
+    // The alive elements at v, sorted, and their slots (for kill).
     void star(std::uint32_t v, std::vector<T>& out) {
-        out.clear();
+        found_.clear();
         walk(v, [&](std::uint32_t slot) {
-            out.push_back(lives_[slot].item);
+            found_.push_back({lives_[slot].item, slot});
             return false;
         });
-        std::sort(out.begin(), out.end(), [](const T& l, const T& r) { return lessIndex(l, r); });
+        std::sort(found_.begin(), found_.end(),
+                  [](const auto& l, const auto& r) { return lessIndex(l.first, r.first); });
+        out.clear();
+        for (const auto& f : found_)
+            out.push_back(f.first);
+    }
+    // Ends the lives of the elements the last star() returned at `step`.
+    void killStar(std::uint32_t step) {
+        for (const auto& f : found_) {
+            lives_[f.second].death = step;
+            dead_[f.second] = 1;
+            --count_;
+        }
+        found_.clear();
     }
     // Ends the life of the alive element t at `step`; false when none is alive.
     bool remove(const T& t, std::uint32_t step) {
-        if (t.a >= head_.size()) return false;
+        if (maxVertex(t) >= head_.size()) return false;
         bool found = false;
-        walk(t.a, [&](std::uint32_t slot) {
+        walk(maxVertex(t), [&](std::uint32_t slot) {
             if (!same(lives_[slot].item, t)) return false;
             lives_[slot].death = step;
+            dead_[slot] = 1;
             --count_;
             return found = true;
         });
@@ -175,22 +191,24 @@ public:
     std::vector<Life<T>>& lives() { return lives_; }
 
 private:
-    // Calls f(slot) for each alive element at v until f returns true; unlinks dead ones.
+    // Calls f(slot) for each alive element of v's list until f returns true; unlinks dead ones.
     template <class F>
     void walk(std::uint32_t v, F&& f) {
         std::uint32_t* at = &head_[v];
         while (*at != kNone) {
-            const std::uint32_t link = *at, slot = link / kCorners<T>;
-            if (lives_[slot].death != kAliveToTheEnd) {
-                *at = next_[link];
+            const std::uint32_t slot = *at;
+            if (dead_[slot]) {
+                *at = next_[slot];
                 continue;
             }
             if (f(slot)) return;
-            at = &next_[link];
+            at = &next_[slot];
         }
     }
     std::vector<Life<T>> lives_;
     std::vector<std::uint32_t> head_, next_;
+    std::vector<std::uint8_t> dead_;  // lives_[slot].death != kAliveToTheEnd, compact for walks
+    std::vector<std::pair<T, std::uint32_t>> found_;
     std::uint32_t count_ = 0;
 };
 
@@ -218,31 +236,42 @@ std::uint64_t refOf(const std::vector<std::uint32_t>& hole, std::uint32_t x) {
 // base, i < k < j, as k - i - 1 when there is a choice (j - i >= 3); then p_i..p_k, then
 // p_k..p_j. The polygon starts at its smallest vertex index.
 
+// Polygon mode takes links of up to this many vertices (larger ones are stored explicitly).
+constexpr std::uint32_t kMaxLink = 64;
+
 // The link of v as a counter-clockwise cycle from its smallest vertex; false when the star is
 // not a closed fan (v on the mesh boundary, or a pinched link).
 bool linkPolygon(const std::vector<Triangle>& star, std::uint32_t v, std::vector<std::uint32_t>& out) {
     out.clear();
     const std::size_t d = star.size();
     if (d < 3) return false;
-    // Directed link edges p -> q of the triangles (v, p, q), sorted by p.
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
-    edges.reserve(d);
-    for (const Triangle& t : star) {
-        if (t.a == v) edges.push_back({t.b, t.c});
-        else if (t.b == v) edges.push_back({t.c, t.a});
-        else edges.push_back({t.a, t.b});
-    }
-    std::sort(edges.begin(), edges.end());
-    for (std::size_t i = 1; i < d; ++i)
-        if (edges[i].first == edges[i - 1].first) return false;
-    std::uint32_t p = edges[0].first;
+    // Directed link edges p -> q of the triangles (v, p, q); the cycle from the smallest p.
+    std::uint32_t from[kMaxLink], to[kMaxLink];
+    if (d > kMaxLink) return false;
+    std::size_t start = 0;
     for (std::size_t i = 0; i < d; ++i) {
-        out.push_back(p);
-        const auto it = std::lower_bound(edges.begin(), edges.end(), std::pair{p, 0u});
-        if (it == edges.end() || it->first != p) return false;
-        p = it->second;
+        const Triangle& t = star[i];
+        if (t.a == v) from[i] = t.b, to[i] = t.c;
+        else if (t.b == v) from[i] = t.c, to[i] = t.a;
+        else from[i] = t.a, to[i] = t.b;
+        if (from[i] < from[start]) start = i;
     }
-    return p == out[0];
+    std::size_t at = start;
+    for (std::size_t k = 0; k < d; ++k) {
+        out.push_back(from[at]);
+        const std::uint32_t q = to[at];
+        std::size_t next = d;
+        for (std::size_t i = 0; i < d; ++i) {
+            if (from[i] == q) {
+                if (next != d) return false;  // two edges leave q: a pinched link
+                next = i;
+            }
+        }
+        if (next == d) return false;  // the fan is open: v on the boundary
+        if (next == start && k + 1 != d) return false;  // a shorter cycle: not one polygon
+        at = next;
+    }
+    return at == start;
 }
 
 // The triangles of `polygon` for the apex codes that next() returns (kNone: none left), sorted;
@@ -250,10 +279,12 @@ bool linkPolygon(const std::vector<Triangle>& star, std::uint32_t v, std::vector
 template <class Next>
 bool fillPolygon(const std::vector<std::uint32_t>& polygon, Next&& next, std::vector<Triangle>& out) {
     const auto d = static_cast<std::uint32_t>(polygon.size());
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> bases{{0, d - 1}};
-    while (!bases.empty()) {
-        const auto [i, j] = bases.back();
-        bases.pop_back();
+    if (d < 3 || d > kMaxLink) return false;
+    std::pair<std::uint32_t, std::uint32_t> bases[kMaxLink];  // at most d - 2 pending
+    std::size_t pending = 0;
+    bases[pending++] = {0, d - 1};
+    while (pending > 0) {
+        const auto [i, j] = bases[--pending];
         std::uint32_t k = i + 1;
         if (j - i >= 3) {
             const std::uint32_t code = next();
@@ -261,8 +292,8 @@ bool fillPolygon(const std::vector<std::uint32_t>& polygon, Next&& next, std::ve
             k = i + 1 + code;
         }
         out.push_back(canonicalTriangle({polygon[i], polygon[k], polygon[j]}));
-        if (j - k >= 2) bases.push_back({k, j});
-        if (k - i >= 2) bases.push_back({i, k});
+        if (j - k >= 2) bases[pending++] = {k, j};
+        if (k - i >= 2) bases[pending++] = {i, k};
     }
     std::sort(out.begin(), out.end(), [](auto& l, auto& r) { return lessIndex(l, r); });
     return true;
@@ -272,16 +303,17 @@ bool fillPolygon(const std::vector<std::uint32_t>& polygon, Next&& next, std::ve
 bool apexCodes(const std::vector<std::uint32_t>& polygon, const std::vector<Triangle>& added,
                std::vector<std::uint32_t>& codes) {
     const auto d = static_cast<std::uint32_t>(polygon.size());
-    if (added.size() + 2 != d) return false;
+    if (added.size() + 2 != d || d > kMaxLink) return false;
     auto position = [&](std::uint32_t x) {
         for (std::uint32_t i = 0; i < d; ++i)
             if (polygon[i] == x) return i;
         return kNone;
     };
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> bases{{0, d - 1}};
-    while (!bases.empty()) {
-        const auto [i, j] = bases.back();
-        bases.pop_back();
+    std::pair<std::uint32_t, std::uint32_t> bases[kMaxLink];
+    std::size_t pending = 0;
+    bases[pending++] = {0, d - 1};
+    while (pending > 0) {
+        const auto [i, j] = bases[--pending];
         std::uint32_t k = kNone;
         for (const Triangle& t : added) {
             std::uint32_t pi = kNone, pj = kNone, other = kNone;
@@ -299,11 +331,61 @@ bool apexCodes(const std::vector<std::uint32_t>& polygon, const std::vector<Tria
         }
         if (k == kNone) return false;
         if (j - i >= 3) codes.push_back(k - i - 1);
-        if (j - k >= 2) bases.push_back({k, j});
-        if (k - i >= 2) bases.push_back({i, k});
+        if (j - k >= 2) bases[pending++] = {k, j};
+        if (k - i >= 2) bases[pending++] = {i, k};
     }
     return true;
 }
+
+// ---- heights --------------------------------------------------------------------------------------
+// Heights are coded as the difference from a prediction made from the vertices before them in
+// spatial order (the same on both sides): a DEM vertex from its left neighbour a, the one above it
+// b (same grid x in the previous row of DEM vertices) and the one above-left c with LOCO-I's median
+// edge detector (Weinberger et al. 2000): min(a, b) if c >= max(a, b), max(a, b) if c <= min(a, b),
+// else a + b - c; a river vertex from the previous river vertex.
+class HeightPredictor {
+public:
+    std::int64_t predict(std::int32_t gx, std::int32_t gy, bool river) {
+        if (river) return seenRiver_ ? lastRiver_ : last_;
+        if (!rowStarted_ || gy != rowY_) {
+            prev_.swap(row_);
+            row_.clear();
+            rowY_ = gy;
+            rowStarted_ = true;
+            up_ = 0;
+        }
+        while (up_ < prev_.size() && prev_[up_].first < gx)
+            ++up_;
+        hasUp_ = up_ < prev_.size() && prev_[up_].first == gx;
+        upZ_ = hasUp_ ? prev_[up_].second : 0;
+        if (row_.empty()) return hasUp_ ? upZ_ : last_;
+        const std::int64_t a = row_.back().second;
+        if (!hasUp_ || !leftHadUp_) return a;
+        const std::int64_t b = upZ_, c = leftUpZ_;
+        if (c >= std::max(a, b)) return std::min(a, b);
+        if (c <= std::min(a, b)) return std::max(a, b);
+        return a + b - c;
+    }
+    // After predict(): the vertex's height.
+    void push(std::int32_t gx, bool river, std::int64_t z) {
+        last_ = z;
+        if (river) {
+            lastRiver_ = z;
+            seenRiver_ = true;
+            return;
+        }
+        row_.push_back({gx, z});
+        leftHadUp_ = hasUp_;
+        leftUpZ_ = upZ_;
+    }
+
+private:
+    std::vector<std::pair<std::int32_t, std::int64_t>> prev_, row_;
+    std::size_t up_ = 0;
+    std::int32_t rowY_ = 0;
+    bool rowStarted_ = false, seenRiver_ = false, hasUp_ = false, leftHadUp_ = false;
+    std::int64_t last_ = 0, lastRiver_ = 0, upZ_ = 0, leftUpZ_ = 0;
+};
 
 // ---- spatial order ------------------------------------------------------------------------------
 
@@ -394,7 +476,8 @@ bool encodeCompact(const Block& b, double q, std::vector<unsigned char>& out, st
     // Vertices in spatial order.
     const std::vector<std::uint32_t> order = spatialOrder(b.grid);
     std::vector<std::uint32_t> spatial(n);
-    std::int64_t px = 0, py = 0, pz = 0;
+    std::int64_t px = 0, py = 0;
+    HeightPredictor heights;
     for (std::uint32_t k = 0; k < n; ++k) {
         const std::uint32_t i = order[k];
         spatial[i] = k;
@@ -413,9 +496,11 @@ bool encodeCompact(const Block& b, double q, std::vector<unsigned char>& out, st
         putU(s[kPermutation], i);
         putS(s[kPositions], std::int64_t(g.x) - px);
         putS(s[kPositions], std::int64_t(g.y) - py);
-        putS(s[kHeights], z - pz);
+        const bool river = (v.flags & kVertexRiver) != 0;
+        putS(s[kHeights], z - heights.predict(g.x, g.y, river));
+        heights.push(g.x, river, z);
         s[kFlags].push_back(static_cast<unsigned char>(v.flags));
-        px = g.x, py = g.y, pz = z;
+        px = g.x, py = g.y;
     }
 
     // The full-resolution mesh, in spatial numbering.
@@ -455,7 +540,7 @@ bool encodeCompact(const Block& b, double q, std::vector<unsigned char>& out, st
         aliveTris.add(b.terrainIndices[t], 0);
     for (std::uint32_t e = full.riverFirst; e < full.riverFirst + full.riverCount; ++e)
         aliveEdges.add(b.riverIndices[e], 0);
-    std::vector<Triangle> star, removedAtV, extra, fill;
+    std::vector<Triangle> star, removedAtV, extra, fill, added;
     std::vector<Edge> edgeStar, edgesAtV, extraEdges;
     std::vector<std::uint32_t> hole, polygon, codes;
     for (std::uint32_t st = 0; st < steps; ++st) {
@@ -475,7 +560,7 @@ bool encodeCompact(const Block& b, double q, std::vector<unsigned char>& out, st
         if (!sameBytes(removedAtV, star)) return why = at() + "removals are not the vertex's star", false;
         const auto aBegin = b.addedTriangles.begin() + b.addedTriangleOffset[st];
         const auto aEnd = b.addedTriangles.begin() + b.addedTriangleOffset[st + 1];
-        const std::vector<Triangle> added(aBegin, aEnd);
+        added.assign(aBegin, aEnd);
         // Mode 0: the additions are a triangulation of the star's link polygon, given by apexes.
         codes.clear();
         bool polygonMode = extra.empty() && linkPolygon(star, v, polygon) &&
@@ -516,14 +601,30 @@ bool encodeCompact(const Block& b, double q, std::vector<unsigned char>& out, st
         for (std::uint32_t i = b.addedEdgeOffset[st]; i < b.addedEdgeOffset[st + 1]; ++i)
             forVertices(b.addedEdges[i], [&](std::uint32_t x) { putU(s[kStepRefs], refOf(hole, x)); });
 
-        for (auto it = rBegin; it != rEnd; ++it)
-            if (!aliveTris.remove(*it, st + 1)) return why = at() + "removes a triangle not alive", false;
+        aliveTris.killStar(st + 1);
+        for (const Triangle& t : extra)
+            if (!aliveTris.remove(t, st + 1)) return why = at() + "removes a triangle not alive", false;
         for (auto it = aBegin; it != aEnd; ++it)
             aliveTris.add(*it, st + 1);
-        for (auto it = eBegin; it != eEnd; ++it)
-            if (!aliveEdges.remove(*it, st + 1)) return why = at() + "removes a river edge not alive", false;
+        aliveEdges.killStar(st + 1);
+        for (const Edge& e : extraEdges)
+            if (!aliveEdges.remove(e, st + 1)) return why = at() + "removes a river edge not alive", false;
         for (std::uint32_t i = b.addedEdgeOffset[st]; i < b.addedEdgeOffset[st + 1]; ++i)
             aliveEdges.add(b.addedEdges[i], st + 1);
+        if (b.steps[st].trianglesAlive != aliveTris.count() ||
+            b.steps[st].riverEdgesAlive != aliveEdges.count())
+            return why = at() + "alive counts differ from the replay", false;
+    }
+    // What the decoder derives from the replay must be what the block stores: the levels' index
+    // data and ranges (the paired layout of lodlayout.h).
+    {
+        Block derived;
+        derived.levels = b.levels;
+        layOutLevels(derived, aliveTris.lives(), aliveEdges.lives());
+        if (!sameBytes(derived.levels, b.levels) ||
+            !sameBytes(derived.terrainIndices, b.terrainIndices) ||
+            !sameBytes(derived.riverIndices, b.riverIndices))
+            return why = "the levels' index data is not the paired layout of the records", false;
     }
 
     for (const std::vector<float>* e : {&b.errorMax, &b.errorPaper}) {
@@ -592,7 +693,8 @@ bool decodeCompact(const unsigned char* data, std::size_t size, const BlockCount
         In perm = in(kPermutation), pos = in(kPositions), hz = in(kHeights);
         if (raw[kFlags].size() != n) return fail("flags stream has the wrong size");
         std::vector<std::uint8_t> seen(n, 0);
-        std::int64_t px = 0, py = 0, pz = 0;
+        std::int64_t px = 0, py = 0;
+        HeightPredictor heights;
         for (std::uint32_t k = 0; k < n; ++k) {
             const auto i = std::uint32_t(perm.below(n));
             if (!perm.ok || seen[i]) return fail("the vertex permutation is damaged");
@@ -603,10 +705,14 @@ bool decodeCompact(const unsigned char* data, std::size_t size, const BlockCount
             if (std::abs(dx) > (std::int64_t(1) << 33) || std::abs(dy) > (std::int64_t(1) << 33) ||
                 std::abs(dz) > 2 * kMaxHeightSteps)
                 return fail("a vertex delta is out of range");
-            px += dx, py += dy, pz += dz;
-            if (std::abs(px) > kMaxGridCoordinate || std::abs(py) > kMaxGridCoordinate ||
-                std::abs(pz) >= kMaxHeightSteps)
+            px += dx, py += dy;
+            if (std::abs(px) > kMaxGridCoordinate || std::abs(py) > kMaxGridCoordinate)
                 return fail("vertex " + std::to_string(i) + " lies beyond the grid");
+            const bool river = (raw[kFlags][k] & kVertexRiver) != 0;
+            const std::int64_t pz = heights.predict(std::int32_t(px), std::int32_t(py), river) + dz;
+            if (std::abs(pz) >= kMaxHeightSteps)
+                return fail("vertex " + std::to_string(i) + " lies beyond the height range");
+            heights.push(std::int32_t(px), river, pz);
             d.grid[i] = {std::int32_t(px), std::int32_t(py)};
             d.vertices[i] = {float(double(px) * kGridUnit), float(double(py) * kGridUnit),
                              float(double(pz) * q), raw[kFlags][k]};
@@ -664,7 +770,7 @@ bool decodeCompact(const unsigned char* data, std::size_t size, const BlockCount
         d.removedEdges.reserve(c.removedEdges);
         d.addedEdges.reserve(c.addedEdges);
         std::vector<Triangle> star, extraTris, fill;
-        std::vector<Edge> edgeStar;
+        std::vector<Edge> edgeStar, extraEdgeList;
         std::vector<std::uint32_t> hole, polygon;
         auto vertex = [&](std::uint64_t ref) -> std::uint32_t {
             if (ref < hole.size()) return hole[ref];
@@ -684,11 +790,15 @@ bool decodeCompact(const unsigned char* data, std::size_t size, const BlockCount
             const std::uint32_t v = n - 1 - st;
             aliveTris.star(v, star);
             aliveEdges.star(v, edgeStar);
-            hole.clear();
-            holeOf(star, v, hole);
+            bool holeReady = false;
+            auto ensureHole = [&] {
+                if (!holeReady) holeOf(star, v, hole);
+                holeReady = true;
+            };
             const std::size_t first = d.removedTriangles.size();
             const std::size_t firstAdded = d.addedTriangles.size();
             const std::uint64_t mode = counts.u();
+            extraTris.clear();
             if (mode == 0) {  // the star, and a triangulation of its link polygon
                 if (!linkPolygon(star, v, polygon)) return fail(at() + "has no link polygon");
                 if (!room(d.removedTriangles.size(), star.size(), c.removedTriangles) ||
@@ -703,6 +813,8 @@ bool decodeCompact(const unsigned char* data, std::size_t size, const BlockCount
                     return fail(at() + "has a damaged triangulation");
                 d.addedTriangles.insert(d.addedTriangles.end(), fill.begin(), fill.end());
             } else if (mode == 1) {  // the star, extra removals, explicit additions
+                hole.clear();
+                ensureHole();
                 const std::uint64_t extra = counts.u();
                 if (!room(d.removedTriangles.size(), star.size() + extra, c.removedTriangles))
                     return fail(at() + "removes too many triangles");
@@ -727,21 +839,31 @@ bool decodeCompact(const unsigned char* data, std::size_t size, const BlockCount
                 return fail(at() + "has an unknown mode");
             }
 
+            auto needHole = [&] {
+                if (!holeReady) {
+                    hole.clear();
+                    ensureHole();
+                }
+            };
             const std::uint64_t extraEdges = counts.u();
+            if (extraEdges > 0) needHole();
             if (!room(d.removedEdges.size(), edgeStar.size() + extraEdges, c.removedEdges))
                 return fail(at() + "removes too many river edges");
             const std::size_t firstEdge = d.removedEdges.size();
             d.removedEdges.insert(d.removedEdges.end(), edgeStar.begin(), edgeStar.end());
+            extraEdgeList.clear();
             for (std::uint64_t i = 0; i < extraEdges; ++i) {
                 const std::uint32_t x = vertex(refs.u()), y = vertex(refs.u());
-                d.removedEdges.push_back({std::min(x, y), std::max(x, y)});
+                extraEdgeList.push_back({std::min(x, y), std::max(x, y)});
             }
+            d.removedEdges.insert(d.removedEdges.end(), extraEdgeList.begin(), extraEdgeList.end());
             if (extraEdges > 0)
                 std::sort(d.removedEdges.begin() + firstEdge, d.removedEdges.end(),
                           [](auto& l, auto& r) { return lessIndex(l, r); });
             const std::uint64_t addedEdges = counts.u();
             if (!room(d.addedEdges.size(), addedEdges, c.addedEdges))
                 return fail(at() + "adds too many river edges");
+            if (addedEdges > 0) needHole();
             const std::size_t firstAddedEdge = d.addedEdges.size();
             for (std::uint64_t i = 0; i < addedEdges; ++i) {
                 const std::uint32_t x = vertex(refs.u()), y = vertex(refs.u());
@@ -749,14 +871,14 @@ bool decodeCompact(const unsigned char* data, std::size_t size, const BlockCount
             }
             if (!counts.ok || !refs.ok) return fail(at() + "is damaged");
 
-            for (std::size_t i = first; i < d.removedTriangles.size(); ++i)
-                if (!aliveTris.remove(d.removedTriangles[i], st + 1))
-                    return fail(at() + "removes a triangle not alive");
+            aliveTris.killStar(st + 1);
+            for (const Triangle& t : extraTris)
+                if (!aliveTris.remove(t, st + 1)) return fail(at() + "removes a triangle not alive");
             for (std::size_t i = firstAdded; i < d.addedTriangles.size(); ++i)
                 aliveTris.add(d.addedTriangles[i], st + 1);
-            for (std::size_t i = firstEdge; i < d.removedEdges.size(); ++i)
-                if (!aliveEdges.remove(d.removedEdges[i], st + 1))
-                    return fail(at() + "removes a river edge not alive");
+            aliveEdges.killStar(st + 1);
+            for (const Edge& e : extraEdgeList)
+                if (!aliveEdges.remove(e, st + 1)) return fail(at() + "removes a river edge not alive");
             for (std::size_t i = firstAddedEdge; i < d.addedEdges.size(); ++i)
                 aliveEdges.add(d.addedEdges[i], st + 1);
             d.steps[st] = {v, aliveTris.count(), aliveEdges.count()};

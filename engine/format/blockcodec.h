@@ -17,8 +17,10 @@
 // - the level steps; every level's index data and counts are derived again (lodlayout.h), as are
 //   the steps' vertex and alive counts and the record offsets.
 // A block that is not in this canonical form (hand-made, foreign), or a tiny one whose streams
-// would cost more than its arrays, is stored raw instead (BlockEncoding::kRaw): the writer
-// encodes, decodes and compares before it trusts the encoding.
+// would cost more than its arrays, is stored raw instead (BlockEncoding::kRaw). The encoder proves
+// the form as it goes: it replays the records on the decoder's structure, checks that every
+// removal set, triangulation, count, vertex position and error is what the decoder will derive,
+// and lays the levels out from its replay and compares them with the stored ones.
 #pragma once
 
 #include <cstdint>
@@ -49,7 +51,9 @@ struct BlockCounts {
 BlockCounts countsOf(const Block& block);
 
 // Compact encoding of a validated block's arrays (not its position, box or tree links, which the
-// block header holds). Returns false with `why` when the block is not in canonical form.
+// block header holds). Returns false with `why` when the block is not in canonical form;
+// otherwise decodeCompact returns exactly these arrays (the round-trip tests check it on built
+// models).
 bool encodeCompact(const Block& block, double zQuantum, std::vector<unsigned char>& out,
                    std::string& why);
 

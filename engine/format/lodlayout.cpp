@@ -111,6 +111,35 @@ bool lifetimes(const std::vector<T>& initial, const std::vector<std::uint32_t>& 
     return true;
 }
 
+// Sorts lives by (a, b, c), then birth: a counting sort on a (vertex indices are dense), then
+// each run of equal a (a vertex's few elements) by the rest.
+template <class T>
+void sortLives(std::vector<Life<T>>& lives) {
+    auto less = [](const Life<T>& l, const Life<T>& r) {
+        return lessIndex(l.item, r.item) || (!lessIndex(r.item, l.item) && l.birth < r.birth);
+    };
+    std::uint32_t maxA = 0;
+    for (const Life<T>& l : lives)
+        maxA = std::max(maxA, l.item.a);
+    if (lives.size() < 64 || maxA > 4 * lives.size() + 1024) {
+        std::sort(lives.begin(), lives.end(), less);
+        return;
+    }
+    std::vector<std::uint32_t> start(std::size_t(maxA) + 2, 0);
+    for (const Life<T>& l : lives)
+        ++start[l.item.a + 1];
+    for (std::size_t i = 1; i < start.size(); ++i)
+        start[i] += start[i - 1];
+    std::vector<Life<T>> sorted(lives.size());
+    std::vector<std::uint32_t> at(start.begin(), start.end() - 1);
+    for (const Life<T>& l : lives)
+        sorted[at[l.item.a]++] = l;
+    for (std::size_t a = 0; a + 1 < start.size(); ++a)
+        if (start[a + 1] - start[a] > 1)
+            std::sort(sorted.begin() + start[a], sorted.begin() + start[a + 1], less);
+    lives.swap(sorted);
+}
+
 // The paired layout of `lives` for the level steps; sets first/count per level. The lives are
 // sorted once by (a, b, c) (ties cannot occur among elements alive together), so every part
 // comes out of one ordered pass.
@@ -118,32 +147,49 @@ template <class T>
 void layOut(std::vector<Life<T>>& lives, const std::vector<std::uint32_t>& levelSteps,
             std::vector<T>& indices, std::vector<std::uint32_t>& first,
             std::vector<std::uint32_t>& count) {
-    std::sort(lives.begin(), lives.end(), [](const Life<T>& l, const Life<T>& r) {
-        return lessIndex(l.item, r.item) || (!lessIndex(r.item, l.item) && l.birth < r.birth);
-    });
-    const std::size_t n = levelSteps.size();
+    sortLives(lives);
+    const std::size_t n = levelSteps.size(), pairs = (n + 1) / 2;
     first.assign(n, 0);
     count.assign(n, 0);
     indices.clear();
-    std::vector<T> parts[3];
-    for (std::size_t j = 0; j < n; j += 2) {
-        const std::uint32_t f = levelSteps[j];
-        const bool paired = j + 1 < n;
-        const std::uint32_t c = paired ? levelSteps[j + 1] : f;
-        for (auto& p : parts)
-            p.clear();
-        for (const Life<T>& life : lives) {
-            const bool inF = life.aliveAt(f), inC = paired && life.aliveAt(c);
-            if (inF || inC) parts[inF && inC ? 1 : (inF ? 0 : 2)].push_back(life.item);
+    // Each life is alive at the contiguous range [from, to) of levels (steps in [birth, death))
+    // and goes into part 0 (fine level only), 1 (both) or 2 (coarse only) of every pair it
+    // touches. Two passes over the sorted lives: count the parts, then write each element
+    // straight to its place, so every part comes out sorted.
+    std::vector<std::uint32_t> range(2 * lives.size());
+    std::vector<std::uint64_t> size(3 * pairs + 1, 0);
+    auto forParts = [&](std::size_t from, std::size_t to, auto&& f) {
+        for (std::size_t p = from / 2; p < pairs && 2 * p < to; ++p) {
+            const std::size_t fine = 2 * p, coarse = fine + 1;
+            const bool inF = fine >= from && fine < to;
+            const bool inC = coarse < n && coarse >= from && coarse < to;
+            if (inF || inC) f(3 * p + (inF && inC ? 1 : (inF ? 0 : 2)));
         }
-        const auto start = static_cast<std::uint32_t>(indices.size());
-        for (auto& p : parts)
-            indices.insert(indices.end(), p.begin(), p.end());
-        first[j] = start;
-        count[j] = static_cast<std::uint32_t>(parts[0].size() + parts[1].size());
-        if (paired) {
-            first[j + 1] = start + static_cast<std::uint32_t>(parts[0].size());
-            count[j + 1] = static_cast<std::uint32_t>(parts[1].size() + parts[2].size());
+    };
+    for (std::size_t i = 0; i < lives.size(); ++i) {
+        const auto from = std::uint32_t(std::lower_bound(levelSteps.begin(), levelSteps.end(),
+                                                         lives[i].birth) - levelSteps.begin());
+        const auto to = std::uint32_t(std::lower_bound(levelSteps.begin(), levelSteps.end(),
+                                                       lives[i].death) - levelSteps.begin());
+        range[2 * i] = from;
+        range[2 * i + 1] = to;
+        forParts(from, to, [&](std::size_t part) { ++size[part + 1]; });
+    }
+    for (std::size_t k = 1; k < size.size(); ++k)
+        size[k] += size[k - 1];  // now the start of each part
+    indices.resize(size.back());
+    for (std::size_t i = 0; i < lives.size(); ++i)
+        forParts(range[2 * i], range[2 * i + 1],
+                 [&](std::size_t part) { indices[size[part]++] = lives[i].item; });
+    // size[part] is now the end of each part, i.e. the start of the next one.
+    for (std::size_t p = 0; p < pairs; ++p) {
+        const std::size_t j = 2 * p;
+        const std::uint64_t start = p == 0 ? 0 : size[3 * p - 1];
+        first[j] = static_cast<std::uint32_t>(start);
+        count[j] = static_cast<std::uint32_t>(size[3 * p + 1] - start);
+        if (j + 1 < n) {
+            first[j + 1] = static_cast<std::uint32_t>(size[3 * p]);
+            count[j + 1] = static_cast<std::uint32_t>(size[3 * p + 2] - size[3 * p]);
         }
     }
 }

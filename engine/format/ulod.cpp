@@ -350,19 +350,22 @@ bool checkOffsets(const std::vector<std::uint32_t>& offsets, std::size_t steps,
     return true;
 }
 
-bool checkTriangle(const Triangle& t, std::uint64_t limit, const std::string& where,
+// `where` names the element's place, built only on failure.
+template <class Where>
+bool checkTriangle(const Triangle& t, std::uint64_t limit, const Where& where,
                    std::string& error) {
     if (t.a >= limit || t.b >= limit || t.c >= limit) {
-        error = where + ": triangle (" + std::to_string(t.a) + "," + std::to_string(t.b) + "," +
+        error = where() + ": triangle (" + std::to_string(t.a) + "," + std::to_string(t.b) + "," +
                 std::to_string(t.c) + ") has an index >= " + std::to_string(limit);
         return false;
     }
     return true;
 }
 
-bool checkEdge(const Edge& e, std::uint64_t limit, const std::string& where, std::string& error) {
+template <class Where>
+bool checkEdge(const Edge& e, std::uint64_t limit, const Where& where, std::string& error) {
     if (e.a >= e.b || e.b >= limit) {
-        error = where + ": edge (" + std::to_string(e.a) + "," + std::to_string(e.b) +
+        error = where() + ": edge (" + std::to_string(e.a) + "," + std::to_string(e.b) +
                 ") is not a < b < " + std::to_string(limit);
         return false;
     }
@@ -497,7 +500,7 @@ bool validateLevelGeometryImpl(const Block& b, std::size_t level, std::string& e
     };
     for (std::uint32_t i = 0; i < l.triangleCount; ++i) {
         const Triangle& t = b.terrainIndices[l.triangleFirst + i];
-        if (!checkTriangle(t, n, where + " terrain", error)) return false;
+        if (!checkTriangle(t, n, [&] { return where + " terrain"; }, error)) return false;
         if (t.a == t.b || t.b == t.c || t.c == t.a) {
             error = where + ": triangle " + triangleText(t) + " repeats a vertex";
             return false;
@@ -556,7 +559,7 @@ bool validateLevelGeometryImpl(const Block& b, std::size_t level, std::string& e
     rivers.reserve(l.riverCount);
     for (std::uint32_t i = 0; i < l.riverCount; ++i) {
         const Edge& e = b.riverIndices[l.riverFirst + i];
-        if (!checkEdge(e, n, where + " river", error)) return false;
+        if (!checkEdge(e, n, [&] { return where + " river"; }, error)) return false;
         if (!hasEdge(e.a, e.b) && !hasEdge(e.b, e.a)) {
             error = where + ": river edge (" + std::to_string(e.a) + "," + std::to_string(e.b) +
                     ") is not an edge of the level's triangles";
@@ -629,22 +632,22 @@ bool validateBlockImpl(const Block& b, std::uint32_t metrics, std::string& error
     // Records of step s: removed elements existed before it (indices < n - s), added ones exist
     // after it (indices < n - s - 1, the deleted vertex is gone).
     for (std::uint64_t s = 0; s < stepCount; ++s) {
-        const std::string where = "step " + std::to_string(s);
+        auto where = [&] { return "step " + std::to_string(s); };
         for (auto i = b.removedTriangleOffset[s]; i < b.removedTriangleOffset[s + 1]; ++i) {
-            if (!checkTriangle(b.removedTriangles[i], n - s, where + " removed", error)) {
+            if (!checkTriangle(b.removedTriangles[i], n - s, [&] { return where() + " removed"; }, error)) {
                 return false;
             }
         }
         for (auto i = b.addedTriangleOffset[s]; i < b.addedTriangleOffset[s + 1]; ++i) {
-            if (!checkTriangle(b.addedTriangles[i], n - s - 1, where + " added", error)) {
+            if (!checkTriangle(b.addedTriangles[i], n - s - 1, [&] { return where() + " added"; }, error)) {
                 return false;
             }
         }
         for (auto i = b.removedEdgeOffset[s]; i < b.removedEdgeOffset[s + 1]; ++i) {
-            if (!checkEdge(b.removedEdges[i], n - s, where + " removed", error)) return false;
+            if (!checkEdge(b.removedEdges[i], n - s, [&] { return where() + " removed"; }, error)) return false;
         }
         for (auto i = b.addedEdgeOffset[s]; i < b.addedEdgeOffset[s + 1]; ++i) {
-            if (!checkEdge(b.addedEdges[i], n - s - 1, where + " added", error)) return false;
+            if (!checkEdge(b.addedEdges[i], n - s - 1, [&] { return where() + " added"; }, error)) return false;
         }
     }
 
@@ -671,20 +674,20 @@ bool validateBlockImpl(const Block& b, std::uint32_t metrics, std::string& error
         const std::uint64_t addedT = b.addedTriangleOffset[s + 1] - b.addedTriangleOffset[s];
         const std::uint64_t removedE = b.removedEdgeOffset[s + 1] - b.removedEdgeOffset[s];
         const std::uint64_t addedE = b.addedEdgeOffset[s + 1] - b.addedEdgeOffset[s];
-        const std::string where = "step " + std::to_string(s);
+        const auto where = [&] { return "step " + std::to_string(s); };
         if (removedT > trianglesAlive[s] || removedE > edgesAlive[s]) {
-            error = where + " removes more triangles or river edges than are alive";
+            error = where() + " removes more triangles or river edges than are alive";
             return false;
         }
         trianglesAlive[s + 1] = trianglesAlive[s] - removedT + addedT;
         edgesAlive[s + 1] = edgesAlive[s] - removedE + addedE;
         if (b.steps[s].trianglesAlive != trianglesAlive[s + 1]) {
-            error = where + ": trianglesAlive is " + std::to_string(b.steps[s].trianglesAlive) +
+            error = where() + ": trianglesAlive is " + std::to_string(b.steps[s].trianglesAlive) +
                     " but the records give " + std::to_string(trianglesAlive[s + 1]);
             return false;
         }
         if (b.steps[s].riverEdgesAlive != edgesAlive[s + 1]) {
-            error = where + ": riverEdgesAlive is " + std::to_string(b.steps[s].riverEdgesAlive) +
+            error = where() + ": riverEdgesAlive is " + std::to_string(b.steps[s].riverEdgesAlive) +
                     " but the records give " + std::to_string(edgesAlive[s + 1]);
             return false;
         }
@@ -797,8 +800,9 @@ void fillBlockHeader(const Block& b, BlockHeader& h) {
     forEachArray(b, [&](const auto& v) { counts[i++] = static_cast<std::uint32_t>(v.size()); });
 }
 
-// The block's bytes: compact (blockcodec.h) when asked for and the block is in canonical form
-// (proved by decoding it again and comparing), raw otherwise.
+// The block's bytes: compact (blockcodec.h) when asked for, the block is in canonical form (the
+// encoder replays it and proves that everything the decoder derives equals what it stores) and
+// compact is smaller; raw otherwise.
 void serializeBlock(const Block& b, bool compact, double zQuantum,
                     std::vector<unsigned char>& out) {
     BlockHeader h;
@@ -810,15 +814,11 @@ void serializeBlock(const Block& b, bool compact, double zQuantum,
     if (compact && encodeCompact(b, zQuantum, payload, why) &&
         alignUp(sizeof(h) + payload.size()) < blockByteSize(h) &&
         payload.size() <= std::numeric_limits<std::uint32_t>::max()) {
-        Block back;
-        if (decodeCompact(payload.data(), payload.size(), countsOf(b), zQuantum, back, why) &&
-            sameArrays(back, b)) {
-            h.encoding = std::uint32_t(BlockEncoding::kCompact);
-            h.payloadSize = static_cast<std::uint32_t>(payload.size());
-            appendPadded(out, &h, sizeof(h));
-            appendPadded(out, payload.data(), payload.size());
-            return;
-        }
+        h.encoding = std::uint32_t(BlockEncoding::kCompact);
+        h.payloadSize = static_cast<std::uint32_t>(payload.size());
+        appendPadded(out, &h, sizeof(h));
+        appendPadded(out, payload.data(), payload.size());
+        return;
     }
     h.encoding = std::uint32_t(BlockEncoding::kRaw);
     out.reserve(blockByteSize(h));

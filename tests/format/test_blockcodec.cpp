@@ -109,6 +109,35 @@ TEST_F(BlockCodec, EveryBlockDecodesToTheUncompressedReplay) {
     EXPECT_LT(compactBytes * 8, rawBytes);
 }
 
+// A valid block whose levels store their triangles in another order than the paired layout (here
+// two triangles of the full-resolution level swapped) is not in canonical form: the writer stores
+// it raw, and it reads back exactly.
+TEST_F(BlockCodec, ReorderedLevelIsStoredRaw) {
+    format::Reader r;
+    std::string error;
+    ASSERT_TRUE(r.open(raw, error)) << error;
+    format::Block b;
+    ASSERT_TRUE(r.readBlock(0, b, error)) << error;
+    std::vector<unsigned char> bytes;
+    ASSERT_TRUE(format::encodeCompact(b, r.header().zQuantum, bytes, error)) << error;
+    const format::Level& full = b.levels[0];
+    ASSERT_GE(full.triangleCount, 2u);
+    std::swap(b.terrainIndices[full.triangleFirst], b.terrainIndices[full.triangleFirst + 1]);
+    ASSERT_TRUE(format::validateBlock(b, r.header().metrics, error)) << error;
+    std::string why;
+    EXPECT_FALSE(format::encodeCompact(b, r.header().zQuantum, bytes, why));
+    EXPECT_NE(why.find("paired layout"), std::string::npos) << why;
+    const std::string path = dir->file("reordered.ulod");
+    format::Header h = r.header();
+    ASSERT_TRUE(format::writeUlod(path, h, {b}, error)) << error;
+    format::Reader back;
+    ASSERT_TRUE(back.open(path, error)) << error;
+    EXPECT_EQ(back.blocks()[0].encoding, std::uint32_t(format::BlockEncoding::kRaw));
+    format::Block read;
+    ASSERT_TRUE(back.readBlock(0, read, error)) << error;
+    EXPECT_TRUE(format::sameArrays(read, b));
+}
+
 TEST_F(BlockCodec, CheckReplaysTheCompactFile) {
     UlodCheckOptions o;
     o.errors = true;

@@ -877,9 +877,12 @@ TEST_F(UlodValidateError, VertexOutsideTheBoxBeyondTheTolerance) {
     block.vertices[2].x = 10.5f;  // the box ends at x = 10
     EXPECT_NE(check(block).find("vertex 2 ("), std::string::npos) << check(block);
     // x, y may miss the box by a grid unit (1 mm): built vertices sit on their grid position.
+    ASSERT_FALSE(block.grid.empty());
     block.vertices[2].x = 10.0009f;
+    block.grid[2].x = 10001;
     EXPECT_EQ(check(block), "");
     block.vertices[2].x = 10.0021f;
+    block.grid[2].x = 10002;
     EXPECT_NE(check(block).find("vertex 2 ("), std::string::npos) << check(block);
 }
 
