@@ -24,6 +24,7 @@
 #include <tuple>
 #include <utility>
 
+#include "blockarrays.h"
 #include "blockcodec.h"
 #include "predicates.h"
 
@@ -173,59 +174,25 @@ std::string errnoText() {
     return std::strerror(errno);
 }
 
-// The arrays of a block in file order: a pointer to each vector, its element size. Used by both
-// the writer and the reader so that the order is defined once.
-template <typename B, typename F>
-void forEachArray(B& b, F&& f) {
-    f(b.vertices);
-    f(b.steps);
-    f(b.removedTriangleOffset);
-    f(b.addedTriangleOffset);
-    f(b.removedEdgeOffset);
-    f(b.addedEdgeOffset);
-    f(b.removedTriangles);
-    f(b.addedTriangles);
-    f(b.removedEdges);
-    f(b.addedEdges);
-    f(b.errorMax);
-    f(b.errorPaper);
-    f(b.levels);
-    f(b.terrainIndices);
-    f(b.riverIndices);
-    f(b.grid);
-}
-
-// The counts of a block header in the same order as forEachArray.
-std::uint32_t* blockCounts(BlockHeader& h) {
-    return &h.vertexCount;
-}
-constexpr int kArrayCount = 16;
+// The block header's count of array i of the table (blockarrays.h): the counts are contiguous, in
+// the table's order.
 static_assert(offsetof(BlockHeader, gridCount) ==
               offsetof(BlockHeader, vertexCount) + (kArrayCount - 1) * sizeof(std::uint32_t));
+std::uint32_t& countOf(BlockHeader& h, int i) {
+    return (&h.vertexCount)[i];
+}
+std::uint32_t countOf(const BlockHeader& h, int i) {
+    return (&h.vertexCount)[i];
+}
 
-// Byte size of a block from its header's counts; 64-bit, cannot overflow (16 arrays of at most
-// 2^32 - 1 elements of at most 32 bytes each).
+// Byte size of a raw block from its header's counts; 64-bit, cannot overflow (16 arrays of at
+// most 2^32 - 1 elements of at most 32 bytes each).
 std::uint64_t blockByteSize(const BlockHeader& h) {
-    const std::uint64_t elementSizes[kArrayCount] = {sizeof(Vertex),
-                                                     sizeof(Step),
-                                                     4,
-                                                     4,
-                                                     4,
-                                                     4,
-                                                     sizeof(Triangle),
-                                                     sizeof(Triangle),
-                                                     sizeof(Edge),
-                                                     sizeof(Edge),
-                                                     4,
-                                                     4,
-                                                     sizeof(Level),
-                                                     sizeof(Triangle),
-                                                     sizeof(Edge),
-                                                     sizeof(GridXY)};
-    const std::uint32_t* counts = &h.vertexCount;
+    static const Block kShape;  // only the element types are used
     std::uint64_t size = sizeof(BlockHeader);
-    for (int i = 0; i < kArrayCount; ++i)
-        size += alignUp(counts[i] * elementSizes[i]);
+    forEachArray(kShape, [&](const auto& v, int i) {
+        size += alignUp(std::uint64_t(countOf(h, i)) * sizeof(v[0]));
+    });
     return size;
 }
 
@@ -322,429 +289,6 @@ bool directoryBoxValid(const Header& h, const double box[6], std::string& error)
     return true;
 }
 
-// ---- validation -----------------------------------------------------------------------------
-
-bool checkOffsets(const std::vector<std::uint32_t>& offsets, std::size_t steps,
-                  std::size_t arraySize, const char* name, std::string& error) {
-    if (offsets.size() != steps + 1) {
-        error = std::string(name) + " has " + std::to_string(offsets.size()) +
-                " entries, expected steps + 1 = " + std::to_string(steps + 1);
-        return false;
-    }
-    if (offsets[0] != 0) {
-        error = std::string(name) + "[0] is " + std::to_string(offsets[0]) + ", expected 0";
-        return false;
-    }
-    for (std::size_t s = 1; s < offsets.size(); ++s) {
-        if (offsets[s] < offsets[s - 1]) {
-            error = std::string(name) + " decreases at " + std::to_string(s) + " (" +
-                    std::to_string(offsets[s - 1]) + " -> " + std::to_string(offsets[s]) + ")";
-            return false;
-        }
-    }
-    if (offsets.back() != arraySize) {
-        error = std::string(name) + " ends at " + std::to_string(offsets.back()) +
-                " but its array has " + std::to_string(arraySize) + " entries";
-        return false;
-    }
-    return true;
-}
-
-// `where` names the element's place, built only on failure.
-template <class Where>
-bool checkTriangle(const Triangle& t, std::uint64_t limit, const Where& where,
-                   std::string& error) {
-    if (t.a >= limit || t.b >= limit || t.c >= limit) {
-        error = where() + ": triangle (" + std::to_string(t.a) + "," + std::to_string(t.b) + "," +
-                std::to_string(t.c) + ") has an index >= " + std::to_string(limit);
-        return false;
-    }
-    return true;
-}
-
-template <class Where>
-bool checkEdge(const Edge& e, std::uint64_t limit, const Where& where, std::string& error) {
-    if (e.a >= e.b || e.b >= limit) {
-        error = where() + ": edge (" + std::to_string(e.a) + "," + std::to_string(e.b) +
-                ") is not a < b < " + std::to_string(limit);
-        return false;
-    }
-    return true;
-}
-
-bool checkErrors(const std::vector<float>& errors, bool present, std::size_t steps,
-                 const char* name, std::string& error) {
-    if (!present) {
-        if (!errors.empty()) {
-            error = std::string(name) + " has " + std::to_string(errors.size()) +
-                    " entries but the metric is not in the file";
-            return false;
-        }
-        return true;
-    }
-    if (errors.size() != steps + 1) {
-        error = std::string(name) + " has " + std::to_string(errors.size()) +
-                " entries, expected steps + 1 = " + std::to_string(steps + 1);
-        return false;
-    }
-    for (std::size_t s = 0; s < errors.size(); ++s) {
-        if (!std::isfinite(errors[s]) || errors[s] < 0) {
-            error = std::string(name) + "[" + std::to_string(s) + "] is not a finite value >= 0";
-            return false;
-        }
-        if (s > 0 && errors[s] < errors[s - 1]) {
-            error = std::string(name) + " decreases at step " + std::to_string(s) + " (" +
-                    std::to_string(errors[s - 1]) + " -> " + std::to_string(errors[s]) + ")";
-            return false;
-        }
-    }
-    return true;
-}
-
-// The block's bounding box finite and ordered, its origin finite and inside it (the builder puts
-// the origin at the centre of the box of the block's points): vertices are drawn relative to the
-// origin, so a far-away origin would place them anywhere.
-bool boxAndOriginValid(const Block& b, std::string& error) {
-    const double lo[3] = {b.minX, b.minY, b.minZ}, hi[3] = {b.maxX, b.maxY, b.maxZ};
-    for (int a = 0; a < 3; ++a) {
-        if (!std::isfinite(lo[a]) || !std::isfinite(hi[a]) || lo[a] > hi[a]) {
-            error = "bounding box is not finite or inverted";
-            return false;
-        }
-    }
-    if (!(b.originX >= b.minX && b.originX <= b.maxX && b.originY >= b.minY &&
-          b.originY <= b.maxY)) {
-        error = "origin (" + std::to_string(b.originX) + ", " + std::to_string(b.originY) +
-                ") is not finite or lies outside the bounding box";
-        return false;
-    }
-    return true;
-}
-
-// True when float coordinate `c`, at double position `at` (origin + c, or c itself for z), lies
-// in [lo, hi] up to the float rounding the format allows (kFloatSlack, kAbsoluteSlack).
-bool insideWithSlack(double at, float c, double lo, double hi) {
-    const double slack = kFloatSlack * std::fabs(double(c)) + kAbsoluteSlack;
-    return at >= lo - slack && at <= hi + slack;
-}
-
-// Vertex i: finite, known flags, inside the block's box; its grid position (if stored) bounded so
-// that orient2d is exact and within a grid unit of its float position, so the orientation proved
-// on the grid is the one drawn (up to slivers thinner than a millimetre).
-bool vertexValid(const Block& b, std::uint64_t i, std::string& error) {
-    const Vertex& v = b.vertices[i];
-    const std::string name = "vertex " + std::to_string(i);
-    if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) {
-        error = name + " has a non-finite coordinate";
-        return false;
-    }
-    if ((v.flags & ~(kVertexRiver | kVertexLocked)) != 0) {
-        error = name + " has unknown flags " + std::to_string(v.flags);
-        return false;
-    }
-    // x, y also up to a grid unit outside: a built vertex's x, y are its grid position (the exact
-    // position rounded to kGridUnit, blockcodec.h), the box the exact positions'.
-    if (!insideWithSlack(b.originX + double(v.x), v.x, b.minX - kGridUnit, b.maxX + kGridUnit) ||
-        !insideWithSlack(b.originY + double(v.y), v.y, b.minY - kGridUnit, b.maxY + kGridUnit) ||
-        !insideWithSlack(double(v.z), v.z, b.minZ, b.maxZ)) {
-        error = name + " (" + std::to_string(v.x) + ", " + std::to_string(v.y) + ", " +
-                std::to_string(v.z) + ") lies outside the block's bounding box";
-        return false;
-    }
-    if (b.grid.empty()) return true;
-    const GridXY g = b.grid[i];
-    if (std::abs(std::int64_t(g.x)) > kMaxGridCoordinate ||
-        std::abs(std::int64_t(g.y)) > kMaxGridCoordinate) {
-        error = name + ": grid position (" + std::to_string(g.x) + ", " + std::to_string(g.y) +
-                ") is beyond +-(2^28 - 1)";
-        return false;
-    }
-    const double dx = std::fabs(double(v.x) - double(g.x) * kGridUnit);
-    const double dy = std::fabs(double(v.y) - double(g.y) * kGridUnit);
-    if (dx > kGridUnit + kFloatSlack * std::fabs(double(v.x)) ||
-        dy > kGridUnit + kFloatSlack * std::fabs(double(v.y))) {
-        error = name + ": float position (" + std::to_string(v.x) + ", " + std::to_string(v.y) +
-                ") and grid position (" + std::to_string(g.x) + ", " + std::to_string(g.y) +
-                ") differ by more than a grid unit";
-        return false;
-    }
-    return true;
-}
-
-std::string triangleText(const Triangle& t) {
-    return "(" + std::to_string(t.a) + "," + std::to_string(t.b) + "," + std::to_string(t.c) + ")";
-}
-
-constexpr std::uint64_t edgeKey(std::uint32_t a, std::uint32_t b) {
-    return std::uint64_t(a) << 32 | b;
-}
-
-bool validateLevelGeometryImpl(const Block& b, std::size_t level, std::string& error) {
-    const std::string where = "level " + std::to_string(level);
-    if (level >= b.levels.size()) {
-        error = where + " does not exist";
-        return false;
-    }
-    const Level& l = b.levels[level];
-    if (l.vertexCount > b.vertices.size() ||
-        std::uint64_t(l.triangleFirst) + l.triangleCount > b.terrainIndices.size() ||
-        std::uint64_t(l.riverFirst) + l.riverCount > b.riverIndices.size()) {
-        error = where + ": its vertices or index ranges lie outside the block's arrays";
-        return false;
-    }
-    const std::uint64_t n = l.vertexCount;
-    const bool exact = !b.grid.empty() && b.grid.size() == b.vertices.size();
-    auto gridOk = [&](std::uint32_t v) {
-        return std::abs(std::int64_t(b.grid[v].x)) <= kMaxGridCoordinate &&
-               std::abs(std::int64_t(b.grid[v].y)) <= kMaxGridCoordinate;
-    };
-    for (std::uint32_t i = 0; i < l.triangleCount; ++i) {
-        const Triangle& t = b.terrainIndices[l.triangleFirst + i];
-        if (!checkTriangle(t, n, [&] { return where + " terrain"; }, error)) return false;
-        if (t.a == t.b || t.b == t.c || t.c == t.a) {
-            error = where + ": triangle " + triangleText(t) + " repeats a vertex";
-            return false;
-        }
-        if (exact) {
-            if (!gridOk(t.a) || !gridOk(t.b) || !gridOk(t.c)) {
-                error = where + ": triangle " + triangleText(t) +
-                        " has a grid position beyond +-(2^28 - 1)";
-                return false;
-            }
-            const GridXY &p = b.grid[t.a], &q = b.grid[t.b], &r = b.grid[t.c];
-            if (orient2d(p.x, p.y, q.x, q.y, r.x, r.y) <= 0) {
-                error = where + ": triangle " + triangleText(t) +
-                        " is not counter-clockwise on the exact grid (flipped or degenerate)";
-                return false;
-            }
-        }
-    }
-    // The directed edges a -> b of the triangles, bucketed by a (a counting sort, O(n + t)) and
-    // each bucket sorted (a vertex's degree: a few entries). In a valid triangulation no directed
-    // edge occurs twice.
-    std::vector<std::uint64_t> start(n + 1, 0);
-    auto forEachDirected = [&](auto&& f) {
-        for (std::uint32_t i = 0; i < l.triangleCount; ++i) {
-            const Triangle& t = b.terrainIndices[l.triangleFirst + i];
-            f(t.a, t.b);
-            f(t.b, t.c);
-            f(t.c, t.a);
-        }
-    };
-    forEachDirected([&](std::uint32_t from, std::uint32_t) { ++start[from + 1]; });
-    for (std::uint64_t v = 0; v < n; ++v)
-        start[v + 1] += start[v];
-    std::vector<std::uint32_t> to(start[n]);
-    {
-        std::vector<std::uint64_t> fill(start.begin(), start.end() - 1);
-        forEachDirected([&](std::uint32_t from, std::uint32_t t) { to[fill[from]++] = t; });
-    }
-    for (std::uint64_t v = 0; v < n; ++v) {
-        const auto first = to.begin() + std::ptrdiff_t(start[v]);
-        const auto last = to.begin() + std::ptrdiff_t(start[v + 1]);
-        std::sort(first, last);
-        const auto twice = std::adjacent_find(first, last);
-        if (twice != last) {
-            error = where + ": edge " + std::to_string(v) + "->" + std::to_string(*twice) +
-                    " is used by two triangles in the same direction (a duplicated or flipped "
-                    "triangle, or more than two triangles on one edge)";
-            return false;
-        }
-    }
-    auto hasEdge = [&](std::uint32_t from, std::uint32_t t) {
-        return std::binary_search(to.begin() + std::ptrdiff_t(start[from]),
-                                  to.begin() + std::ptrdiff_t(start[from + 1]), t);
-    };
-    std::vector<std::uint64_t> rivers;
-    rivers.reserve(l.riverCount);
-    for (std::uint32_t i = 0; i < l.riverCount; ++i) {
-        const Edge& e = b.riverIndices[l.riverFirst + i];
-        if (!checkEdge(e, n, [&] { return where + " river"; }, error)) return false;
-        if (!hasEdge(e.a, e.b) && !hasEdge(e.b, e.a)) {
-            error = where + ": river edge (" + std::to_string(e.a) + "," + std::to_string(e.b) +
-                    ") is not an edge of the level's triangles";
-            return false;
-        }
-        rivers.push_back(edgeKey(e.a, e.b));
-    }
-    std::sort(rivers.begin(), rivers.end());
-    const auto dup = std::adjacent_find(rivers.begin(), rivers.end());
-    if (dup != rivers.end()) {
-        error = where + ": river edge (" + std::to_string(*dup >> 32) + "," +
-                std::to_string(*dup & 0xffffffffu) + ") appears twice";
-        return false;
-    }
-    return true;
-}
-
-bool validateBlockImpl(const Block& b, std::uint32_t metrics, std::string& error) {
-    constexpr std::uint64_t kMax32 = std::numeric_limits<std::uint32_t>::max();
-    bool tooBig = false;
-    forEachArray(b, [&](const auto& v) { tooBig = tooBig || v.size() > kMax32; });
-    if (tooBig) {
-        error = "an array has more than 2^32 - 1 entries";
-        return false;
-    }
-
-    const std::uint64_t n = b.vertices.size();
-    const std::uint64_t stepCount = b.steps.size();
-    if (!b.grid.empty() && b.grid.size() != n) {
-        error = "grid has " + std::to_string(b.grid.size()) + " entries for " + std::to_string(n) +
-                " vertices";
-        return false;
-    }
-    if (!boxAndOriginValid(b, error)) return false;
-    for (std::uint64_t i = 0; i < n; ++i) {
-        if (!vertexValid(b, i, error)) return false;
-    }
-
-    // Retention order: the vertices alive before step s are [0, n - s), so step s deletes
-    // vertex n - 1 - s. Anything else would break the engine's prefix rule.
-    if (stepCount > n) {
-        error = std::to_string(stepCount) + " steps but only " + std::to_string(n) + " vertices";
-        return false;
-    }
-    for (std::uint64_t s = 0; s < stepCount; ++s) {
-        if (b.steps[s].vertex != n - 1 - s) {
-            error = "step " + std::to_string(s) + " deletes vertex " +
-                    std::to_string(b.steps[s].vertex) + ", retention order requires " +
-                    std::to_string(n - 1 - s);
-            return false;
-        }
-        if ((b.vertices[n - 1 - s].flags & kVertexLocked) != 0) {
-            error =
-                "step " + std::to_string(s) + " deletes locked vertex " + std::to_string(n - 1 - s);
-            return false;
-        }
-    }
-
-    if (!checkOffsets(b.removedTriangleOffset, stepCount, b.removedTriangles.size(),
-                      "removedTriangleOffset", error) ||
-        !checkOffsets(b.addedTriangleOffset, stepCount, b.addedTriangles.size(),
-                      "addedTriangleOffset", error) ||
-        !checkOffsets(b.removedEdgeOffset, stepCount, b.removedEdges.size(), "removedEdgeOffset",
-                      error) ||
-        !checkOffsets(b.addedEdgeOffset, stepCount, b.addedEdges.size(), "addedEdgeOffset",
-                      error)) {
-        return false;
-    }
-
-    // Records of step s: removed elements existed before it (indices < n - s), added ones exist
-    // after it (indices < n - s - 1, the deleted vertex is gone).
-    for (std::uint64_t s = 0; s < stepCount; ++s) {
-        auto where = [&] { return "step " + std::to_string(s); };
-        for (auto i = b.removedTriangleOffset[s]; i < b.removedTriangleOffset[s + 1]; ++i) {
-            if (!checkTriangle(b.removedTriangles[i], n - s, [&] { return where() + " removed"; }, error)) {
-                return false;
-            }
-        }
-        for (auto i = b.addedTriangleOffset[s]; i < b.addedTriangleOffset[s + 1]; ++i) {
-            if (!checkTriangle(b.addedTriangles[i], n - s - 1, [&] { return where() + " added"; }, error)) {
-                return false;
-            }
-        }
-        for (auto i = b.removedEdgeOffset[s]; i < b.removedEdgeOffset[s + 1]; ++i) {
-            if (!checkEdge(b.removedEdges[i], n - s, [&] { return where() + " removed"; }, error)) return false;
-        }
-        for (auto i = b.addedEdgeOffset[s]; i < b.addedEdgeOffset[s + 1]; ++i) {
-            if (!checkEdge(b.addedEdges[i], n - s - 1, [&] { return where() + " added"; }, error)) return false;
-        }
-    }
-
-    if (!checkErrors(b.errorMax, (metrics & kMetricMax) != 0, stepCount, "errorMax", error) ||
-        !checkErrors(b.errorPaper, (metrics & kMetricPaper) != 0, stepCount, "errorPaper", error)) {
-        return false;
-    }
-
-    if (b.levels.empty()) {
-        error = "no levels (levels[0] must be the full resolution)";
-        return false;
-    }
-    if (b.levels[0].step != 0) {
-        error = "levels[0].step is " + std::to_string(b.levels[0].step) + ", expected 0";
-        return false;
-    }
-
-    // Alive counts replayed from the full resolution (levels[0]) through the records.
-    std::vector<std::uint64_t> trianglesAlive(stepCount + 1), edgesAlive(stepCount + 1);
-    trianglesAlive[0] = b.levels[0].triangleCount;
-    edgesAlive[0] = b.levels[0].riverCount;
-    for (std::uint64_t s = 0; s < stepCount; ++s) {
-        const std::uint64_t removedT = b.removedTriangleOffset[s + 1] - b.removedTriangleOffset[s];
-        const std::uint64_t addedT = b.addedTriangleOffset[s + 1] - b.addedTriangleOffset[s];
-        const std::uint64_t removedE = b.removedEdgeOffset[s + 1] - b.removedEdgeOffset[s];
-        const std::uint64_t addedE = b.addedEdgeOffset[s + 1] - b.addedEdgeOffset[s];
-        const auto where = [&] { return "step " + std::to_string(s); };
-        if (removedT > trianglesAlive[s] || removedE > edgesAlive[s]) {
-            error = where() + " removes more triangles or river edges than are alive";
-            return false;
-        }
-        trianglesAlive[s + 1] = trianglesAlive[s] - removedT + addedT;
-        edgesAlive[s + 1] = edgesAlive[s] - removedE + addedE;
-        if (b.steps[s].trianglesAlive != trianglesAlive[s + 1]) {
-            error = where() + ": trianglesAlive is " + std::to_string(b.steps[s].trianglesAlive) +
-                    " but the records give " + std::to_string(trianglesAlive[s + 1]);
-            return false;
-        }
-        if (b.steps[s].riverEdgesAlive != edgesAlive[s + 1]) {
-            error = where() + ": riverEdgesAlive is " + std::to_string(b.steps[s].riverEdgesAlive) +
-                    " but the records give " + std::to_string(edgesAlive[s + 1]);
-            return false;
-        }
-    }
-
-    for (std::size_t l = 0; l < b.levels.size(); ++l) {
-        const Level& level = b.levels[l];
-        const std::string where = "level " + std::to_string(l);
-        if (l > 0 && level.step <= b.levels[l - 1].step) {
-            error = where + ": step " + std::to_string(level.step) + " is not above level " +
-                    std::to_string(l - 1) + "'s step " + std::to_string(b.levels[l - 1].step);
-            return false;
-        }
-        if (level.step > stepCount) {
-            error = where + ": step " + std::to_string(level.step) + " > step count " +
-                    std::to_string(stepCount);
-            return false;
-        }
-        if (level.vertexCount != n - level.step) {
-            error = where + ": vertexCount " + std::to_string(level.vertexCount) +
-                    ", expected vertices - step = " + std::to_string(n - level.step);
-            return false;
-        }
-        if (level.triangleCount != trianglesAlive[level.step] ||
-            level.riverCount != edgesAlive[level.step]) {
-            error = where + ": " + std::to_string(level.triangleCount) + " triangles and " +
-                    std::to_string(level.riverCount) + " river edges, the records give " +
-                    std::to_string(trianglesAlive[level.step]) + " and " +
-                    std::to_string(edgesAlive[level.step]);
-            return false;
-        }
-        if (std::uint64_t(level.triangleFirst) + level.triangleCount > b.terrainIndices.size()) {
-            error = where + ": terrain range [" + std::to_string(level.triangleFirst) + ", +" +
-                    std::to_string(level.triangleCount) + ") outside the " +
-                    std::to_string(b.terrainIndices.size()) + " terrain triangles";
-            return false;
-        }
-        if (std::uint64_t(level.riverFirst) + level.riverCount > b.riverIndices.size()) {
-            error = where + ": river range [" + std::to_string(level.riverFirst) + ", +" +
-                    std::to_string(level.riverCount) + ") outside the " +
-                    std::to_string(b.riverIndices.size()) + " river edges";
-            return false;
-        }
-        if (!validateLevelGeometryImpl(b, l, error)) return false;
-        // The level's errors are the error table's at its step (what the engine's h_s is).
-        const bool maxOk = (metrics & kMetricMax) == 0 || level.errorMax == b.errorMax[level.step];
-        const bool paperOk =
-            (metrics & kMetricPaper) == 0 || level.errorPaper == b.errorPaper[level.step];
-        if (!maxOk || !paperOk) {
-            error = where + ": errors differ from the error table at step " +
-                    std::to_string(level.step);
-            return false;
-        }
-    }
-    return true;
-}
-
 // ---- I/O helpers ------------------------------------------------------------------------------
 
 bool preadAll(int fd, void* data, std::uint64_t size, std::uint64_t offset) {
@@ -795,9 +339,7 @@ void fillBlockHeader(const Block& b, BlockHeader& h) {
     h.maxX = b.maxX;
     h.maxY = b.maxY;
     h.maxZ = b.maxZ;
-    std::uint32_t* counts = blockCounts(h);
-    int i = 0;
-    forEachArray(b, [&](const auto& v) { counts[i++] = static_cast<std::uint32_t>(v.size()); });
+    forEachArray(b, [&](const auto& v, int i) { countOf(h, i) = static_cast<std::uint32_t>(v.size()); });
 }
 
 // The block's bytes: compact (blockcodec.h) when asked for, the block is in canonical form (the
@@ -823,25 +365,11 @@ void serializeBlock(const Block& b, bool compact, double zQuantum,
     h.encoding = std::uint32_t(BlockEncoding::kRaw);
     out.reserve(blockByteSize(h));
     appendPadded(out, &h, sizeof(h));
-    forEachArray(b, [&](const auto& v) { appendPadded(out, v.data(), v.size() * sizeof(v[0])); });
+    forEachArray(b, [&](const auto& v, int) { appendPadded(out, v.data(), v.size() * sizeof(v[0])); });
     assert(out.size() == blockByteSize(h));
 }
 
 }  // namespace
-
-bool validateBlock(const Block& block, std::uint32_t metrics, std::string& error) {
-    if (!validateBlockImpl(block, metrics, error)) {
-        error = blockName(block.col, block.row, block.level) + ": " + error;
-        return false;
-    }
-    return true;
-}
-
-bool validateLevelGeometry(const Block& block, std::size_t level, std::string& error) {
-    return validateLevelGeometryImpl(block, level, error);
-}
-
-// ---- writer -----------------------------------------------------------------------------------
 
 // ---- writer -----------------------------------------------------------------------------------
 
@@ -1259,11 +787,9 @@ bool Reader::readBlock(std::size_t index, Block& block, std::string& error) cons
     b.maxY = h.maxY;
     b.maxZ = h.maxZ;
     if (h.encoding == std::uint32_t(BlockEncoding::kRaw)) {
-        const std::uint32_t* counts = &h.vertexCount;
         std::uint64_t at = sizeof(BlockHeader);
-        int i = 0;
-        forEachArray(b, [&](auto& v) {
-            const std::uint64_t n = counts[i++];
+        forEachArray(b, [&](auto& v, int i) {
+            const std::uint32_t n = countOf(h, i);
             v.resize(n);
             const std::uint64_t size = n * sizeof(v[0]);
             if (size > 0) std::memcpy(v.data(), bytes.data() + at, size);  // data() may be null
@@ -1339,24 +865,6 @@ bool Reader::readGeometry(std::size_t index, int level, BlockGeometry& geometry,
     }
     geometry = std::move(g);
     return true;
-}
-
-std::size_t storedLevelFor(const std::vector<Level>& levels, std::uint32_t metric, double hLim) {
-    assert(!levels.empty());
-    std::size_t chosen = 0;
-    for (std::size_t i = 0; i < levels.size(); ++i) {
-        const double e = metric == kMetricPaper ? levels[i].errorPaper : levels[i].errorMax;
-        if (e <= hLim) chosen = i;  // errors are non-decreasing with the step
-    }
-    return chosen;
-}
-
-std::string blockName(std::uint32_t col, std::uint32_t row, std::uint32_t level) {
-    if (level > 0) {
-        return "node (" + std::to_string(col) + "," + std::to_string(row) + ") of tree level " +
-               std::to_string(level);
-    }
-    return "block (" + std::to_string(col) + "," + std::to_string(row) + ")";
 }
 
 }  // namespace unilod::format
