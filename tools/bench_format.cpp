@@ -16,6 +16,14 @@
 #include <string>
 #include <vector>
 
+#if UNILOD_HAVE_MESHOPTIMIZER
+#include <meshoptimizer.h>
+#endif
+#include <zstd.h>
+
+#include <algorithm>
+#include <cstring>
+
 #include "benchbuild.h"
 #include "benchutil.h"
 #include "blockcodec.h"
@@ -36,6 +44,89 @@ double secondsSince(std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
+std::uint64_t zstdBytes(const void* data, std::size_t size) {
+    std::vector<unsigned char> out(ZSTD_compressBound(size));
+    const std::size_t n = ZSTD_compress(out.data(), out.size(), data, size, 6);
+    return ZSTD_isError(n) ? size : n;
+}
+
+// The best known general codecs on the same data (issue 19: "measure both"): meshoptimizer's
+// vertex codec on the vertices as 16-byte records (grid x, y, z / quantum, flags) in the same
+// spatial order as our streams, its index codec on the index data of every stored level (the
+// alternative to deriving it from the records) and on the full-resolution mesh alone, each also
+// with zstd on top. Adds bytes to `sums`.
+void meshoptimizerBaseline(const unilod::format::Block& b, double q, json& sums) {
+#if UNILOD_HAVE_MESHOPTIMIZER
+    const std::size_t n = b.vertices.size();
+    std::vector<std::uint32_t> order(n);
+    for (std::uint32_t i = 0; i < n; ++i)
+        order[i] = i;
+    std::sort(order.begin(), order.end(), [&](std::uint32_t l, std::uint32_t r) {
+        return b.grid[l].y != b.grid[r].y ? b.grid[l].y < b.grid[r].y : b.grid[l].x < b.grid[r].x;
+    });
+    struct Record {
+        std::int32_t x, y, z;
+        std::uint32_t flags;
+    };
+    std::vector<Record> records(n);
+    for (std::size_t k = 0; k < n; ++k) {
+        const std::uint32_t i = order[k];
+        records[k] = {b.grid[i].x, b.grid[i].y, std::int32_t(std::lround(b.vertices[i].z / q)),
+                      b.vertices[i].flags};
+    }
+    auto add = [&](const char* key, std::uint64_t bytes) {
+        sums[key] = sums.value(key, std::uint64_t(0)) + bytes;
+    };
+    std::vector<unsigned char> buf(meshopt_encodeVertexBufferBound(n, sizeof(Record)));
+    const std::size_t vb =
+        meshopt_encodeVertexBuffer(buf.data(), buf.size(), records.data(), n, sizeof(Record));
+    add("vertex_codec", vb);
+    add("vertex_codec_zstd", zstdBytes(buf.data(), vb));
+    auto indexBytes = [&](const std::vector<unilod::format::Triangle>& tris, const char* key) {
+        std::vector<unsigned int> idx;
+        idx.reserve(tris.size() * 3);
+        for (const auto& t : tris) {
+            idx.push_back(t.a);
+            idx.push_back(t.b);
+            idx.push_back(t.c);
+        }
+        std::vector<unsigned char> out(meshopt_encodeIndexBufferBound(idx.size(), n));
+        const std::size_t ib = meshopt_encodeIndexBuffer(out.data(), out.size(), idx.data(), idx.size());
+        add(key, ib);
+        add((std::string(key) + "_zstd").c_str(), zstdBytes(out.data(), ib));
+    };
+    indexBytes(b.terrainIndices, "index_codec_every_level");
+    {
+        // The full-resolution mesh in spatial vertex numbering, triangles in vertex-cache order
+        // (meshopt_optimizeVertexCache): the codec's best case, as our mesh stream numbers it.
+        std::vector<std::uint32_t> rank(n);
+        for (std::size_t k = 0; k < n; ++k)
+            rank[order[k]] = std::uint32_t(k);
+        const unilod::format::Level& l0 = b.levels[0];
+        std::vector<unsigned int> idx;
+        for (std::uint32_t t = l0.triangleFirst; t < l0.triangleFirst + l0.triangleCount; ++t) {
+            idx.push_back(rank[b.terrainIndices[t].a]);
+            idx.push_back(rank[b.terrainIndices[t].b]);
+            idx.push_back(rank[b.terrainIndices[t].c]);
+        }
+        std::vector<unsigned int> opt(idx.size());
+        meshopt_optimizeVertexCache(opt.data(), idx.data(), idx.size(), n);
+        std::vector<unsigned char> out(meshopt_encodeIndexBufferBound(opt.size(), n));
+        const std::size_t ib = meshopt_encodeIndexBuffer(out.data(), out.size(), opt.data(), opt.size());
+        add("index_codec_full_resolution_spatial_cache_order", ib);
+        add("index_codec_full_resolution_spatial_cache_order_zstd", zstdBytes(out.data(), ib));
+    }
+    const unilod::format::Level& full = b.levels[0];
+    indexBytes(std::vector<unilod::format::Triangle>(
+                   b.terrainIndices.begin() + full.triangleFirst,
+                   b.terrainIndices.begin() + full.triangleFirst + full.triangleCount),
+               "index_codec_full_resolution");
+#else
+    (void)b, (void)q;
+    sums["unavailable"] = "built without meshoptimizer (Debian libmeshoptimizer-dev)";
+#endif
+}
+
 // Sizes per stream and decode speed of a compact model; `raw` is the same model with raw blocks.
 json measureFiles(const std::string& compact, const std::string& raw) {
     unilod::format::Reader c, r;
@@ -45,7 +136,7 @@ json measureFiles(const std::string& compact, const std::string& raw) {
     std::vector<std::vector<unsigned char>> payloads;
     std::vector<unilod::format::BlockCounts> counts;
     std::uint64_t decodedBytes = 0, compactBlocks = 0, rawBlocks = 0, leafVertices = 0;
-    json streams = json::object();
+    json streams = json::object(), meshopt = json::object();
     for (std::size_t i = 0; i < c.blocks().size(); ++i) {
         const auto& info = c.blocks()[i];
         if (info.level == 0) leafVertices += info.vertexCount;
@@ -57,6 +148,7 @@ json measureFiles(const std::string& compact, const std::string& raw) {
         unilod::format::Block b;
         if (!r.readBlock(i, b, error)) fail(error);
         counts.push_back(unilod::format::countsOf(b));
+        meshoptimizerBaseline(b, r.header().zQuantum, meshopt);
         decodedBytes += r.blocks()[i].size;
         // The payload: after the 144-byte block header, its size in the header's last word.
         std::vector<unsigned char> bytes(info.size);
@@ -101,6 +193,7 @@ json measureFiles(const std::string& compact, const std::string& raw) {
             {"compact_file_bytes", fs::file_size(compact)},
             {"raw_file_bytes", fs::file_size(raw)},
             {"streams", streams},
+            {"meshoptimizer_bytes", meshopt},
             {"decoded_megabytes", mb},
             {"decode_seconds_one_core", decodeSeconds},
             {"decode_mb_per_s_one_core", mb / decodeSeconds},
@@ -164,6 +257,23 @@ int main(int argc, char** argv) {
     const double rawBytes = double(files["raw_file_bytes"].get<std::uint64_t>());
     for (auto& [stream, e] : files["streams"].items())
         e["bytes_per_dem_point"] = double(e["stored_bytes"].get<std::uint64_t>()) / demPoints;
+    json meshopt = json::object();
+    for (auto& [key, bytes] : files["meshoptimizer_bytes"].items())
+        if (bytes.is_number()) meshopt[key] = double(bytes.get<std::uint64_t>()) / demPoints;
+    // Ours for the same content: positions + heights + flags (vertex codec's records; our
+    // permutation has no counterpart there), the mesh stream (full resolution), and the records
+    // streams that replace the stored levels (every level's index data).
+    auto streamPerPoint = [&](const char* stream) {
+        return files["streams"].contains(stream) ? files["streams"][stream]["bytes_per_dem_point"].get<double>()
+                                               : 0.0;
+    };
+    const json ours = {
+        {"vertices_without_permutation",
+         streamPerPoint("positions") + streamPerPoint("heights") + streamPerPoint("flags")},
+        {"full_resolution_mesh", streamPerPoint("mesh")},
+        {"every_level_via_mesh_and_records",
+         streamPerPoint("mesh") + streamPerPoint("step_counts") + streamPerPoint("step_refs") +
+             streamPerPoint("step_apexes") + streamPerPoint("level_steps")}};
     const json result = {
         {"benchmark", "ulod_format"},
         {"case", name},
@@ -187,6 +297,8 @@ int main(int argc, char** argv) {
         {"build_max_rss_bytes",
          {{"compact", compactBuild["max_rss_bytes"]}, {"raw", rawBuild["max_rss_bytes"]}}},
         {"files", files},
+        {"meshoptimizer_bytes_per_dem_point", meshopt},
+        {"ours_bytes_per_dem_point_same_content", ours},
         {"target_decode_mb_per_s_one_core", 300}};
     std::printf("%s\n", unilod::jsonText(result).c_str());
     if (keep.empty()) fs::remove_all(work);

@@ -3,7 +3,7 @@
 # the exact apt-get line and stops.
 UNILOD_DEBIAN_PACKAGES=(
     build-essential cmake ninja-build pkg-config
-    libgdal-dev gdal-bin zlib1g-dev libzstd-dev
+    libgdal-dev gdal-bin zlib1g-dev libzstd-dev libmeshoptimizer-dev
     nlohmann-json3-dev libcli11-dev
     libgtest-dev
     libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers glslang-tools libglm-dev libpng-dev

@@ -929,6 +929,10 @@ TEST_F(CliBuildJacksboro, ChecksAndReportsItsGrid) {
     EXPECT_EQ(j["tree_levels"], levels);
     EXPECT_EQ(j["tree_nodes"].get<std::size_t>() + bx * by, j["blocks"].size());
     EXPECT_GT(j["blocks"].size(), bx * by);
+    // Compact blocks (issue 19): all but a tiny sliver block, under 10 bytes per point.
+    EXPECT_EQ(j["z_quantum_m"].get<double>(), format::kDefaultZQuantum);
+    EXPECT_GE(j["compact_blocks"].get<std::size_t>() + 2, j["blocks"].size());
+    EXPECT_LT(j["block_bytes"].get<double>(), 10.0 * j["vertices"].get<double>());
     format::Reader reader;
     std::string error;
     ASSERT_TRUE(reader.open(model, error)) << error;

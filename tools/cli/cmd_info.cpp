@@ -21,6 +21,7 @@ int run(const std::string& path, bool asJson) {
     const format::Header& h = reader.header();
     nlohmann::json blocks = nlohmann::json::array();
     std::uint64_t vertices = 0, triangles = 0;  // totals over the blocks (tree level 0)
+    std::uint64_t blockBytes = 0, compactBlocks = 0;
     std::size_t leafCount = 0, treeLevels = 0;
     for (const format::BlockInfo& b : reader.blocks()) {
         if (b.level == 0) {
@@ -29,6 +30,8 @@ int run(const std::string& path, bool asJson) {
             ++leafCount;
         }
         treeLevels = std::max<std::size_t>(treeLevels, b.level);
+        blockBytes += b.size;
+        compactBlocks += b.encoding == 1;
         nlohmann::json children = nlohmann::json::array();
         for (std::uint32_t c = 0; c < b.childCount; ++c)
             children.push_back(b.firstChild + c);
@@ -42,7 +45,8 @@ int run(const std::string& path, bool asJson) {
                           {"vertices", b.vertexCount},
                           {"steps", b.stepCount},
                           {"levels", b.levelCount},
-                          {"full_triangles", b.fullTriangles}});
+                          {"full_triangles", b.fullTriangles},
+                          {"encoding", b.encoding == 1 ? "compact" : "raw"}});
     }
     std::string metrics;
     if (h.metrics & format::kMetricMax) metrics += "max";
@@ -64,6 +68,9 @@ int run(const std::string& path, bool asJson) {
             {"tree_levels", treeLevels},
             {"metrics", metrics},
             {"default_metric", def},
+            {"z_quantum_m", h.zQuantum},
+            {"compact_blocks", compactBlocks},
+            {"block_bytes", blockBytes},
             {"build", info.is_discarded() ? nlohmann::json(h.buildInfo) : info},
             {"vertices", vertices},
             {"full_triangles", triangles},
@@ -81,6 +88,9 @@ int run(const std::string& path, bool asJson) {
     std::printf("  tree          %zu blocks, %zu nodes above them in %zu levels\n", leafCount,
                 reader.blocks().size() - leafCount, treeLevels);
     std::printf("  metrics       %s (default %s)\n", metrics.c_str(), def);
+    std::printf("  storage       %llu of %zu entries compact, %llu bytes of blocks, z quantum %g m\n",
+                static_cast<unsigned long long>(compactBlocks), reader.blocks().size(),
+                static_cast<unsigned long long>(blockBytes), h.zQuantum);
     std::printf("  totals        %llu vertices, %llu triangles at full resolution\n",
                 static_cast<unsigned long long>(vertices),
                 static_cast<unsigned long long>(triangles));
