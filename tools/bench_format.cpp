@@ -44,7 +44,7 @@ double secondsSince(std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-std::uint64_t zstdBytes(const void* data, std::size_t size) {
+[[maybe_unused]] std::uint64_t zstdBytes(const void* data, std::size_t size) {
     std::vector<unsigned char> out(ZSTD_compressBound(size));
     const std::size_t n = ZSTD_compress(out.data(), out.size(), data, size, 6);
     return ZSTD_isError(n) ? size : n;
