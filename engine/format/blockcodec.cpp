@@ -909,9 +909,15 @@ bool decodeCompact(const unsigned char* data, std::size_t size, const BlockCount
         In lv = in(kLevelSteps);
         d.levels.resize(c.levels);
         std::uint64_t step = 0;
-        for (Level& l : d.levels) {
-            step += lv.u();
-            if (!lv.ok || step > c.steps) return fail("a level step is out of range");
+        for (std::size_t j = 0; j < d.levels.size(); ++j) {
+            Level& l = d.levels[j];
+            const std::uint64_t delta = lv.u();
+            step += delta;
+            // Strictly ascending from 0 (validateBlock's rule, needed here already: the layout
+            // below relies on it to bound its output).
+            if (!lv.ok || delta > c.steps || step > c.steps || (j > 0 && delta == 0) ||
+                (j == 0 && step != 0))
+                return fail("a level step is out of range or out of order");
             l.step = std::uint32_t(step);
             l.vertexCount = n - l.step;
             l.errorMax = d.errorMax.empty() ? 0.0f : d.errorMax[l.step];
