@@ -43,7 +43,7 @@ struct BuildOptions : IngestOptions {
     // the paper metric only (the paper's runs keep its flat block grid). --no-tree: blocks only.
     bool tree = true;
     // Blocks stored as plain arrays (format::Writer::storeRaw) instead of the compact encoding:
-    // about 25 times larger; for tools and tests that edit the bytes. --encoding raw.
+    // about 35-40 times larger; for tools and tests that edit the bytes. --encoding raw.
     bool rawBlocks = false;
     // Progress: blocks done of total (called from the calling thread).
     std::function<void(std::size_t, std::size_t)> progress;

@@ -134,8 +134,8 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
                   "nodes above the blocks whose shared borders simplify, so far views draw a few "
                   "nodes; --no-tree: the flat block grid");
     sub->add_option("--encoding", c->encoding,
-                    "block encoding: compact (default; about 10 bytes per point) or raw (plain "
-                    "arrays, about 25 times larger, for tools that read the layout directly)")
+                    "block encoding: compact (default; about 7 bytes per point) or raw (plain "
+                    "arrays, about 35-40 times larger, for tools that read the layout directly)")
         ->check(CLI::IsMember({"compact", "raw"}));
     sub->add_flag("-q,--quiet", c->quiet, "no progress output");
     sub->callback([c, &exitCode] { exitCode = run(*c); });
