@@ -158,6 +158,18 @@ void layOut(std::vector<Life<T>>& lives, const std::vector<std::uint32_t>& level
     // straight to its place, so every part comes out sorted.
     std::vector<std::uint32_t> range(2 * lives.size());
     std::vector<std::uint64_t> size(3 * pairs + 1, 0);
+    // levelAt[k] = the number of level steps below k (lower_bound of k), for k up to the last
+    // step + 1; later k (an element alive to the end) give n.
+    const std::uint32_t lastStep = n == 0 ? 0 : levelSteps.back();
+    std::vector<std::uint32_t> levelAt(std::size_t(lastStep) + 2);
+    for (std::uint32_t k = 0, j = 0; k < levelAt.size(); ++k) {
+        while (j < n && levelSteps[j] < k)
+            ++j;
+        levelAt[k] = j;
+    }
+    auto levelOf = [&](std::uint32_t k) {
+        return k < levelAt.size() ? levelAt[k] : std::uint32_t(n);
+    };
     auto forParts = [&](std::size_t from, std::size_t to, auto&& f) {
         for (std::size_t p = from / 2; p < pairs && 2 * p < to; ++p) {
             const std::size_t fine = 2 * p, coarse = fine + 1;
@@ -167,10 +179,7 @@ void layOut(std::vector<Life<T>>& lives, const std::vector<std::uint32_t>& level
         }
     };
     for (std::size_t i = 0; i < lives.size(); ++i) {
-        const auto from = std::uint32_t(std::lower_bound(levelSteps.begin(), levelSteps.end(),
-                                                         lives[i].birth) - levelSteps.begin());
-        const auto to = std::uint32_t(std::lower_bound(levelSteps.begin(), levelSteps.end(),
-                                                       lives[i].death) - levelSteps.begin());
+        const std::uint32_t from = levelOf(lives[i].birth), to = levelOf(lives[i].death);
         range[2 * i] = from;
         range[2 * i + 1] = to;
         forParts(from, to, [&](std::size_t part) { ++size[part + 1]; });
