@@ -77,6 +77,16 @@ protected:
     }
 };
 
+// The entry where `check --errors` found the recomputed error closest to the stored one.
+format::Block* worstBlock(test::Model& model, const UlodCheckSummary& s) {
+    for (format::Block& candidate : model.blocks) {
+        if (candidate.col == s.worstCol && candidate.row == s.worstRow &&
+            candidate.level == s.worstTreeLevel)
+            return &candidate;
+    }
+    return nullptr;
+}
+
 TEST_F(CheckErrors, StoredBoundsHoldOnEveryModel) {
     ASSERT_EQ(models.size(), 4u);
     for (const Built& m : models) {
@@ -116,12 +126,7 @@ TEST_F(CheckErrors, LoweredBoundFails) {
         ASSERT_GT(s.worstRecomputed, 0.1) << "no level with a recomputed error above 10 cm";
         test::Model model;
         ASSERT_TRUE(test::readModel(m.path, model, error)) << error;
-        format::Block* b = nullptr;
-        for (format::Block& candidate : model.blocks) {
-            if (candidate.col == s.worstCol && candidate.row == s.worstRow &&
-                candidate.level == s.worstTreeLevel)
-                b = &candidate;
-        }
+        format::Block* b = worstBlock(model, s);
         ASSERT_NE(b, nullptr);
         const format::Level& level = b->levels[s.worstLevel];
         const float lowered = float(s.worstRecomputed / 2);
@@ -167,12 +172,7 @@ TEST_F(CheckErrors, MillimetreLieFails) {
         ASSERT_GT(s.worstStored, 0.01);
         test::Model model;
         ASSERT_TRUE(test::readModel(m.path, model, error)) << error;
-        format::Block* b = nullptr;
-        for (format::Block& candidate : model.blocks) {
-            if (candidate.col == s.worstCol && candidate.row == s.worstRow &&
-                candidate.level == s.worstTreeLevel)
-                b = &candidate;
-        }
+        format::Block* b = worstBlock(model, s);
         ASSERT_NE(b, nullptr);
         const std::uint32_t step = b->levels[s.worstLevel].step;
         const float lowered = float(s.worstStored - 3 * model.header.zQuantum - 1e-3);
