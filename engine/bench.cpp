@@ -133,6 +133,7 @@ bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
         const auto now = Clock::now();
         data.frameMs.push_back(std::chrono::duration<double, std::milli>(now - last).count());
         last = now;
+        if (o.progress) o.progress({}, i + 1, n);
     }
     const std::vector<FrameTiming> timings = renderer.finish();
     data.seconds = std::chrono::duration<double>(Clock::now() - start).count();
@@ -148,7 +149,7 @@ bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
 
 }  // namespace
 
-bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error, bool progress) {
+bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
     if (o.cameras.empty()) {
         error = "no frames";
         return false;
@@ -175,7 +176,7 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error, bo
         for (std::string& m : r.close()) messages.push_back(std::move(m));
     };
     auto say = [&](const char* what) {
-        if (progress) std::fprintf(stderr, "unilod bench: %s (%zu frames)...\n", what, o.cameras.size());
+        if (o.progress) o.progress(what, 0, o.cameras.size());
     };
 
     if (has("lod")) {

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -31,11 +32,20 @@ struct BenchOptions {
     std::uint32_t warmup = 5;  // frames rendered before each run's measured frames
     bool perFrame = false;     // include every frame's numbers in the JSON
     std::vector<std::string> runs = {"lod", "resident", "bare", "full"};
+    // Progress (may be empty): at the start of each run its description (done 0), after each
+    // measured frame an empty description and the run's frames done of total. Called from the
+    // calling thread between frames (the caller rate-limits its printing: cmd_bench.cpp).
+    std::function<void(const std::string& run, std::size_t done, std::size_t total)> progress;
 };
 
 // Runs the benchmark and returns its JSON (see README "unilod bench" for the fields). False
 // with a message on a data or device error or a validation message when validation is on.
-bool runBench(const BenchOptions& options, nlohmann::json& out, std::string& error,
-              bool progress);
+bool runBench(const BenchOptions& options, nlohmann::json& out, std::string& error);
+// The former form, kept while callers move (tools/report/frametimes.cpp): the flag printed
+// stage lines on stderr; BenchOptions::progress replaces it, and it is ignored.
+inline bool runBench(const BenchOptions& options, nlohmann::json& out, std::string& error,
+                     bool /*progress*/) {
+    return runBench(options, out, error);
+}
 
 }  // namespace unilod::engine

@@ -19,8 +19,8 @@ namespace unilod {
 
 namespace {
 
-// The output rules: replace only with --force, and never one of the inputs (also with --force:
-// `build dem.tif rivers.geojson -o dem.tif --force` must not destroy the DEM).
+// The output rules: replace only with --overwrite, and never one of the inputs (also with
+// --overwrite: `build dem.tif rivers.geojson -o dem.tif --overwrite` must not destroy the DEM).
 format::OutputOptions outputOptions(const BuildOptions& o) {
     format::OutputOptions out;
     out.replace = o.force;
@@ -85,6 +85,7 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
         return false;
     }
     summary.blockSize = blockSize;
+    if (o.stage) o.stage("splitting into blocks", 0);
     BlockSource source;
     if (!splitIntoBlocks(data, o, blockSize, o.order == DeletionOrderKind::ThreeDdp, source, error))
         return false;
@@ -307,6 +308,7 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
             changed.notify_all();
         }
     };
+    if (o.stage) o.stage(n > leafCount ? "blocks and tree nodes" : "blocks", n);
     std::vector<std::thread> pool;
     for (unsigned t = 0; t < threads && t < n; ++t)
         pool.emplace_back(work);

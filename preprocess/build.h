@@ -38,14 +38,17 @@ struct BuildOptions : IngestOptions {
     // paper's Tables 2 / 3), when it is the default metric, or when asked for here. It costs the
     // greedy build about 20 % of its time (a nearest-vertex update per deleted point).
     bool paperMetric = false;
-    bool force = false;  // overwrite an existing output
+    bool force = false;  // replace an existing output (--overwrite)
     // Build issue 18's block hierarchy (nodebuild.h) above the blocks: the greedy order without
     // the paper metric only (the paper's runs keep its flat block grid). --no-tree: blocks only.
     bool tree = true;
     // Blocks stored as plain arrays (format::Writer::storeRaw) instead of the compact encoding:
     // about 35-40 times larger; for tools and tests that edit the bytes. --encoding raw.
     bool rawBlocks = false;
-    // Progress: blocks done of total (called from the calling thread).
+    // Progress: the stages before the blocks ("splitting into blocks"), then the stage of the
+    // blocks with their count, then blocks (and tree nodes) done of total. Both called from the
+    // calling thread.
+    std::function<void(const std::string& stage, std::size_t total)> stage;
     std::function<void(std::size_t, std::size_t)> progress;
 };
 

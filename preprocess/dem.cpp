@@ -55,9 +55,13 @@ GDALDatasetUniquePtr extractBand(GDALDataset* src, int band) {
 
 // Warps the single-band `src` to `dstWkt` in memory: Float32 with NaN as nodata, so that cells
 // outside the source footprint (the skewed corners of a reprojected grid) are nodata, not 0.
-GDALDatasetUniquePtr warpToMemory(GDALDataset* src, const std::string& dstWkt) {
+// `srcWkt`: the source CRS when the raster declares none (--s-srs); empty: the raster's own.
+GDALDatasetUniquePtr warpToMemory(GDALDataset* src, const std::string& dstWkt,
+                                  const std::string& srcWkt) {
     ArgList list{
         {"-of", "MEM", "-r", "bilinear", "-t_srs", dstWkt, "-ot", "Float32", "-dstnodata", "nan"}};
+    if (!srcWkt.empty()) list = ArgList{{"-of", "MEM", "-r", "bilinear", "-s_srs", srcWkt, "-t_srs",
+                                         dstWkt, "-ot", "Float32", "-dstnodata", "nan"}};
     std::vector<char*> argv = list.pointers();
     GDALWarpAppOptions* opts = GDALWarpAppOptionsNew(argv.data(), nullptr);
     if (opts == nullptr) return nullptr;
@@ -163,6 +167,19 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
 
     // Choose the working CRS.
     const OGRSpatialReference* srcSrs = ds->GetSpatialRef();
+    // --s-srs: the CRS of a raster that declares none (gdalwarp -s_srs); a declared one wins.
+    OGRSpatialReference assumed;
+    std::string assumedWkt;
+    if (srcSrs == nullptr && !options.assumeSrs.empty()) {
+        if (assumed.SetFromUserInput(options.assumeSrs.c_str()) != OGRERR_NONE) {
+            error = "DEM '" + path + "': cannot parse the assumed source CRS '" +
+                    options.assumeSrs + "' (--s-srs)";
+            return false;
+        }
+        assumed.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+        srcSrs = &assumed;
+        assumedWkt = toWkt(assumed);
+    }
     OGRSpatialReference target;
     bool warp = false;
     if (!options.targetSrs.empty()) {
@@ -178,7 +195,7 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
         }
         if (srcSrs == nullptr) {
             error = "DEM '" + path + "': the raster has no CRS, cannot reproject it to '" +
-                    options.targetSrs + "' (leave out --t-srs)";
+                    options.targetSrs + "' (give its CRS with --s-srs, or leave out --t-srs)";
             return false;
         }
         warp = !srcSrs->IsSame(&target);
@@ -211,7 +228,7 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
             }
             source = single.get();
         }
-        warped = warpToMemory(source, toWkt(target));
+        warped = warpToMemory(source, toWkt(target), assumedWkt);
         if (!warped) {
             error = "DEM '" + path + "': reprojection failed" + gdalErrorSuffix();
             return false;

@@ -34,6 +34,7 @@ struct DemGrid {
 struct DemLoadOptions {
     int band = 0;           // 1-based band; 0 = "the only band" (multi-band rasters need one)
     std::string targetSrs;  // any SRS GDAL understands (EPSG:32616, WKT, PROJ); empty = automatic
+    std::string assumeSrs;  // the CRS of a raster that declares none (--s-srs); ignored otherwise
 };
 
 // Loads `path` into `dem`. Working CRS: `targetSrs` when given (the raster is warped to it unless

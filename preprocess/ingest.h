@@ -31,7 +31,8 @@ struct IngestOptions {
     std::string demPath, riversPath;
     int band = 0;           // 1-based; 0: the only band
     std::string targetSrs;  // --t-srs; empty: a projected DEM's own CRS, else UTM of its centre
-    std::string layer, where, assumeSrs;  // river layer, OGR SQL filter, CRS of a CRS-less layer
+    // River layer, OGR SQL filter; --s-srs: the CRS of an input (DEM, river layer) without one.
+    std::string layer, where, assumeSrs;
     int stride = 1;                       // DEM points: every stride-th row and column
     double minRiverLength = 0;            // river cleaning: drop shorter rivers (metres)
     double riverClearance = kDefaultRiverClearance;  // DEM points this close to a river go

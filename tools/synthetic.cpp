@@ -686,7 +686,8 @@ bool writeRiverFile(const SyntheticData& data, const OGRSpatialReference& srs,
 
 }  // namespace
 
-bool writeSyntheticData(const SyntheticData& data, const std::string& dir, std::string& error) {
+bool writeSyntheticData(const SyntheticData& data, const std::string& dir, std::string& error,
+                        bool replace) {
     namespace fs = std::filesystem;
     QuietGdalErrors quiet;
     std::error_code ec;
@@ -705,8 +706,8 @@ bool writeSyntheticData(const SyntheticData& data, const std::string& dir, std::
     }
     srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
     // GDAL writes the temporaries by name; AtomicFile checks, syncs and moves them into place
-    // (replacing the files of an earlier run).
-    const format::OutputOptions output{.replace = true, .inputs = {}};
+    // (replacing the files of an earlier run only when `replace`).
+    const format::OutputOptions output{.replace = replace, .inputs = {}};
     format::AtomicFile demFile, riverFile;
     return demFile.openByName(demPath, output, error) &&
            riverFile.openByName(riverPath, output, error) &&

@@ -54,9 +54,11 @@ PointSet generateSyntheticTerrain(const SyntheticOptions& options);
 
 // Writes dir/dem.tif (GeoTIFF Float32, EPSG:32616) and dir/rivers.geojson (LineStrings, same CRS,
 // full double precision so that junctions stay exactly shared), each through a temporary file and
-// a rename. Creates `dir` when missing. Returns false with `error` naming the file on failure and
-// leaves no temporary file behind.
-bool writeSyntheticData(const SyntheticData& data, const std::string& dir, std::string& error);
+// a rename. Creates `dir` when missing. `replace`: replace existing files (otherwise an existing
+// file is an error, before anything is written). Returns false with `error` naming the file on
+// failure and leaves no temporary file behind.
+bool writeSyntheticData(const SyntheticData& data, const std::string& dir, std::string& error,
+                        bool replace = true);
 
 // Writes `dem` to `path` as a GeoTIFF (Float32, NaN = nodata) in `srs`. False with `error`.
 bool writeDemFile(const DemGrid& dem, const OGRSpatialReference& srs, const std::string& path,

@@ -149,7 +149,7 @@ bool checkOutputPath(const std::string& path, const OutputOptions& options, bool
         } else if (!S_ISREG(out.st_mode)) {
             return fail(notRegular(out.st_mode) + ": refusing to replace it");
         } else if (!options.replace) {
-            return fail("already exists (use --force to replace it)");
+            return fail("already exists (use --overwrite to replace it)");
         }
     }
     const std::string dir = folderOf(path);

@@ -1,8 +1,10 @@
 // `unilod bench FILE [--path PATH.json] [--frames 200] [--size 1920x1080] [--pixels 1]
-// [--json OUT]`: the paper's §4.2.3 roaming experiment (engine/bench.h): one fixed camera path,
-// four runs (streamed LOD, everything resident, bare replay of the same draws, full resolution),
-// FPS and frame time median / p95 / p99, GPU time, triangles, resident blocks, bytes uploaded.
-// A benchmark, not a test: it prints numbers and asserts nothing.
+// [-o OUT.json] [--json [-]]`: the paper's §4.2.3 roaming experiment (engine/bench.h): one fixed
+// camera path, four runs (streamed LOD, everything resident, bare replay of the same draws, full
+// resolution), FPS and frame time median / p95 / p99, GPU time, triangles, resident blocks, bytes
+// uploaded. Prints a table on stdout, or the JSON with --json (or -o -); -o FILE writes the JSON
+// to FILE (an existing one needs --overwrite: outputopts.h; `--json FILE` is the old spelling).
+// Progress on stderr (progress.h). A benchmark, not a test: it prints numbers and asserts nothing.
 #include <cstdio>
 #include <memory>
 #include <sstream>
@@ -15,6 +17,8 @@
 #include "commands.h"
 #include "engineopts.h"
 #include "jsontext.h"
+#include "outputopts.h"
+#include "progress.h"
 #include "ulod.h"
 
 namespace unilod::cli {
@@ -24,8 +28,11 @@ namespace {
 struct BenchCli {
     engine::BenchOptions o;
     EngineCli engine;
-    std::string cameraPath, jsonOut, runs = "lod,resident,bare,full";
+    std::string cameraPath, runs = "lod,resident,bare,full";
+    OutputFlags output;
+    JsonFlags json;
     std::uint32_t frames = 200;
+    bool quiet = false;
 };
 
 // Without --path: a straight oblique fly-over of the data at a fifth of its width above its
@@ -58,11 +65,21 @@ int run(BenchCli& c) {
         c.o.runs.push_back(r);
     }
     std::string error;
-    // --json replaces an earlier result, never the model or the camera path; checked now so
-    // that a bad path fails before the runs.
-    format::OutputOptions output{.replace = true, .inputs = {c.o.path}};
+    // Where the JSON goes: -o FILE, or the old spelling --json FILE; "-" is stdout (instead of
+    // the table).
+    if (!c.output.path.empty() && c.json.requested() && !c.json.toStdout()) {
+        std::fprintf(stderr, "unilod bench: error: give -o FILE or --json FILE, not both\n");
+        return 2;
+    }
+    std::string jsonFile = c.output.path.empty() && !c.json.toStdout() ? c.json.target
+                                                                       : c.output.path;
+    const bool jsonStdout = c.json.toStdout() || jsonFile == "-";
+    if (jsonFile == "-") jsonFile.clear();
+    // The JSON file replaces an earlier result only with --overwrite, never the model or the
+    // camera path; checked now so that a bad path fails before the runs.
+    format::OutputOptions output = outputOptions(c.output, {c.o.path});
     if (!c.cameraPath.empty()) output.inputs.push_back(c.cameraPath);
-    if (!c.jsonOut.empty() && !format::checkOutputPath(c.jsonOut, output, false, error)) {
+    if (!jsonFile.empty() && !format::checkOutputPath(jsonFile, output, false, error)) {
         std::fprintf(stderr, "unilod bench: error: %s\n", error.c_str());
         return 1;
     }
@@ -82,12 +99,27 @@ int run(BenchCli& c) {
     }
     c.o.cameras = engine::sampleCameraPath(path, c.frames);
     nlohmann::json out;
-    if (!engine::runBench(c.o, out, error, true)) {
+    bool ok = false;
+    {
+        Progress progress("bench", !c.quiet, "opening the device");
+        c.o.progress = [&progress](const std::string& run, std::size_t done, std::size_t total) {
+            if (!run.empty())
+                progress.stage(run, total);
+            else
+                progress.update(done, total);
+        };
+        ok = engine::runBench(c.o, out, error);
+    }
+    if (!ok) {
         std::fprintf(stderr, "unilod bench: error: %s\n",
                      errorForFile(c.o.path, error).c_str());
         return 1;
     }
     out["path"] = c.cameraPath.empty() ? "default fly-over" : c.cameraPath;
+    if (jsonStdout) {
+        std::printf("%s\n", jsonText(out, 2).c_str());
+        return 0;
+    }
     std::printf("%-9s %9s %9s %9s %9s %9s %12s %9s %12s\n", "run", "fps", "median", "p95", "p99",
                 "gpu ms", "triangles", "resident", "uploaded MB");
     for (const char* name : {"lod", "resident", "bare", "full"}) {
@@ -114,12 +146,12 @@ int run(BenchCli& c) {
     }
     std::printf("device: %s, %ux%u, %zu frames\n", out["device"].get<std::string>().c_str(),
                 c.o.width, c.o.height, c.o.cameras.size());
-    if (!c.jsonOut.empty()) {
-        if (!format::writeFileAtomically(c.jsonOut, jsonText(out, 2) + "\n", output, error)) {
+    if (!jsonFile.empty()) {
+        if (!format::writeFileAtomically(jsonFile, jsonText(out, 2) + "\n", output, error)) {
             std::fprintf(stderr, "unilod bench: error: %s\n", error.c_str());
             return 1;
         }
-        std::printf("json: %s\n", c.jsonOut.c_str());
+        std::printf("json: %s\n", jsonFile.c_str());
     }
     return 0;
 }
@@ -130,7 +162,8 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
     auto c = std::make_shared<BenchCli>();
     CLI::App* sub = app.add_subcommand(
         "bench", "Frame-time benchmark along a camera path (paper §4.2.3): streamed LOD vs "
-                 "everything resident, a bare pipeline and full resolution; prints JSON");
+                 "everything resident, a bare pipeline and full resolution; prints a table, or "
+                 "JSON with --json; -o writes the JSON to a file");
     sub->add_option("FILE", c->o.path, ".ulod file")->required();
     sub->add_option("--path", c->cameraPath,
                     "camera path JSON (as for capture; default: a fly-over of the data)");
@@ -141,7 +174,12 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
     sub->add_option("--runs", c->runs,
                     "comma-separated runs: lod, resident, bare, full (default: all four)");
     sub->add_flag("--per-frame", c->o.perFrame, "include every frame's numbers in the JSON");
-    sub->add_option("--json", c->jsonOut, "write the JSON here");
+    addOutputOptions(sub, c->output, "write the JSON to this file ('-': stdout)", false);
+    addJsonOption(sub, c->json,
+                  "print the JSON on stdout instead of the table ('-', the default; "
+                  "--json FILE: the old spelling of -o FILE)",
+                  true);
+    addQuietFlag(sub, c->quiet);
     sub->callback([c, &exitCode] { exitCode = run(*c); });
 }
 

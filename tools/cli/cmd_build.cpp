@@ -1,8 +1,7 @@
 // `unilod build DEM RIVERS -o OUT.ulod`: the unified LOD model file (issue 4; pipeline in
-// preprocess/build.h). Progress on stderr, a summary on stdout; errors name the file and the
-// problem, exit 1, and leave no output file.
-#include <unistd.h>
-
+// preprocess/build.h). Progress on stderr (progress.h), a summary on stdout; errors name the file
+// and the problem, exit 1, and leave no output file. An existing OUT needs --overwrite
+// (outputopts.h).
 #include <cstdio>
 #include <string>
 
@@ -10,6 +9,8 @@
 #include "commands.h"
 #include "ingestopts.h"
 #include "numbers.h"
+#include "outputopts.h"
+#include "progress.h"
 
 namespace unilod::cli {
 
@@ -17,21 +18,13 @@ namespace {
 
 struct BuildCli {
     BuildOptions o;
+    OutputFlags output;
     std::string metric = "max";
     std::string encoding = "compact";
     std::string order = "greedy";
     bool noBai = false;
     bool quiet = false;
 };
-
-void printProgress(std::size_t done, std::size_t total) {
-    const int width = 40;
-    const int filled = total ? int(width * done / total) : width;
-    std::fprintf(stderr, "\r  blocks [%.*s%*s] %zu/%zu", filled,
-                 "########################################", width - filled, "", done, total);
-    if (done == total) std::fputc('\n', stderr);
-    std::fflush(stderr);
-}
 
 std::string megabytes(std::uint64_t bytes) {
     char buf[64];
@@ -44,27 +37,28 @@ int run(BuildCli& c) {
     c.o.order = c.order == "3ddp" ? DeletionOrderKind::ThreeDdp : DeletionOrderKind::Greedy;
     c.o.defaultMetric = c.metric == "paper" ? format::kMetricPaper : format::kMetricMax;
     c.o.rawBlocks = c.encoding == "raw";
-    const bool tty = isatty(STDERR_FILENO) != 0;
+    c.o.outPath = c.output.path;
+    c.o.force = c.output.overwrite;
     if (!c.quiet) {
         std::fprintf(stderr, "unilod build: %s + %s -> %s\n", c.o.demPath.c_str(),
                      c.o.riversPath.c_str(), c.o.outPath.c_str());
-        std::size_t lastPrinted = 0;
-        c.o.progress = [tty, lastPrinted](std::size_t done, std::size_t total) mutable {
-            // On a terminal: a bar; in logs: a line every 10%.
-            if (tty) {
-                printProgress(done, total);
-            } else if (done == total || done * 10 / total > lastPrinted * 10 / total) {
-                std::fprintf(stderr, "  blocks %zu/%zu\n", done, total);
-                lastPrinted = done;
-            }
-        };
     }
-    c.o.warn = [](const std::string& w) {
-        std::fprintf(stderr, "unilod build: warning: %s\n", w.c_str());
+    // The first line at once: reading and splitting the inputs takes seconds on large DEMs.
+    Progress progress("build", !c.quiet, "reading the DEM and the rivers");
+    c.o.stage = [&progress](const std::string& stage, std::size_t total) {
+        progress.stage(stage, total);
+    };
+    c.o.progress = [&progress](std::size_t done, std::size_t total) {
+        progress.update(done, total);
+    };
+    c.o.warn = [&progress](const std::string& w) {
+        progress.message("unilod build: warning: " + w);
     };
     BuildSummary s;
     std::string error;
-    if (!runBuild(c.o, s, error)) {
+    const bool ok = runBuild(c.o, s, error);
+    progress.finish();
+    if (!ok) {
         std::fprintf(stderr, "unilod build: error: %s\n", error.c_str());
         return 1;
     }
@@ -108,8 +102,7 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
     CLI::App* sub = app.add_subcommand(
         "build", "Build the unified LOD model (.ulod) of a DEM and a river network");
     addIngestOptions(*sub, c->o);
-    sub->add_option("-o,--output", c->o.outPath, "output .ulod file")->required();
-    sub->add_flag("--force", c->o.force, "overwrite an existing output file");
+    addOutputOptions(sub, c->output, "output .ulod file");
     sub->add_option("--block-size", c->o.blockSize,
                     "block side in DEM cells (default " + std::to_string(kDefaultBlockSize) +
                         "; clamped to the DEM: one block where it is larger)")
@@ -137,7 +130,7 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
                     "block encoding: compact (default; about 7 bytes per point) or raw (plain "
                     "arrays, about 35-40 times larger, for tools that read the layout directly)")
         ->check(CLI::IsMember({"compact", "raw"}));
-    sub->add_flag("-q,--quiet", c->quiet, "no progress output");
+    addQuietFlag(sub, c->quiet);
     sub->callback([c, &exitCode] { exitCode = run(*c); });
 }
 

@@ -1,7 +1,9 @@
 // `unilod capture FILE (--camera x,y,z,yaw,pitch | --path PATH.json) [--frames N] [--size WxH]
-// [--pixels P] ... --out DIR`: headless frames of a .ulod file with the streamed per-block LOD
+// [--pixels P] ... -o DIR`: headless frames of a .ulod file with the streamed per-block LOD
 // (engine/capture.h), written as DIR/frame_NNNN.png + .json. Malformed options are usage errors
-// (exit 2); an unreadable file, a camera out of range or no Vulkan device are data errors (1).
+// (exit 2); an unreadable file, a camera out of range or no Vulkan device are data errors (1), and
+// so is a DIR that is not empty without --overwrite (outputopts.h; with it the frames replace
+// those of the same names, other files stay).
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -12,6 +14,8 @@
 #include "commands.h"
 #include "engineopts.h"
 #include "numbers.h"
+#include "outputopts.h"
+#include "progress.h"
 
 namespace unilod::cli {
 
@@ -19,12 +23,14 @@ namespace {
 
 struct CaptureCli {
     engine::CaptureOptions o;
+    OutputFlags output;
     EngineCli engine;
     std::vector<double> camera;
     std::string cameraPath;
     std::uint32_t frames = 0;
     double fov = 60;
     bool noSettle = false;
+    bool quiet = false;
 };
 
 int run(CaptureCli& c) {
@@ -34,6 +40,11 @@ int run(CaptureCli& c) {
         return 2;
     }
     std::string error;
+    c.o.outDir = c.output.path;
+    if (!checkOutput(c.output, OutputKind::Folder, error)) {
+        std::fprintf(stderr, "unilod capture: error: %s\n", error.c_str());
+        return 1;
+    }
     engine::CameraPath path;
     if (!c.camera.empty()) {
         engine::Camera cam;
@@ -53,7 +64,13 @@ int run(CaptureCli& c) {
     c.o.cameras = engine::sampleCameraPath(path, frames);
     c.o.settle = !c.noSettle;
     engine::CaptureResult result;
-    if (!engine::runCapture(c.o, result, error)) {
+    // The engine renders all frames, then writes them: one stage, no count to report.
+    Progress progress("capture", !c.quiet,
+                      "rendering " + std::to_string(c.o.cameras.size()) + " frame" +
+                          (c.o.cameras.size() == 1 ? "" : "s"));
+    const bool ok = engine::runCapture(c.o, result, error);
+    progress.finish();
+    if (!ok) {
         std::fprintf(stderr, "unilod capture: error: %s\n",
                      errorForFile(c.o.path, error).c_str());
         return 1;
@@ -97,8 +114,9 @@ void addCaptureCommand(CLI::App& app, int& exitCode) {
     sub->add_flag("--no-settle", c->noSettle,
                   "draw each frame with what is resident (default: wait until the blocks the "
                   "view wants are loaded, so the output is deterministic)");
-    sub->add_option("--out", c->o.outDir, "output folder (frame_NNNN.png, frame_NNNN.json)")
-        ->required();
+    addOutputOptions(sub, c->output,
+                     "output folder (frame_NNNN.png, frame_NNNN.json; created when missing)");
+    addQuietFlag(sub, c->quiet);
     sub->callback([c, &exitCode] { exitCode = run(*c); });
 }
 

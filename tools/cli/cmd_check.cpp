@@ -6,6 +6,8 @@
 #include <string>
 
 #include "commands.h"
+#include "outputopts.h"
+#include "progress.h"
 #include "ulod.h"
 #include "ulodcheck.h"
 
@@ -23,14 +25,15 @@ void addCheckCommand(CLI::App& app, int& exitCode) {
                   "also recompute the true `max` model error at every stored level from the "
                   "file's data; fail when a stored error is below it beyond the tolerance "
                   "(4 * 2^-24 * max|z| of the block + 1e-6 m); a tree node's against every original point below it");
-    sub->add_flag("-q,--quiet", *quiet, "no progress output");
+    addQuietFlag(sub, *quiet);
     sub->callback([path, quiet, options, &exitCode] {
         UlodCheckSummary s;
         std::string error;
-        auto progress = [&](std::size_t done, std::size_t total) {
-            if (!*quiet) std::fprintf(stderr, "  checked block %zu/%zu\n", done, total);
-        };
-        if (!checkUlod(*path, *options, s, error, progress)) {
+        Progress bar("check", !*quiet, "blocks");
+        auto progress = [&](std::size_t done, std::size_t total) { bar.update(done, total); };
+        const bool ok = checkUlod(*path, *options, s, error, progress);
+        bar.finish();
+        if (!ok) {
             std::fprintf(stderr, "unilod check: FAILED: %s\n", error.c_str());
             exitCode = 1;
             return;

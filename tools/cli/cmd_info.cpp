@@ -5,6 +5,7 @@
 
 #include "commands.h"
 #include "jsontext.h"
+#include "outputopts.h"
 #include "ulod.h"
 
 namespace unilod::cli {
@@ -111,12 +112,14 @@ int run(const std::string& path, bool asJson) {
 
 void addInfoCommand(CLI::App& app, int& exitCode) {
     auto path = std::make_shared<std::string>();
-    auto asJson = std::make_shared<bool>(false);
+    auto json = std::make_shared<JsonFlags>();
+    auto quiet = std::make_shared<bool>(false);
     CLI::App* sub =
         app.add_subcommand("info", "Print the header and a per-block summary of a .ulod file");
     sub->add_option("FILE", *path, ".ulod file")->required();
-    sub->add_flag("--json", *asJson, "print JSON");
-    sub->callback([path, asJson, &exitCode] { exitCode = run(*path, *asJson); });
+    addJsonOption(sub, *json, "print JSON on stdout ('-', the default)");
+    addQuietFlag(sub, *quiet);  // info prints nothing on stderr but errors: accepted for scripts
+    sub->callback([path, json, &exitCode] { exitCode = run(*path, json->requested()); });
 }
 
 }  // namespace unilod::cli

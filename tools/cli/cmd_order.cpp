@@ -1,7 +1,8 @@
 // `unilod order DEM RIVERS`: the importance order of the improved 3D_DP (paper §2, §3.1) on real
 // data: ingest the DEM and the rivers exactly as `unilod build` does (preprocess/ingest.h), take
 // the point set of ONE block covering the DEM as `build --order 3ddp` makes it (the DEM's outer
-// edge locked), rank it, print a summary (text or JSON) and optionally the deletion order as CSV.
+// edge locked), rank it, print a summary (text or JSON) and optionally the deletion order as CSV
+// (-o; an existing CSV needs --overwrite: outputopts.h). Progress on stderr (progress.h).
 //
 // Errors name the file and the problem on stderr and exit with 1; the CSV goes through a
 // format::AtomicFile moved into place only after everything succeeded, so a failed run leaves no
@@ -25,6 +26,8 @@
 #include "ingestopts.h"
 #include "jsontext.h"
 #include "numbers.h"
+#include "outputopts.h"
+#include "progress.h"
 
 namespace unilod::cli {
 
@@ -38,8 +41,8 @@ struct OrderOptions {
     bool noBai = false;
     double baiRow = kDefaultBaiRow;
     std::string baiTable;
-    std::string out;
-    bool json = false;
+    OutputFlags out;
+    JsonFlags json;
     bool quiet = false;
 };
 
@@ -129,15 +132,20 @@ int runOrder(const OrderOptions& o) {
         std::fprintf(stderr, "unilod order: %s\n", message.c_str());
         return 1;
     };
-    auto progress = [&](const char* stage, double seconds, const std::string& detail) {
-        if (!o.quiet) std::fprintf(stderr, "  %-16s %7.2f s  %s\n", stage, seconds, detail.c_str());
-    };
-
-    // Fail fast on an unwritable output (or one of the inputs) before the long work.
+    // Fail fast on an existing or unwritable output (or one of the inputs) before the long work.
     format::AtomicFile csv;
-    format::OutputOptions output{.replace = true, .inputs = {o.in.demPath, o.in.riversPath}};
+    format::OutputOptions output = outputOptions(o.out, {o.in.demPath, o.in.riversPath});
     if (!o.baiTable.empty()) output.inputs.push_back(o.baiTable);
-    if (!o.out.empty() && !csv.open(o.out, output, error)) return fail(error);
+    if (!o.out.path.empty() && !csv.open(o.out.path, output, error)) return fail(error);
+    Progress bar("order", !o.quiet, "ingest");
+    // Each stage's result as a line of its own (what the stage found), then the next stage.
+    auto progress = [&](const char* stage, double seconds, const std::string& detail) {
+        if (!o.quiet) {
+            char line[64];
+            std::snprintf(line, sizeof line, "  %-16s %7.2f s  ", stage, seconds);
+            bar.message(line + detail);
+        }
+    };
 
     ImportanceOptions io;
     io.useBai = !o.noBai;
@@ -154,9 +162,7 @@ int runOrder(const OrderOptions& o) {
     json seconds;
     Clock::time_point t = Clock::now();
     IngestOptions in = o.in;
-    in.warn = [](const std::string& w) {
-        std::fprintf(stderr, "unilod order: warning: %s\n", w.c_str());
-    };
+    in.warn = [&bar](const std::string& w) { bar.message("unilod order: warning: " + w); };
     Ingested data;
     if (!ingest(in, data, error)) return fail(error);
     const DemGrid& dem = data.dem;
@@ -172,6 +178,7 @@ int runOrder(const OrderOptions& o) {
     // One block covering the DEM, its outer edge locked: the point set `build --order 3ddp`
     // ranks when the DEM is one block.
     t = Clock::now();
+    bar.stage("point set");
     BlockSource source;
     if (!splitIntoBlocks(data, in, kWholeDem, true, source, error)) return fail(error);
     const PointSet set = source.points(0);
@@ -190,6 +197,7 @@ int runOrder(const OrderOptions& o) {
     }
 
     t = Clock::now();
+    bar.stage("importance");
     ImportanceResult result;
     if (!computeImportance(set, io, result, error)) return fail(error);
     seconds["importance"] = secondsSince(t);
@@ -199,6 +207,7 @@ int runOrder(const OrderOptions& o) {
 
     // Bends, for the summary (the importance already used them through the BAI factors).
     t = Clock::now();
+    bar.stage("bends");
     const Quantizer quantizer = Quantizer::forPoints(set.points);
     struct RankedBend {
         std::size_t polyline;
@@ -266,8 +275,9 @@ int runOrder(const OrderOptions& o) {
     }
     summary["bends"] = {{"count", bends.size()}, {"top", topBends}};
 
-    if (!o.out.empty()) {
+    if (!o.out.path.empty()) {
         t = Clock::now();
+        bar.stage("write CSV", result.order.size());
         // Written in chunks of about 1 MiB: the order of a large DEM is gigabytes of text.
         std::string chunk = "rank,id,x,y,z,kind,locked,importance,own_importance,bai_factor\n";
         char line[256];
@@ -280,6 +290,7 @@ int runOrder(const OrderOptions& o) {
                           static_cast<double>(result.baiFactor[id]));
             chunk += line;
             if (chunk.size() >= (1u << 20)) {
+                bar.update(rank + 1, result.order.size());
                 if (!csv.write(chunk, error)) return fail(error);
                 chunk.clear();
             }
@@ -287,16 +298,17 @@ int runOrder(const OrderOptions& o) {
         if (!csv.write(chunk, error)) return fail(error);
         if (!csv.commit(error)) return fail(error);
         seconds["csv"] = secondsSince(t);
-        progress("write CSV", seconds["csv"], o.out);
-        summary["output"] = o.out;
+        progress("write CSV", seconds["csv"], o.out.path);
+        summary["output"] = o.out.path;
         summary["outputRows"] = result.order.size();
     }
     summary["importanceStats"] = {{"maxDepth", result.stats.maxDepth},
                                   {"meanDepth", result.stats.meanDepth}};
     seconds["total"] = secondsSince(start);
     summary["seconds"] = seconds;
+    bar.finish();
 
-    if (o.json) {
+    if (o.json.requested()) {
         std::printf("%s\n", jsonText(summary, 2).c_str());
     } else {
         printText(summary);
@@ -337,9 +349,9 @@ void addOrderCommand(CLI::App& app, int& exitCode) {
                 return "no such row in the paper's table (rows: " + rows + ")";
             },
             "ROW", "bai-row"));
-    sub->add_option("--out", opts->out, "Write the deletion order as CSV (rank ascending)");
-    sub->add_flag("--json", opts->json, "Print the summary as JSON");
-    sub->add_flag("-q,--quiet", opts->quiet, "No progress lines on stderr");
+    addOutputOptions(sub, opts->out, "write the deletion order as CSV (rank ascending)", false);
+    addJsonOption(sub, opts->json, "print the summary as JSON on stdout ('-', the default)");
+    addQuietFlag(sub, opts->quiet);
     sub->callback([opts, &exitCode] { exitCode = runOrder(*opts); });
 }
 

@@ -1,7 +1,8 @@
 // `unilod report FILE -o DIR`: the paper's evaluation for one .ulod file (issue 6, item 3):
 // Tables 2 / 3, error-vs-retention curves, BAI vs plain 3D_DP river shapes, grid diagrams.
 // What each file holds and the definitions: tools/report/report.h. Usage errors exit 2, data
-// errors 1; DIR appears only when everything was written.
+// errors 1; DIR appears only when everything was written. An existing non-empty DIR needs
+// --overwrite (outputopts.h): then the old folder is replaced only when the new one is complete.
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
@@ -10,6 +11,8 @@
 
 #include "commands.h"
 #include "numbers.h"
+#include "outputopts.h"
+#include "progress.h"
 #include "report.h"
 #include "ulod.h"
 
@@ -19,6 +22,7 @@ namespace {
 
 struct ReportCli {
     report::ReportOptions o;
+    OutputFlags output;
     std::vector<std::string> distances = {"100km", "200km", "500km", "1000km", "1500km"};
     std::vector<double> budgets = {5, 10, 20, 40};
     std::string metric;
@@ -40,15 +44,24 @@ int run(ReportCli& c) {
     for (double b : c.budgets)
         c.o.budgets.push_back(b / 100.0);
     c.o.rivers = !c.noRivers;
-    if (!c.quiet) {
-        c.o.progress = [](const std::string& s) { std::fprintf(stderr, "  %s\n", s.c_str()); };
-    }
-    report::ReportSummary summary;
+    c.o.outDir = c.output.path;
     std::string error;
-    if (!report::runReport(c.o, summary, error)) {
+    ReplacedFolder old;
+    if (!checkOutput(c.output, OutputKind::Folder, error) ||
+        (c.output.overwrite && !old.moveAside(c.output.path, error))) {
         std::fprintf(stderr, "unilod report: error: %s\n", error.c_str());
         return 1;
     }
+    Progress progress("report", !c.quiet, "reading " + c.o.path);
+    c.o.progress = [&progress](const std::string& s) { progress.stage(s); };
+    report::ReportSummary summary;
+    const bool ok = report::runReport(c.o, summary, error);
+    progress.finish();
+    if (!ok) {
+        std::fprintf(stderr, "unilod report: error: %s\n", error.c_str());
+        return 1;  // `old` goes back in place
+    }
+    old.keep();
     std::printf("%s: report of %s\n", c.o.outDir.c_str(), c.o.path.c_str());
     for (const std::string& f : summary.files)
         std::printf("  %s/%s\n", c.o.outDir.c_str(), f.c_str());
@@ -64,8 +77,8 @@ void addReportCommand(CLI::App& app, int& exitCode) {
         "The paper's evaluation of a .ulod file in a folder: Tables 2/3 (Markdown + CSV), error "
         "vs retention curves (SVG), BAI vs plain 3D_DP river shapes, grid diagrams (PNG)");
     sub->add_option("FILE", c->o.path, ".ulod file")->required();
-    sub->add_option("-o,--out", c->o.outDir, "output folder (must not exist or be empty)")
-        ->required();
+    addOutputOptions(sub, c->output,
+                     "output folder (a missing or empty one; an existing one with --overwrite)");
     sub->add_option("--distance", c->distances,
                     "view distances for the tables and the grid diagrams, comma-separated, with m "
                     "or km (default 100km,200km,500km,1000km,1500km, as `unilod stats`)")
@@ -92,7 +105,7 @@ void addReportCommand(CLI::App& app, int& exitCode) {
         ->check(numberIn(0.0, 100.0));
     sub->add_option("--image-size", c->o.imageSize, "grid diagram size in pixels (default 1024)")
         ->check(CLI::Range(16, 16384));
-    sub->add_flag("-q,--quiet", c->quiet, "no progress lines on stderr");
+    addQuietFlag(sub, c->quiet);
     sub->callback([c, &exitCode] { exitCode = run(*c); });
 }
 

@@ -12,6 +12,7 @@
 #include "commands.h"
 #include "jsontext.h"
 #include "numbers.h"
+#include "outputopts.h"
 #include "stats.h"
 #include "ulod.h"
 
@@ -28,7 +29,8 @@ struct StatsCli {
     std::string metric;  // empty: the file's default
     bool csv = false;
     std::vector<std::string> errors;  // --error: model-error thresholds (m / km)
-    bool json = false;
+    JsonFlags json;
+    bool quiet = false;
 };
 
 // "12,345" like the paper's tables.
@@ -166,7 +168,7 @@ int runErrors(const StatsCli& c) {
         std::fprintf(stderr, "unilod stats: error: %s\n", error.c_str());
         return 1;
     }
-    if (c.json) {
+    if (c.json.requested()) {
         printErrorJson(t, c.path);
     } else {
         printErrorText(t, c.path);
@@ -250,7 +252,9 @@ void addStatsCommand(CLI::App& app, int& exitCode) {
                     return m >= 0 ? "" : "model error must be >= 0: " + s;
                 },
                 "ERROR"));
-    sub->add_flag("--json", c->json, "JSON output of the --error table")->needs(errors);
+    addJsonOption(sub, c->json, "JSON output of the --error table on stdout ('-', the default)")
+        ->needs(errors);
+    addQuietFlag(sub, c->quiet);  // stats prints nothing on stderr but errors: accepted for scripts
     // The thresholds replace the view: the view's options would be silently ignored.
     errors->excludes(csv)->excludes(distance)->excludes(pixels);
     sub->callback([c, &exitCode] { exitCode = run(*c); });

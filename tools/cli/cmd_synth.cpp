@@ -1,5 +1,6 @@
 // `unilod synth`: writes a synthetic DEM (GeoTIFF) and river network (GeoJSON) of a given size
 // and seed (tools/synthetic.h), so that every other command can be run on data of any size.
+// The output is the two files: either existing needs --overwrite (outputopts.h; exit 1).
 #include <chrono>
 #include <cstdio>
 #include <limits>
@@ -8,6 +9,8 @@
 
 #include "commands.h"
 #include "numbers.h"
+#include "outputopts.h"
+#include "progress.h"
 #include "synthetic.h"
 
 namespace unilod::cli {
@@ -19,20 +22,33 @@ struct SynthOptions {
     std::uint64_t seed = 1;
     double cellSize = 30.0;
     int rivers = 0;
-    std::string output;
+    OutputFlags output;
+    bool quiet = false;
 };
 
 int runSynth(const SynthOptions& o) {
     const auto t0 = std::chrono::steady_clock::now();
+    // Both files are checked before the work (and again, atomically, when they are written).
+    std::string error;
+    for (const char* name : {"dem.tif", "rivers.geojson"}) {
+        if (!checkOutput({o.output.path + "/" + name, o.output.overwrite}, OutputKind::File,
+                         error)) {
+            std::fprintf(stderr, "unilod synth: error: %s\n", error.c_str());
+            return 1;
+        }
+    }
+    Progress progress("synth", !o.quiet, "generating " + std::to_string(o.points) + " points");
     SyntheticOptions so;
     so.targetPoints = o.points;
     so.seed = o.seed;
     so.cellSize = o.cellSize;
     so.rivers = o.rivers;
     const SyntheticData data = generateSyntheticData(so);
-    std::string error;
-    if (!writeSyntheticData(data, o.output, error)) {
-        std::fprintf(stderr, "unilod synth: %s\n", error.c_str());
+    progress.stage("writing " + o.output.path);
+    const bool ok = writeSyntheticData(data, o.output.path, error, o.output.overwrite);
+    progress.finish();
+    if (!ok) {
+        std::fprintf(stderr, "unilod synth: error: %s\n", error.c_str());
         return 1;
     }
     std::size_t vertices = 0;
@@ -43,8 +59,8 @@ int runSynth(const SynthOptions& o) {
     std::printf(
         "wrote %s/dem.tif (%d x %d cells of %g m, EPSG:%d) and %s/rivers.geojson "
         "(%zu lines: %d main rivers, %zu tributaries; %zu vertices) in %.2f s\n",
-        o.output.c_str(), data.dem.width, data.dem.height, o.cellSize, kSyntheticEpsg,
-        o.output.c_str(), data.rivers.size(), data.mainRivers,
+        o.output.path.c_str(), data.dem.width, data.dem.height, o.cellSize, kSyntheticEpsg,
+        o.output.path.c_str(), data.rivers.size(), data.mainRivers,
         data.rivers.size() - static_cast<std::size_t>(data.mainRivers), vertices, seconds);
     return 0;
 }
@@ -66,8 +82,9 @@ void addSynthCommand(CLI::App& app, int& exitCode) {
     sub->add_option("--rivers", opts->rivers, "Main rivers (0: scale with the size)")
         ->check(CLI::Range(0, 1000))
         ->capture_default_str();
-    sub->add_option("-o,--output", opts->output, "Output directory (created when missing)")
-        ->required();
+    addOutputOptions(sub, opts->output,
+                     "output folder (created when missing): DIR/dem.tif and DIR/rivers.geojson");
+    addQuietFlag(sub, opts->quiet);
     sub->callback([opts, &exitCode] { exitCode = runSynth(*opts); });
 }
 

@@ -11,6 +11,7 @@
 #include "commands.h"
 #include "engineopts.h"
 #include "numbers.h"
+#include "outputopts.h"
 #include "view.h"
 
 namespace unilod::cli {
@@ -22,6 +23,7 @@ struct ViewCli {
     EngineCli engine;
     std::vector<double> camera;
     std::string resize;
+    bool quiet = false;
 };
 
 int run(ViewCli& c) {
@@ -78,6 +80,7 @@ void addViewCommand(CLI::App& app, int& exitCode) {
                     "with --frames: resize the window to WxH after half the frames (tests the "
                     "swapchain recreation)");
     sub->add_flag("--grid", c->o.grid, "start in the 2D grid mode (top-down wireframe)");
+    addQuietFlag(sub, c->quiet);  // view prints nothing on stderr but errors: accepted for scripts
     sub->callback([c, &exitCode] { exitCode = run(*c); });
 }
 

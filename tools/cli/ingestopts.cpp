@@ -4,17 +4,27 @@
 
 namespace unilod::cli {
 
+void addSrsOptions(CLI::App& sub, IngestOptions& o) {
+    sub.add_option("--t-srs", o.targetSrs,
+                   "target (working) CRS, any GDAL SRS text (default: a projected DEM's own, a "
+                   "geographic DEM's UTM zone)");
+    sub.add_option("--s-srs", o.assumeSrs,
+                   "source CRS assumed for an input that declares none (the DEM, the river "
+                   "layer), as gdalwarp -s_srs");
+    // The old spellings, hidden: scripts keep working.
+    sub.add_option("--target-srs", o.targetSrs, "old spelling of --t-srs")->group("");
+    sub.add_option("--assume-crs,--rivers-srs", o.assumeSrs, "old spelling of --s-srs")
+        ->group("");
+}
+
 void addIngestOptions(CLI::App& sub, IngestOptions& o) {
     sub.add_option("DEM", o.demPath, "DEM raster (any single-band raster GDAL reads)")->required();
     sub.add_option("RIVERS", o.riversPath, "river lines (any OGR line layer)")->required();
     sub.add_option("--band", o.band, "raster band (1-based) for multi-band rasters")
         ->check(positive());
-    sub.add_option("--t-srs,--target-srs", o.targetSrs,
-                   "working CRS (default: a projected DEM's own, a geographic DEM's UTM zone)");
+    addSrsOptions(sub, o);
     sub.add_option("--layer", o.layer, "river layer name (default: the first line layer)");
     sub.add_option("--where", o.where, "OGR SQL attribute filter for the rivers");
-    sub.add_option("--assume-crs,--rivers-srs", o.assumeSrs,
-                   "CRS of a river layer that declares none");
     sub.add_option("--stride", o.stride, "take every k-th DEM row and column (default 1)")
         ->check(CLI::Range(1, 1 << 20));
     sub.add_option("--min-river-length", o.minRiverLength,

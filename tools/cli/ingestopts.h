@@ -1,4 +1,4 @@
-// Options every command that reads a DEM + river files shares (build, order): the inputs, band,
+// Options every command that reads a DEM + river files shares (build, order; report the CRS ones): the inputs, band,
 // CRS, river layer and filter, stride, river cleaning. One definition, so that names, defaults
 // and ranges cannot drift between the commands that ingest (preprocess/ingest.h); `report` reads
 // the same options back from a file's build info (ingestOptionsFromInfo).
@@ -11,5 +11,10 @@
 namespace unilod::cli {
 
 void addIngestOptions(CLI::App& sub, IngestOptions& options);
+
+// --t-srs (target / working CRS) and --s-srs (the CRS of an input without one), with the old
+// spellings --target-srs, --assume-crs and --rivers-srs as hidden aliases. Part of
+// addIngestOptions; `report` adds them alone (for its --dem / --rivers).
+void addSrsOptions(CLI::App& sub, IngestOptions& options);
 
 }  // namespace unilod::cli

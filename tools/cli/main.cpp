@@ -2,6 +2,8 @@
 // subcommands like git / PDAL, options range-checked while parsing). Exit status: 0 success,
 // 1 data error (a file, GDAL, the computation), 2 usage error.
 #include <CLI/CLI.hpp>
+#include <cstdio>
+#include <string>
 
 #include "commands.h"
 
@@ -27,6 +29,24 @@ int main(int argc, char** argv) {
     unilod::cli::addViewCommand(app, exitCode);
     unilod::cli::addExportCommand(app, exitCode);
     unilod::cli::addReportCommand(app, exitCode);
+    // The first word is the command (the program's own options take no value): name an unknown
+    // one, and list the commands, instead of CLI11's "A subcommand is required".
+    std::string commands;
+    bool known = false;
+    const std::string first = argc > 1 ? argv[1] : "";
+    for (const CLI::App* sub : app.get_subcommands({})) {
+        commands += (commands.empty() ? "" : ", ") + sub->get_name();
+        known = known || sub->get_name() == first;
+    }
+    if (!known && (first.empty() || first[0] != '-')) {
+        if (first.empty())
+            std::fprintf(stderr, "unilod: no command given; commands: %s (unilod --help)\n",
+                         commands.c_str());
+        else
+            std::fprintf(stderr, "unilod: unknown command '%s'; commands: %s (unilod --help)\n",
+                         first.c_str(), commands.c_str());
+        return 2;
+    }
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

@@ -1,0 +1,129 @@
+#include "outputopts.h"
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <system_error>
+
+namespace unilod::cli {
+
+CLI::Option* addOutputOptions(CLI::App* sub, OutputFlags& o, const std::string& help,
+                              bool required) {
+    CLI::Option* output = sub->add_option("-o,--output", o.path, help);
+    if (required) output->required();
+    // The old spelling feeds the documented option, so that `required` is met by either.
+    sub->add_option_function<std::string>(
+           "--out", [output](const std::string& v) { output->add_result(v); },
+           "old spelling of -o,--output")
+        ->trigger_on_parse()
+        ->group("");
+    sub->add_flag("--overwrite", o.overwrite,
+                  "replace an existing output (a folder output: one that is not empty)");
+    sub->add_flag("--force", o.overwrite, "old spelling of --overwrite")->group("");
+    return output;
+}
+
+bool checkOutput(const OutputFlags& o, OutputKind kind, std::string& error) {
+    if (o.path.empty()) {
+        error = "no output given (-o, --output)";
+        return false;
+    }
+    struct stat st {};
+    if (::lstat(o.path.c_str(), &st) != 0) return true;  // missing: written as new
+    if (kind == OutputKind::Folder && S_ISDIR(st.st_mode)) {
+        std::error_code ec;
+        if (std::filesystem::is_empty(o.path, ec) || o.overwrite) return true;
+        error = o.path + ": already exists and is not an empty folder (use --overwrite to "
+                         "replace it)";
+        return false;
+    }
+    if (kind == OutputKind::File && S_ISREG(st.st_mode)) {
+        if (o.overwrite) return true;
+        error = o.path + ": already exists (use --overwrite to replace it)";
+        return false;
+    }
+    if (S_ISDIR(st.st_mode)) {
+        error = o.path + ": is a directory, not a file";
+    } else if (S_ISLNK(st.st_mode)) {
+        if (o.overwrite) return true;  // a link to a file: the rename replaces the link
+        error = o.path + ": already exists (use --overwrite to replace it)";
+    } else {
+        error = o.path + (kind == OutputKind::Folder ? ": exists and is not a folder"
+                                                     : ": exists and is not a regular file");
+    }
+    return false;
+}
+
+format::OutputOptions outputOptions(const OutputFlags& o, std::vector<std::string> inputs) {
+    format::OutputOptions out;
+    out.replace = o.overwrite;
+    out.inputs = std::move(inputs);
+    return out;
+}
+
+CLI::Option* addQuietFlag(CLI::App* sub, bool& quiet) {
+    return sub->add_flag("-q,--quiet", quiet,
+                         "no progress or information lines on stderr (errors and warnings still "
+                         "print)");
+}
+
+CLI::Option* addJsonOption(CLI::App* sub, JsonFlags& j, const std::string& help,
+                           bool fileAllowed) {
+    CLI::Option* json = sub->add_option("--json", j.target, help)
+                            ->expected(0, 1)
+                            ->default_str("-");
+    if (!fileAllowed) {
+        json->check(CLI::Validator(
+            [](std::string& v) -> std::string {
+                return v == "-" ? "" : "only '-' (stdout) is accepted, not '" + v + "'";
+            },
+            "[-]"));
+    }
+    return json;
+}
+
+ReplacedFolder::~ReplacedFolder() {
+    if (aside_.empty()) return;
+    // The writer failed: it left nothing at path_ (atomicfile.h), so the old folder goes back.
+    if (::rename(aside_.c_str(), path_.c_str()) != 0) {
+        std::fprintf(stderr, "warning: could not move '%s' back to '%s': %s\n", aside_.c_str(),
+                     path_.c_str(), std::strerror(errno));
+    }
+}
+
+bool ReplacedFolder::moveAside(const std::string& path, std::string& error) {
+    struct stat st {};
+    std::error_code ec;
+    if (::lstat(path.c_str(), &st) != 0 || !S_ISDIR(st.st_mode) ||
+        std::filesystem::is_empty(path, ec))
+        return true;
+    std::string p = path;
+    while (p.size() > 1 && p.back() == '/')
+        p.pop_back();
+    const std::string aside = p + ".old-" + std::to_string(::getpid());
+    if (::rename(p.c_str(), aside.c_str()) != 0) {
+        error = path + ": cannot move the old folder aside to '" + aside +
+                "': " + std::strerror(errno);
+        return false;
+    }
+    path_ = p;
+    aside_ = aside;
+    return true;
+}
+
+void ReplacedFolder::keep() {
+    if (aside_.empty()) return;
+    std::error_code ec;
+    std::filesystem::remove_all(aside_, ec);
+    if (ec) {
+        std::fprintf(stderr, "warning: could not remove the old folder '%s': %s\n",
+                     aside_.c_str(), ec.message().c_str());
+    }
+    aside_.clear();
+}
+
+}  // namespace unilod::cli

@@ -1,0 +1,88 @@
+// The options every `unilod` command shares for what it writes and prints (issue 20, item 3):
+// `-o,--output`, `--overwrite`, `-q,--quiet`, `--json [-]`, `--t-srs` / `--s-srs` (the last two
+// in ingestopts.h). One definition, so that names, old spellings, help and the rule for an
+// existing output cannot drift between commands (cmd_export.cpp adopts it too).
+//
+// The rule for an existing output (README "Files written and read"):
+// - a file output (build, order, bench, export, the two synth files) exists when anything is at
+//   the path; without --overwrite the command fails with exit 1 and the message
+//   "PATH: already exists (use --overwrite to replace it)" before any work, and writes nothing.
+//   With --overwrite the file is replaced atomically (format::AtomicFile, OutputOptions::replace =
+//   outputOptions(...).replace): the old file stays until the new one is complete.
+// - a folder output (capture, report) exists when it is a folder that is not empty (a missing or
+//   empty folder is written as before); anything else at the path is refused as for a file.
+//   With --overwrite, capture replaces the frames of the same names (other files stay) and report
+//   replaces the whole folder (the old one is moved aside and removed only after the new one is in
+//   place: ReplacedFolder below).
+// An output that is one of the command's inputs is refused with --overwrite too (atomicfile.h).
+// Exit status: 0 success, 1 data error (an existing output is one), 2 usage error (a missing
+// -o/--output).
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <string>
+#include <vector>
+
+#include "atomicfile.h"
+
+namespace unilod::cli {
+
+struct OutputFlags {
+    std::string path;
+    bool overwrite = false;
+};
+
+enum class OutputKind { File, Folder };
+
+// Adds `-o,--output PATH` (help `help`) and `--overwrite`, with the old spellings `--out` and
+// `--force` as hidden aliases. `required`: a missing -o/--output is a usage error (exit 2, raised
+// after the subcommand's options are parsed, so that the old alias satisfies it too). Returns
+// the -o,--output option.
+CLI::Option* addOutputOptions(CLI::App* sub, OutputFlags& o, const std::string& help,
+                              bool required = true);
+
+// The existing-output rule above for `o.path` (`kind`): true when the command may write it.
+// False with `error` = "PATH: already exists (use --overwrite to replace it)" (or why the path
+// cannot be an output: a directory where a file is expected, a FIFO). Commands that write through
+// an AtomicFile get the same check from it (outputOptions); this one is for the folders and for
+// failing before long work.
+bool checkOutput(const OutputFlags& o, OutputKind kind, std::string& error);
+
+// The AtomicFile options for `o`: replace = --overwrite; never one of `inputs`.
+format::OutputOptions outputOptions(const OutputFlags& o, std::vector<std::string> inputs);
+
+// `-q,--quiet`: no progress or information lines on stderr; errors and warnings still print.
+CLI::Option* addQuietFlag(CLI::App* sub, bool& quiet);
+
+// `--json [-]`: JSON output; `-` (or no value) is stdout. `fileAllowed`: `--json FILE` writes the
+// JSON to FILE (bench, its old spelling of -o FILE); otherwise only `-` is accepted. The value
+// is taken only when no required positional argument is still missing, so that
+// `unilod info --json m.ulod` keeps meaning FILE = m.ulod.
+struct JsonFlags {
+    std::string target;  // empty: not asked for; "-": stdout; else a file
+    bool requested() const { return !target.empty(); }
+    bool toStdout() const { return target == "-"; }
+};
+CLI::Option* addJsonOption(CLI::App* sub, JsonFlags& j, const std::string& help,
+                           bool fileAllowed = false);
+
+// --overwrite of a folder output whose writer needs a missing or empty folder (report): moves an
+// existing non-empty folder aside (PATH.old-<pid>) so that the writer sees none; keep() removes
+// the old folder after the new one is in place, and the destructor (the writer failed) moves it
+// back, so that a failed run leaves the old folder as it was.
+class ReplacedFolder {
+public:
+    ReplacedFolder() = default;
+    ~ReplacedFolder();
+    ReplacedFolder(const ReplacedFolder&) = delete;
+    ReplacedFolder& operator=(const ReplacedFolder&) = delete;
+
+    // Moves `path` aside when it is a non-empty folder. False with `error` when it cannot.
+    bool moveAside(const std::string& path, std::string& error);
+    void keep();  // the new folder is in place: remove the old one
+
+private:
+    std::string path_, aside_;
+};
+
+}  // namespace unilod::cli
