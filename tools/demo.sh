@@ -46,9 +46,9 @@ model=$out/jacksboro.ulod
 paper_model=$out/jacksboro_paper.ulod
 
 echo "== 1. unilod build: DEM + rivers -> unified LOD model (64-cell blocks, 42 blocks) =="
-$unilod build "$dem" "$rivers" -o "$model" --block-size 64 --force
+$unilod build "$dem" "$rivers" -o "$model" --block-size 64 --overwrite
 echo "-- the paper's configuration: improved 3D_DP order, the paper's error as default --"
-$unilod build "$dem" "$rivers" -o "$paper_model" --block-size 64 --force -q \
+$unilod build "$dem" "$rivers" -o "$paper_model" --block-size 64 --overwrite -q \
     --order 3ddp --metric paper
 echo "== 2. unilod check: checksums, topology invariants and true errors at every stored level =="
 $unilod check -q --errors "$model"
@@ -58,31 +58,31 @@ echo "== 4. unilod stats: the paper's Table 2 / 3 for this model (1-3 pixels, 10
 $unilod stats "$model" --pixels 1,2,3
 echo "== 5. unilod capture: headless frames (Vulkan; validation on) =="
 $unilod capture "$model" --validation --size 1280x720 --camera 735000,4034000,3500,30,-20 \
-    --out "$out/capture/oblique"
+    --overwrite -o "$out/capture/oblique"
 $unilod capture "$model" --validation --size 1024x1024 --camera 746400,4052900,30000,0,-90 \
-    --out "$out/capture/topdown"
+    --overwrite -o "$out/capture/topdown"
 $unilod capture "$model" --validation --size 1024x1024 --camera 746400,4052900,30000,0,-90 \
-    --grid --out "$out/capture/grid"
+    --grid --overwrite -o "$out/capture/grid"
 $unilod capture "$model" --validation --size 640x360 --path "$path" --frames 5 \
-    --out "$out/capture/path"
+    --overwrite -o "$out/capture/path"
 echo "== 6. unilod bench: $frames frames at $size along $path (low fly-over) and $orbit =="
-$unilod bench "$model" --path "$path" --frames "$frames" --size "$size" --json "$out/bench.json"
+$unilod bench "$model" --path "$path" --frames "$frames" --size "$size" \
+    --overwrite -o "$out/bench.json"
 $unilod bench "$model" --path "$orbit" --frames "$frames" --size "$size" \
-    --json "$out/bench_orbit.json"
+    --overwrite -o "$out/bench_orbit.json"
 echo "-- the orbit in the paper's configuration (3ddp order, S to the block centre, the paper's"
 echo "   error; no P-pixel guarantee): README \"Measured\" --"
 $unilod bench "$paper_model" --path "$orbit" --frames "$frames" --size "$size" \
-    --metric paper --distance centre --json "$out/bench_orbit_paper.json"
+    --metric paper --distance centre --overwrite -o "$out/bench_orbit_paper.json"
 echo "== 7. unilod export: the oblique capture's LOD as glTF 2.0 (Blender, three.js) =="
 $unilod export "$model" -q --camera 735000,4034000,3500,30,-20 --size 1280x720 \
     -o "$out/jacksboro_oblique.glb"
 echo "== 8. unilod report: tables, error curves, BAI vs no BAI rivers, grid diagrams =="
-rm -rf "$out/report" "$out/report_paper"
-$unilod report "$model" -q -o "$out/report" --dem "$dem" --rivers "$rivers"
+$unilod report "$model" -q --overwrite -o "$out/report" --dem "$dem" --rivers "$rivers"
 echo "-- the same for the paper's configuration (Tables 2/3 as in the paper) --"
-$unilod report "$paper_model" -q -o "$out/report_paper" --dem "$dem" --rivers "$rivers"
+$unilod report "$paper_model" -q --overwrite -o "$out/report_paper" --dem "$dem" --rivers "$rivers"
 echo "== 9. unilod order: improved 3D_DP importance order of the whole point set =="
-$unilod order "$dem" "$rivers" --out "$out/jacksboro_order.csv" -q
+$unilod order "$dem" "$rivers" -o "$out/jacksboro_order.csv" --overwrite -q
 echo "== outputs =="
 echo "  unified LOD model:  $out/jacksboro.ulod (greedy order)"
 echo "  paper's config:     $out/jacksboro_paper.ulod (3ddp order, paper metric)"
