@@ -9,6 +9,7 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 source tools/deps.sh
 unilod_ensure_packages
+unilod_ensure_test_client
 
 jobs=$(nproc)
 run_suite() { # preset

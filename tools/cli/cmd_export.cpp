@@ -3,7 +3,10 @@
 // --camera the levels are the ones the streaming engine draws for that view (same S, h_lim and
 // level choice: tools/export/selection.h); with yaw and pitch the blocks outside the view
 // frustum are left out as the engine culls them (unless --no-cull), with X,Y,Z only every block
-// is written. With --h-lim every block uses that h_lim. Usage errors exit 2, data errors 1; no partial .glb is ever left.
+// is written. With --h-lim every block uses that h_lim.
+// `unilod export FILE --3dtiles DIR`: the whole model as a 3D Tiles 1.1 tileset on the WGS84
+// globe (tools/export/tiles3d.h; CesiumJS picks the levels itself). Usage errors exit 2, data
+// errors 1; no partial .glb or tileset folder is ever left.
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -11,6 +14,7 @@
 
 #include "commands.h"
 #include "gltfexport.h"
+#include "tiles3d.h"
 #include "numbers.h"
 #include "ulod.h"
 
@@ -27,6 +31,9 @@ struct ExportCli {
     std::string distance = "nearest";
     bool noCull = false;
     bool quiet = false;
+    std::string tilesDir;   // --3dtiles
+    std::string sourceSrs;  // --s-srs
+    bool overwrite = false;
 };
 
 bool parseSize(const std::string& s, double& width, double& height) {
@@ -37,6 +44,37 @@ bool parseSize(const std::string& s, double& width, double& height) {
     width = double(w);
     height = double(h);
     return true;
+}
+
+int runTileset(ExportCli& c) {
+    exporter::TilesetOptions t;
+    t.path = c.o.path;
+    t.outDir = c.tilesDir;
+    t.overwrite = c.overwrite;
+    t.sourceSrs = c.sourceSrs;
+    if (c.metric == "paper") t.metric = format::kMetricPaper;
+    if (c.metric == "max") t.metric = format::kMetricMax;
+    if (!c.quiet) {
+        t.progress = [](std::size_t done, std::size_t total) {
+            if (done == total || done % 16 == 0)
+                std::fprintf(stderr, "  entries %zu / %zu\n", done, total);
+        };
+    }
+    exporter::TilesetSummary summary;
+    std::string error;
+    if (!exporter::exportTileset(t, summary, error)) {
+        std::fprintf(stderr, "unilod export: error: %s\n", error.c_str());
+        return 1;
+    }
+    std::printf("%s: 3D Tiles 1.1 tileset, %zu tiles from %zu entries (depth %zu), %llu "
+                "triangles, %llu river edges in all tiles, %llu bytes; root geometricError %.2f m; "
+                "origin %.6f, %.6f (longitude, latitude)\n",
+                t.outDir.c_str(), summary.tiles, summary.entries, summary.depth,
+                static_cast<unsigned long long>(summary.triangles),
+                static_cast<unsigned long long>(summary.riverEdges),
+                static_cast<unsigned long long>(summary.bytes), summary.rootError,
+                summary.longitude, summary.latitude);
+    return 0;
 }
 
 int run(ExportCli& c) {
@@ -96,7 +134,8 @@ void addExportCommand(CLI::App& app, int& exitCode) {
     CLI::App* sub = app.add_subcommand(
         "export",
         "The LOD selected for a camera or an h_lim as glTF 2.0 binary (.glb): terrain mesh, "
-        "rivers as lines, georeference in asset.extras");
+        "rivers as lines, georeference in asset.extras; or (--3dtiles DIR) the whole model as a "
+        "3D Tiles 1.1 tileset on the WGS84 globe (CesiumJS)");
     sub->add_option("FILE", c->o.path, ".ulod file")->required();
     CLI::Option* camera =
         sub->add_option("--camera", c->camera,
@@ -123,9 +162,30 @@ void addExportCommand(CLI::App& app, int& exitCode) {
     sub->add_flag("--no-cull", c->noCull, "with yaw,pitch: keep the blocks outside the view");
     sub->add_option("--metric", c->metric, "error metric (default: the file's)")
         ->check(CLI::IsMember({"max", "paper"}));
-    sub->add_option("-o,--out", c->o.outPath, "output .glb")->required();
+    CLI::Option* out = sub->add_option("-o,--out", c->o.outPath, "output .glb");
+    CLI::Option* tiles = sub->add_option(
+        "--3dtiles", c->tilesDir,
+        "write the whole model as a 3D Tiles 1.1 tileset into this new folder (tileset.json + "
+        "tiles/*.glb; every stored level a tile, refine REPLACE, on the WGS84 globe)");
+    out->excludes(tiles);
+    tiles->excludes(out)->excludes(camera)->excludes(hLim);
+    sub->add_option("--s-srs", c->sourceSrs,
+                    "--3dtiles: CRS of the file's coordinates (any GDAL form, e.g. EPSG:32616); "
+                    "default the file's own");
+    sub->add_flag("--overwrite,--force", c->overwrite, "replace an existing output");
     sub->add_flag("-q,--quiet", c->quiet, "no progress lines on stderr");
     sub->callback([c, sub, &exitCode] {
+        if (!c->tilesDir.empty()) {
+            exitCode = runTileset(*c);
+            return;
+        }
+        if (c->o.outPath.empty()) {
+            std::fprintf(stderr, "unilod export: error: one of -o/--output or --3dtiles is "
+                                 "required\n%s",
+                         sub->help().c_str());
+            exitCode = 2;
+            return;
+        }
         if (c->camera.empty() && c->hLim < 0) {
             std::fprintf(stderr, "unilod export: error: one of --camera or --h-lim is required\n%s",
                          sub->help().c_str());

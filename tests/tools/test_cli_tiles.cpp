@@ -1,0 +1,285 @@
+// `unilod export --3dtiles` (tools/export/tiles3d.h) on the bundled Jacksboro model:
+// - the tileset's structure: every entry a chain of one tile per stored level (coarsest first),
+//   refine REPLACE, geometricError the level's stored `max` error and never rising going down,
+//   every child's box inside its parent's, every content file a glTF that tinygltf loads, with
+//   the level's triangle and river edge counts;
+// - the georeference, checked against PROJ independently: tile positions (glTF, y-up, relative to
+//   the node translation) mapped through the root transform must land on the ECEF coordinates
+//   that GDAL/PROJ gives for the block's world vertices (file CRS -> EPSG:4978);
+// - usage and data errors: no CRS without --s-srs, an existing folder, --3dtiles with -o;
+// - the real client: CesiumJS in headless Chromium (tests/cesium/run.mjs) loads it, draws the
+//   terrain and blue rivers, and selects fewer tiles from far away. Skipped only where Chromium
+//   cannot start (run.mjs exits 77 and says why).
+#include <gtest/gtest.h>
+#include <ogr_spatialref.h>
+#include <tiny_gltf.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <memory>
+
+#include "testutil.h"
+#include "tools/cliutil.h"
+#include "ulod.h"
+
+using namespace unilod;
+namespace fs = std::filesystem;
+using nlohmann::json;
+using unilod::test::q;
+using unilod::test::runCli;
+
+namespace {
+
+const std::string kDem = std::string(UNILOD_ASSETS_DIR) + "/jacksboro_dem.tif";
+const std::string kRivers = std::string(UNILOD_ASSETS_DIR) + "/jacksboro_rivers_grass.geojson";
+
+class TilesTest : public ::testing::Test {
+protected:
+    static inline test::TempDir* dir = nullptr;
+    static inline std::string model, tiles;
+    static inline test::Model m;
+    static inline json tileset;
+
+    static void SetUpTestSuite() {
+        dir = new test::TempDir("tiles");
+        model = dir->file("j.ulod");
+        tiles = dir->file("tiles");
+        auto r = runCli("build -q " + q(kDem) + " " + q(kRivers) + " -o " + q(model) +
+                        " --block-size 64");
+        ASSERT_EQ(r.code, 0) << r.err;
+        r = runCli("export -q " + q(model) + " --3dtiles " + q(tiles));
+        ASSERT_EQ(r.code, 0) << r.err;
+        EXPECT_NE(r.out.find("3D Tiles 1.1 tileset"), std::string::npos) << r.out;
+        std::string error;
+        ASSERT_TRUE(test::readModel(model, m, error)) << error;
+        tileset = json::parse(test::slurp(tiles + "/tileset.json"));
+    }
+    static void TearDownTestSuite() {
+        delete dir;
+        dir = nullptr;
+    }
+
+    static tinygltf::Model load(const std::string& path) {
+        tinygltf::Model g;
+        tinygltf::TinyGLTF loader;
+        std::string err, warn;
+        EXPECT_TRUE(loader.LoadBinaryFromFile(&g, &err, &warn, path)) << path << err << warn;
+        return g;
+    }
+    // "tiles/<entry>-<level>.glb" -> entry, level.
+    static std::pair<std::size_t, std::size_t> parseUri(const std::string& uri) {
+        std::size_t e = 0, l = 0;
+        EXPECT_EQ(std::sscanf(uri.c_str(), "tiles/%zu-%zu.glb", &e, &l), 2) << uri;
+        return {e, l};
+    }
+};
+
+bool inside(const json& child, const json& parent) {
+    for (int k = 0; k < 3; ++k) {
+        const double c = child[k], ch = child[3 + 4 * k], p = parent[k], ph = parent[3 + 4 * k];
+        if (c - ch < p - ph - 1e-6 || c + ch > p + ph + 1e-6) return false;
+    }
+    return true;
+}
+
+TEST_F(TilesTest, ChainsOfLevelsUnderTheHierarchy) {
+    EXPECT_EQ(tileset["asset"]["version"], "1.1");
+    const json& root = tileset["root"];
+    ASSERT_TRUE(root.contains("transform"));
+    // Every entry's levels appear once each, as a chain: the tile of level l has the tile of
+    // level l - 1 as its only child; level 0's children are the child entries' top tiles.
+    std::vector<std::vector<int>> seen(m.blocks.size());
+    for (std::size_t i = 0; i < m.blocks.size(); ++i)
+        seen[i].assign(m.blocks[i].levels.size(), 0);
+    std::size_t tileCount = 0;
+    std::function<void(const json&, const json*)> walk = [&](const json& t, const json* parent) {
+        ++tileCount;
+        EXPECT_EQ(t["refine"], "REPLACE");
+        ASSERT_TRUE(t.contains("content"));
+        const auto [e, l] = parseUri(t["content"]["uri"]);
+        ASSERT_LT(e, m.blocks.size());
+        ASSERT_LT(l, m.blocks[e].levels.size());
+        ++seen[e][l];
+        const format::Block& b = m.blocks[e];
+        EXPECT_GE(double(t["geometricError"]), double(b.levels[l].errorMax));
+        if (parent != nullptr) {
+            EXPECT_LE(double(t["geometricError"]), double((*parent)["geometricError"]));
+            EXPECT_TRUE(inside(t["boundingVolume"]["box"], (*parent)["boundingVolume"]["box"]))
+                << t["content"]["uri"];
+        }
+        const json children = t.value("children", json::array());
+        if (l > 0) {
+            ASSERT_EQ(children.size(), 1u);
+            EXPECT_EQ(parseUri(children[0]["content"]["uri"]), std::make_pair(e, l - 1));
+        } else {
+            ASSERT_EQ(children.size(), b.childCount);
+            for (std::size_t c = 0; c < children.size(); ++c) {
+                const auto [ce, cl] = parseUri(children[c]["content"]["uri"]);
+                EXPECT_EQ(ce, b.firstChild + c);
+                EXPECT_EQ(cl, m.blocks[ce].levels.size() - 1);  // the child's coarsest first
+            }
+        }
+        for (const json& c : children)
+            walk(c, &t);
+    };
+    walk(root, nullptr);
+    std::size_t levels = 0;
+    for (std::size_t i = 0; i < m.blocks.size(); ++i) {
+        for (std::size_t l = 0; l < seen[i].size(); ++l)
+            EXPECT_EQ(seen[i][l], 1) << "entry " << i << " level " << l;
+        levels += seen[i].size();
+    }
+    EXPECT_EQ(tileCount, levels);
+    // The root is the hierarchy's root entry at its coarsest level.
+    EXPECT_EQ(parseUri(root["content"]["uri"]).first, m.blocks.size() - 1);
+}
+
+TEST_F(TilesTest, ContentIsTheLevelAndLandsWherePROJPutsIt) {
+    // The root transform (column-major ENU -> ECEF).
+    const json& tr = tileset["root"]["transform"];
+    ASSERT_EQ(tr.size(), 16u);
+    auto toEcef = [&](const double enu[3], double out[3]) {
+        for (int r = 0; r < 3; ++r)
+            out[r] = double(tr[r]) * enu[0] + double(tr[4 + r]) * enu[1] +
+                     double(tr[8 + r]) * enu[2] + double(tr[12 + r]);
+    };
+    // PROJ's own answer: the file's CRS -> geocentric WGS84 (EPSG:4978), z as ellipsoidal height.
+    OGRSpatialReference src, ecef;
+    ASSERT_EQ(src.SetFromUserInput(m.header.crsWkt.c_str()), OGRERR_NONE);
+    ASSERT_EQ(ecef.importFromEPSG(4978), OGRERR_NONE);
+    src.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    ecef.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    std::unique_ptr<OGRCoordinateTransformation> ct(
+        OGRCreateCoordinateTransformation(&src, &ecef));
+    ASSERT_TRUE(ct);
+
+    std::size_t checkedTiles = 0, checkedVertices = 0;
+    double worst = 0;
+    for (const auto& file : fs::directory_iterator(tiles + "/tiles")) {
+        const auto [e, l] = parseUri("tiles/" + file.path().filename().string());
+        const format::Block& b = m.blocks.at(e);
+        const format::Level& level = b.levels.at(l);
+        const tinygltf::Model g = load(file.path().string());
+        ASSERT_EQ(g.nodes.size(), 1u);
+        ASSERT_EQ(g.meshes.size(), 1u);
+        const tinygltf::Mesh& mesh = g.meshes[0];
+        ASSERT_GE(mesh.primitives.size(), 1u);
+        const tinygltf::Primitive& terrain = mesh.primitives[0];
+        EXPECT_EQ(terrain.mode, TINYGLTF_MODE_TRIANGLES);
+        EXPECT_EQ(g.accessors[std::size_t(terrain.indices)].count, 3u * level.triangleCount);
+        const std::size_t lines =
+            mesh.primitives.size() > 1 ? g.accessors[std::size_t(mesh.primitives[1].indices)].count
+                                       : 0;
+        EXPECT_EQ(lines, 2u * level.riverCount);
+        if (mesh.primitives.size() > 1) {
+            EXPECT_EQ(mesh.primitives[1].mode, TINYGLTF_MODE_LINE);
+        }
+        const tinygltf::Accessor& pa = g.accessors[std::size_t(terrain.attributes.at("POSITION"))];
+        ASSERT_EQ(pa.count, level.vertexCount);
+        // Every 7th file, every 13th vertex: positions against PROJ.
+        if (++checkedTiles % 7 != 0) continue;
+        const tinygltf::BufferView& v = g.bufferViews[std::size_t(pa.bufferView)];
+        const float* p =
+            reinterpret_cast<const float*>(g.buffers[0].data.data() + v.byteOffset + pa.byteOffset);
+        const std::vector<double>& t = g.nodes[0].translation;
+        ASSERT_EQ(t.size(), 3u);
+        for (std::size_t i = 0; i < pa.count; i += 13) {
+            // glTF (x, y, z) y-up -> ENU (x, -z, y).
+            const double gx = t[0] + p[3 * i], gy = t[1] + p[3 * i + 1], gz = t[2] + p[3 * i + 2];
+            const double enu[3] = {gx, -gz, gy};
+            double mine[3];
+            toEcef(enu, mine);
+            double x = b.originX + double(b.vertices[i].x), y = b.originY + double(b.vertices[i].y),
+                   z = b.vertices[i].z;
+            ASSERT_TRUE(ct->Transform(1, &x, &y, &z));
+            const double d = std::hypot(mine[0] - x, mine[1] - y, mine[2] - z);
+            worst = std::max(worst, d);
+            ++checkedVertices;
+        }
+    }
+    EXPECT_GT(checkedVertices, 1000u);
+    // Float positions relative to tile centres a few km away: millimetres.
+    EXPECT_LT(worst, 0.02) << "worst distance to PROJ's ECEF point " << worst << " m";
+}
+
+TEST_F(TilesTest, ErrorsLeaveNoFolder) {
+    // --3dtiles with -o, or with a camera: usage errors.
+    const std::string out = dir->file("bad");
+    EXPECT_EQ(runCli("export " + q(model) + " --3dtiles " + q(out) + " -o " + q(dir->file("x.glb")))
+                  .code,
+              2);
+    EXPECT_EQ(runCli("export " + q(model) + " --3dtiles " + q(out) + " --h-lim 5").code, 2);
+    EXPECT_FALSE(fs::exists(out));
+    // An existing, non-empty output folder is refused and left alone.
+    auto r = runCli("export -q " + q(model) + " --3dtiles " + q(tiles));
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find(tiles), std::string::npos) << r.err;
+    EXPECT_TRUE(fs::exists(tiles + "/tileset.json"));
+    r = runCli("export -q " + q(model) + " --3dtiles " + q(out) + " --s-srs NOT_A_CRS");
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find("NOT_A_CRS"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+}
+
+TEST_F(TilesTest, AModelWithoutCrsNeedsSSrs) {
+    // An ESRI ASCII grid without .prj (no CRS) and no rivers: a model whose header has no CRS.
+    const std::string asc = dir->file("nocrs.asc"), rivers = dir->file("none.geojson");
+    {
+        std::ofstream a(asc);
+        a << "ncols 24\nnrows 24\nxllcorner 740000\nyllcorner 4050000\ncellsize 30\n";
+        for (int r = 0; r < 24; ++r) {
+            for (int c = 0; c < 24; ++c)
+                a << 300 + 2 * r + ((c * 7 + r * 3) % 5) << (c + 1 < 24 ? " " : "\n");
+        }
+        std::ofstream(rivers) << R"({"type":"FeatureCollection","features":[]})";
+    }
+    const std::string plain = dir->file("nocrs.ulod"), out = dir->file("nocrs_tiles");
+    auto r = runCli("build -q " + q(asc) + " " + q(rivers) + " -o " + q(plain));
+    ASSERT_EQ(r.code, 0) << r.err;
+    r = runCli("export -q " + q(plain) + " --3dtiles " + q(out));
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find(plain), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("--s-srs"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+    // Placed with --s-srs: the frame's origin is the extent's centre in that CRS (PROJ here).
+    r = runCli("export -q " + q(plain) + " --3dtiles " + q(out) + " --s-srs EPSG:32616");
+    ASSERT_EQ(r.code, 0) << r.err;
+    const json t = json::parse(test::slurp(out + "/tileset.json"));
+    test::Model pm;
+    std::string error;
+    ASSERT_TRUE(test::readModel(plain, pm, error)) << error;
+    EXPECT_TRUE(pm.header.crsWkt.empty());
+    OGRSpatialReference utm, wgs84;
+    ASSERT_EQ(utm.importFromEPSG(32616), OGRERR_NONE);
+    ASSERT_EQ(wgs84.importFromEPSG(4326), OGRERR_NONE);
+    utm.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(&utm, &wgs84));
+    ASSERT_TRUE(ct);
+    double x = 0.5 * (pm.header.minX + pm.header.maxX), y = 0.5 * (pm.header.minY + pm.header.maxY);
+    ASSERT_TRUE(ct->Transform(1, &x, &y));
+    EXPECT_NEAR(double(t["extras"]["origin_longitude_degrees"]), x, 1e-9);
+    EXPECT_NEAR(double(t["extras"]["origin_latitude_degrees"]), y, 1e-9);
+    EXPECT_NEAR(x, -84.3, 0.1);  // the grid's corner (740000, 4050000) in UTM 16N
+}
+
+TEST_F(TilesTest, CesiumJSInHeadlessChromiumDrawsIt) {
+    const std::string script = std::string(UNILOD_SOURCE_DIR) + "/tests/cesium/run.mjs";
+    const std::string log = dir->file("cesium.log");
+    const std::string shots = dir->file("cesium");
+    const std::string command = "node " + q(script) + " --tileset " + q(tiles) + " --out " +
+                                q(shots) + " >" + q(log) + " 2>&1";
+    const int status = std::system(command.c_str());
+    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    const std::string text = test::slurp(log);
+    if (code == 77) GTEST_SKIP() << text;
+    EXPECT_EQ(code, 0) << text;
+    std::printf("%s", text.c_str());
+    EXPECT_TRUE(fs::exists(shots + "_near.png"));
+}
+
+}  // namespace

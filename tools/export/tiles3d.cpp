@@ -1,0 +1,372 @@
+#include "tiles3d.h"
+
+#include <ogr_spatialref.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "atomicfile.h"
+#include "gltfmodel.h"
+#include "jsontext.h"
+#include "selection.h"
+#include "ulod.h"
+
+namespace unilod::exporter {
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+constexpr double kPi = 3.14159265358979323846;
+
+// File CRS -> WGS84 longitude/latitude -> ECEF -> the east-north-up frame at the model centre.
+class Georeference {
+public:
+    bool init(const std::string& srsText, const std::string& what, const format::Header& header,
+              std::string& error) {
+        OGRSpatialReference src;
+        if (srsText.empty()) {
+            error = what + ": has no CRS: give its CRS with --s-srs (e.g. EPSG:32616) to place it "
+                           "on the globe";
+            return false;
+        }
+        if (src.SetFromUserInput(srsText.c_str()) != OGRERR_NONE) {
+            error = what + ": GDAL cannot read the CRS '" + srsText.substr(0, 80) + "'";
+            return false;
+        }
+        OGRSpatialReference wgs84;
+        wgs84.importFromEPSG(4326);
+        src.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+        wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+        ct_.reset(OGRCreateCoordinateTransformation(&src, &wgs84));
+        if (!ct_) {
+            error = what + ": GDAL/PROJ cannot transform its CRS to WGS84 longitude/latitude";
+            return false;
+        }
+        double x = 0.5 * (header.minX + header.maxX), y = 0.5 * (header.minY + header.maxY);
+        int ok = 0;
+        if (!ct_->Transform(1, &x, &y, nullptr, &ok) || !ok || !std::isfinite(x) ||
+            !std::isfinite(y)) {
+            error = what + ": the model centre does not transform to WGS84 longitude/latitude";
+            return false;
+        }
+        lon0_ = x;
+        lat0_ = y;
+        const double lam = lon0_ * kPi / 180, phi = lat0_ * kPi / 180;
+        origin_ = ecef(lam, phi, 0.0);
+        east_ = {-std::sin(lam), std::cos(lam), 0.0};
+        north_ = {-std::sin(phi) * std::cos(lam), -std::sin(phi) * std::sin(lam), std::cos(phi)};
+        up_ = {std::cos(phi) * std::cos(lam), std::cos(phi) * std::sin(lam), std::sin(phi)};
+        return true;
+    }
+
+    // World points (x, y, z of the file CRS; z ellipsoidal height) in place -> ENU.
+    bool toEnu(std::vector<double>& xs, std::vector<double>& ys, std::vector<double>& zs) const {
+        const std::size_t n = xs.size();
+        if (n == 0) return true;
+        std::vector<int> ok(n, 0);
+        if (!ct_->Transform(n, xs.data(), ys.data(), nullptr, ok.data())) return false;
+        for (std::size_t i = 0; i < n; ++i) {
+            if (!ok[i] || !std::isfinite(xs[i]) || !std::isfinite(ys[i])) return false;
+            const std::array<double, 3> p =
+                ecef(xs[i] * kPi / 180, ys[i] * kPi / 180, zs[i]);
+            const double d[3] = {p[0] - origin_[0], p[1] - origin_[1], p[2] - origin_[2]};
+            xs[i] = d[0] * east_[0] + d[1] * east_[1] + d[2] * east_[2];
+            ys[i] = d[0] * north_[0] + d[1] * north_[1] + d[2] * north_[2];
+            zs[i] = d[0] * up_[0] + d[1] * up_[1] + d[2] * up_[2];
+        }
+        return true;
+    }
+
+    // The ENU -> ECEF matrix, column-major (3D Tiles `transform`).
+    json transform() const {
+        return json::array({east_[0], east_[1], east_[2], 0.0, north_[0], north_[1], north_[2],
+                            0.0, up_[0], up_[1], up_[2], 0.0, origin_[0], origin_[1], origin_[2],
+                            1.0});
+    }
+    double longitude() const { return lon0_; }
+    double latitude() const { return lat0_; }
+
+private:
+    // WGS84 geodetic (radians, metres) -> ECEF.
+    static std::array<double, 3> ecef(double lam, double phi, double h) {
+        constexpr double a = 6378137.0, f = 1.0 / 298.257223563, e2 = f * (2 - f);
+        const double s = std::sin(phi), c = std::cos(phi);
+        const double n = a / std::sqrt(1 - e2 * s * s);
+        return {(n + h) * c * std::cos(lam), (n + h) * c * std::sin(lam), (n * (1 - e2) + h) * s};
+    }
+
+    struct Release {
+        void operator()(OGRCoordinateTransformation* t) const {
+            OGRCoordinateTransformation::DestroyCT(t);
+        }
+    };
+    std::unique_ptr<OGRCoordinateTransformation, Release> ct_;
+    double lon0_ = 0, lat0_ = 0;
+    std::array<double, 3> origin_{}, east_{}, north_{}, up_{};
+};
+
+struct Box {
+    double lo[3] = {std::numeric_limits<double>::infinity(),
+                    std::numeric_limits<double>::infinity(),
+                    std::numeric_limits<double>::infinity()};
+    double hi[3] = {-std::numeric_limits<double>::infinity(),
+                    -std::numeric_limits<double>::infinity(),
+                    -std::numeric_limits<double>::infinity()};
+    void add(const double p[3]) {
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::min(lo[k], p[k]);
+            hi[k] = std::max(hi[k], p[k]);
+        }
+    }
+    void add(const Box& b) {
+        if (b.empty()) return;
+        add(b.lo);
+        add(b.hi);
+    }
+    bool empty() const { return !(lo[0] <= hi[0]); }
+    // 3D Tiles box: centre and three half-axes; half sizes kept >= 0.5 m (flat tiles).
+    json toJson() const {
+        json a = json::array();
+        for (int k = 0; k < 3; ++k)
+            a.push_back(0.5 * (lo[k] + hi[k]));
+        for (int k = 0; k < 3; ++k)
+            for (int j = 0; j < 3; ++j)
+                a.push_back(j == k ? std::max(0.5 * (hi[k] - lo[k]), 0.5) : 0.0);
+        return a;
+    }
+};
+
+// One stored level of one entry, written as a tile.
+struct LevelTile {
+    std::string uri;
+    Box box;
+    double error = 0;
+    bool hasContent = false;
+};
+
+struct Entry {
+    std::vector<LevelTile> levels;  // index = stored level (0 = finest)
+    std::uint32_t firstChild = format::kNoChild, childCount = 0;
+};
+
+// The chain of entry `i` (coarsest level first) as a tile; `depth` receives its longest path.
+json chainTile(const std::vector<Entry>& entries, std::size_t i, Box& box, double& error,
+               std::size_t& depth) {
+    const Entry& e = entries[i];
+    if (e.levels.empty()) return json::object();  // the reader refuses such a block
+    // Children of the finest level: the child entries' chains.
+    json below = json::array();
+    Box belowBox;
+    double belowError = 0;
+    std::size_t belowDepth = 0;
+    if (e.firstChild != format::kNoChild) {
+        for (std::uint32_t c = 0; c < e.childCount; ++c) {
+            Box b;
+            double err = 0;
+            std::size_t d = 0;
+            below.push_back(chainTile(entries, e.firstChild + c, b, err, d));
+            belowBox.add(b);
+            belowError = std::max(belowError, err);
+            belowDepth = std::max(belowDepth, d);
+        }
+    }
+    for (std::size_t l = 0; l < e.levels.size(); ++l) {
+        const LevelTile& t = e.levels[l];
+        Box b = t.box;
+        b.add(belowBox);
+        const double err = std::max(t.error, belowError);
+        json tile = {{"boundingVolume", {{"box", b.toJson()}}},
+                     {"geometricError", err},
+                     {"refine", "REPLACE"}};
+        if (t.hasContent) tile["content"] = {{"uri", t.uri}};
+        if (!below.empty()) tile["children"] = std::move(below);
+        below = json::array({std::move(tile)});
+        belowBox = b;
+        belowError = err;
+        ++belowDepth;
+    }
+    box = belowBox;
+    error = belowError;
+    depth = belowDepth;
+    return std::move(below[0]);
+}
+
+}  // namespace
+
+bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::string& error) {
+    summary = {};
+    // The output first: a bad -o (an existing folder, the input) fails before the work.
+    format::AtomicFile folder;
+    if (!folder.openFolder(options.outDir, {.replace = options.overwrite, .inputs = {options.path}},
+                           error)) {
+        return false;
+    }
+    format::Reader reader;
+    if (!reader.open(options.path, error)) return false;
+    SelectionOptions so;
+    so.metric = options.metric;
+    std::uint32_t metric = 0;
+    if (!resolveMetric(reader, so, metric, error)) return false;
+    const format::Header& header = reader.header();
+    Georeference geo;
+    if (!geo.init(options.sourceSrs.empty() ? header.crsWkt : options.sourceSrs, options.path,
+                  header, error)) {
+        return false;
+    }
+    const fs::path temp = folder.tempPath();
+    std::error_code ec;
+    fs::create_directory(temp / "tiles", ec);
+    if (ec) {
+        error = options.outDir + ": cannot create the folder 'tiles': " + ec.message();
+        return false;
+    }
+    const format::OutputOptions inTemp{.replace = false, .inputs = {}};
+
+    const std::size_t count = reader.blocks().size();
+    std::vector<Entry> entries(count);
+    std::vector<bool> isChild(count, false);
+    format::Block block;
+    std::vector<double> xs, ys, zs, xyz;
+    for (std::size_t i = 0; i < count; ++i) {
+        if (!reader.readBlock(i, block, error)) return false;
+        Entry& entry = entries[i];
+        entry.firstChild = block.firstChild;
+        entry.childCount = block.childCount;
+        if (block.firstChild != format::kNoChild) {
+            for (std::uint32_t c = 0; c < block.childCount; ++c)
+                isChild[block.firstChild + c] = true;
+        }
+        const std::size_t n = block.vertices.size();
+        xs.resize(n);
+        ys.resize(n);
+        zs.resize(n);
+        for (std::size_t v = 0; v < n; ++v) {
+            xs[v] = block.originX + double(block.vertices[v].x);
+            ys[v] = block.originY + double(block.vertices[v].y);
+            zs[v] = block.vertices[v].z;
+        }
+        if (!geo.toEnu(xs, ys, zs)) {
+            error = options.path + ": " + format::blockName(block.col, block.row, block.level) +
+                    ": a vertex does not transform to WGS84 longitude/latitude";
+            return false;
+        }
+        entry.levels.resize(block.levels.size());
+        for (std::size_t l = 0; l < block.levels.size(); ++l) {
+            const format::Level& level = block.levels[l];
+            LevelTile& t = entry.levels[l];
+            t.error = metric == format::kMetricPaper ? level.errorPaper : level.errorMax;
+            for (std::size_t v = 0; v < level.vertexCount; ++v) {
+                const double p[3] = {xs[v], ys[v], zs[v]};
+                t.box.add(p);
+            }
+            if (level.vertexCount == 0 || level.triangleCount + level.riverCount == 0) continue;
+            const std::array<double, 3> centre = {0.5 * (t.box.lo[0] + t.box.hi[0]),
+                                                  0.5 * (t.box.lo[1] + t.box.hi[1]),
+                                                  0.5 * (t.box.lo[2] + t.box.hi[2])};
+            xyz.resize(3 * std::size_t(level.vertexCount));
+            for (std::size_t v = 0; v < level.vertexCount; ++v) {
+                xyz[3 * v] = xs[v] - centre[0];
+                xyz[3 * v + 1] = ys[v] - centre[1];
+                xyz[3 * v + 2] = zs[v] - centre[2];
+            }
+            GltfMaterials materials;
+            tinygltf::Model model = newGltfModel("unilod export --3dtiles", materials);
+            LevelCounts counts;
+            const std::string name = std::to_string(i) + "-" + std::to_string(l);
+            addLevelMesh(model, block, l, xyz, centre, name, materials, counts);
+            std::string glb;
+            if (!writeGlb(model, glb)) {
+                error = options.outDir + ": cannot serialize the glTF tile " + name;
+                return false;
+            }
+            t.uri = "tiles/" + name + ".glb";
+            t.hasContent = true;
+            if (!format::writeFileAtomically((temp / t.uri).string(), glb, inTemp, error)) {
+                return false;
+            }
+            summary.bytes += glb.size();
+            summary.vertices += counts.vertices;
+            summary.triangles += counts.triangles;
+            summary.riverEdges += counts.riverEdges;
+            ++summary.tiles;
+        }
+        if (options.progress) options.progress(i + 1, count);
+    }
+    summary.entries = count;
+
+    // Roots: entries that are no entry's child (one for a built hierarchy).
+    std::vector<std::size_t> roots;
+    for (std::size_t i = 0; i < count; ++i)
+        if (!isChild[i]) roots.push_back(i);
+    json root;
+    Box modelBox;
+    double rootError = 0;
+    std::size_t depth = 0;
+    if (roots.size() == 1) {
+        root = chainTile(entries, roots[0], modelBox, rootError, depth);
+    } else {
+        // Several roots: a root without content that always refines (its error is the model's
+        // diagonal, more than any level's).
+        json children = json::array();
+        for (std::size_t r : roots) {
+            Box b;
+            double err = 0;
+            std::size_t d = 0;
+            children.push_back(chainTile(entries, r, b, err, d));
+            modelBox.add(b);
+            rootError = std::max(rootError, err);
+            depth = std::max(depth, d);
+        }
+        ++depth;
+        const double diagonal = std::hypot(header.maxX - header.minX, header.maxY - header.minY,
+                                           header.maxZ - header.minZ);
+        rootError = std::max(rootError, diagonal);
+        root = {{"boundingVolume", {{"box", modelBox.toJson()}}},
+                {"geometricError", rootError},
+                {"refine", "REPLACE"},
+                {"children", std::move(children)}};
+    }
+    root["transform"] = geo.transform();
+    const double diagonal = std::hypot(header.maxX - header.minX, header.maxY - header.minY,
+                                       header.maxZ - header.minZ);
+    json tileset = {
+        {"asset",
+         {{"version", "1.1"},
+          {"generator", "unilod export --3dtiles"},
+          {"tilesetVersion", "1"}}},
+        {"geometricError", std::max(diagonal, rootError)},
+        {"root", std::move(root)},
+        {"extras",
+         {{"source", validUtf8(options.path)},
+          {"crs_wkt", validUtf8(options.sourceSrs.empty() ? header.crsWkt : options.sourceSrs)},
+          {"metric", metric == format::kMetricPaper ? "paper" : "max"},
+          {"origin_longitude_degrees", geo.longitude()},
+          {"origin_latitude_degrees", geo.latitude()},
+          {"layout",
+           "root transform: east-north-up frame at the origin longitude/latitude, height 0 on "
+           "WGS84, to ECEF; vertices exact (file CRS -> WGS84 via PROJ, z as ellipsoidal "
+           "height). Every .ulod entry (block or hierarchy node) is a chain of tiles, one per "
+           "stored level, coarsest first (refine REPLACE); the finest level's children are the "
+           "child entries' chains. geometricError = the level's stored error (metric), never "
+           "below a descendant's. Content tiles/<entry>-<level>.glb."}}}};
+    const std::string text = tileset.dump(1) + "\n";
+    if (!format::writeFileAtomically((temp / "tileset.json").string(), text, inTemp, error)) {
+        return false;
+    }
+    summary.bytes += text.size();
+    summary.rootError = rootError;
+    summary.depth = depth;
+    summary.longitude = geo.longitude();
+    summary.latitude = geo.latitude();
+    return folder.commit(error);
+}
+
+}  // namespace unilod::exporter

@@ -1,0 +1,63 @@
+// `unilod export --3dtiles DIR`: the whole model as a 3D Tiles 1.1 tileset (issue 20, item 1),
+// the standard way to put a multi-resolution terrain on a globe (CesiumJS, QGIS 3D, deck.gl).
+//
+// Tile tree. Every directory entry of the .ulod file (a leaf block or a node of the block
+// hierarchy, issue 18) with stored levels L_0 (finest) .. L_k (coarsest) becomes a CHAIN of tiles:
+// the tile of L_k has the tile of L_(k-1) as its only child, and so on down to L_0, whose children
+// are the chains of the entry's child entries (none for a leaf block). Levels of one node are
+// child tiles of each other (not separate content of one tile) because 3D Tiles selects content
+// by exactly the rule the engine uses (engine/lod/cut.h): a tile is drawn when its geometric
+// error, projected to the screen, is within the viewer's maximum screen-space error, and replaced
+// by its children otherwise (`refine: REPLACE`); a chain lets the client stop at any stored level.
+// The price is depth: a client that loads ancestors first loads up to k + 1 tiles per block.
+// - geometricError of a tile = its level's stored error (the file's metric or --metric: `max`
+//   bounds the vertical error of the level against the full-resolution DEM), raised to its
+//   children's geometricError where a child's is larger, so that it never decreases going up.
+//   Cesium's screen-space error of a tile is geometricError · H / (2 · S · tan(fov / 2)), the
+//   paper's Eq. 11 solved for P: Cesium's maximumScreenSpaceError is our P.
+// - boundingVolume: an axis-aligned `box` in the tileset frame (east, north, up metres around the
+//   model centre), the union of the tile's own vertices and its children's boxes.
+// - content: `tiles/<entry>-<level>.glb`, one glTF 2.0 binary per tile (gltfmodel.h: terrain
+//   triangles, river edges as LINES with an unlit blue material), positions relative to the
+//   tile's centre (glTF node translation in double).
+// - Georeference: the root tile's `transform` is the east-north-up frame at the model centre
+//   (longitude/latitude of the extent's centre, height 0 on the WGS84 ellipsoid) to Earth-centred
+//   Earth-fixed (ECEF) coordinates. Every vertex goes file CRS -> WGS84 longitude/latitude through
+//   GDAL/PROJ (datum shifts included), then to ECEF with its z as ellipsoidal height, then into
+//   that frame: exact, so Earth curvature and the projection's scale and convergence are honoured
+//   over any extent. Heights are taken as ellipsoidal (no geoid model is applied: an
+//   orthometric DEM sits the local geoid undulation, -30 m to +60 m, off).
+// - asset: version "1.1", generator, tilesetVersion; tileset `extras`: source path, CRS WKT,
+//   metric, centre longitude/latitude and the layout above in words.
+// The folder appears whole or not at all (format::AtomicFile::openFolder).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+
+namespace unilod::exporter {
+
+struct TilesetOptions {
+    std::string path;          // the .ulod file
+    std::string outDir;        // the tileset folder to create
+    bool overwrite = false;    // replace an existing output (--overwrite)
+    std::string sourceSrs;     // --s-srs: CRS of the file's coordinates (default: the file's own)
+    std::uint32_t metric = 0;  // format::kMetricMax / kMetricPaper; 0 = the file's default
+    std::function<void(std::size_t, std::size_t)> progress;  // entries done, total
+};
+
+struct TilesetSummary {
+    std::size_t tiles = 0, entries = 0;
+    std::size_t depth = 0;  // tiles on the longest root-to-leaf path
+    std::uint64_t vertices = 0, triangles = 0, riverEdges = 0;  // over all tiles
+    std::uint64_t bytes = 0;                                    // tileset.json + content
+    double rootError = 0;                                       // the root tile's geometricError
+    double longitude = 0, latitude = 0;                         // of the frame's origin, degrees
+};
+
+// False with a message naming the file on a data error (no CRS and no --s-srs, a CRS GDAL cannot
+// transform to WGS84, an unreadable block); no output folder is left then.
+bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::string& error);
+
+}  // namespace unilod::exporter
