@@ -7,7 +7,7 @@ UNILOD_DEBIAN_PACKAGES=(
     nlohmann-json3-dev libcli11-dev
     libgtest-dev
     libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers glslang-tools libglm-dev libpng-dev
-    libglfw3-dev libtinygltf-dev xvfb xauth
+    libglfw3-dev libtinygltf-dev xvfb xauth libcairo2-dev fonts-dejavu-core
 )
 
 unilod_ensure_packages() {
@@ -31,4 +31,29 @@ unilod_ensure_packages() {
     fi
     "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get update -q &&
         "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}"
+}
+
+# The real-client test of the 3D Tiles export (tests/cesium/run.mjs, issue 20): Debian's Chromium,
+# Node.js with npm, and the pinned npm packages (CesiumJS, playwright-core; package-lock.json)
+# under tests/cesium/node_modules. Sourced by tools/test.sh only: the demo does not need them.
+unilod_ensure_test_client() {
+    local missing=()
+    command -v chromium >/dev/null 2>&1 || missing+=(chromium)
+    command -v node >/dev/null 2>&1 || missing+=(nodejs)
+    command -v npm >/dev/null 2>&1 || missing+=(npm)
+    if [ ${#missing[@]} -gt 0 ]; then
+        local saved=("${UNILOD_DEBIAN_PACKAGES[@]}")
+        UNILOD_DEBIAN_PACKAGES=("${missing[@]}")
+        unilod_ensure_packages
+        local rc=$?
+        UNILOD_DEBIAN_PACKAGES=("${saved[@]}")
+        [ $rc -eq 0 ] || return $rc
+    fi
+    local dir
+    dir="$(dirname "${BASH_SOURCE[0]}")/../tests/cesium"
+    if [ ! -f "$dir/node_modules/.package-lock.json" ] ||
+        [ "$dir/package-lock.json" -nt "$dir/node_modules/.package-lock.json" ]; then
+        echo "unilod: installing the CesiumJS test client (npm ci in tests/cesium)"
+        (cd "$dir" && npm ci --no-audit --no-fund --loglevel=error)
+    fi
 }
