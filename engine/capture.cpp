@@ -19,6 +19,34 @@ namespace {
 
 constexpr double kDegree = 3.14159265358979323846 / 180.0;
 
+nlohmann::json rectJson(const PixelRect& r) { return {r.x, r.y, r.width, r.height}; }
+
+// What annotate drew, where (pixels: [x, y, width, height], y down from the top row).
+nlohmann::json annotationJson(const Annotation& a, const AnnotationLayout& l) {
+    nlohmann::json regions = nlohmann::json::array();
+    for (const PixelRect& r : l.regions)
+        regions.push_back(rectJson(r));
+    nlohmann::json j = {{"regions", regions}};
+    if (a.colourKey) {
+        j["colour_key"] = {{"bar", rectJson(l.keyBar)},
+                           {"min_z", a.keyMinZ},
+                           {"max_z", a.keyMaxZ},
+                           {"ramp", "shaders/shared.h hypsometricTint, unshaded; top row max_z"}};
+    }
+    if (l.scalePixels > 0) {
+        j["scale_bar"] = {{"metres", l.scaleMetres},
+                          {"pixels", l.scalePixels},
+                          {"metres_per_pixel", a.metresPerPixel},
+                          {"exact", a.scaleExact},
+                          {"where", a.scaleExact ? "everywhere (orthographic)" : "image centre"}};
+    }
+    if (a.northArrow) {
+        j["north_arrow"] = {{"degrees_clockwise_from_up", l.northDegrees},
+                            {"along_view", a.northAlongView}};
+    }
+    return j;
+}
+
 nlohmann::json frameJson(const CaptureOptions& options, const Camera& c, const CaptureFrame& f,
                          std::uint32_t metric, const std::string& deviceName) {
     nlohmann::json blocks = nlohmann::json::array();
@@ -45,6 +73,8 @@ nlohmann::json frameJson(const CaptureOptions& options, const Camera& c, const C
              {"triangles", b.triangles},
              {"river_edges", b.riverEdges}});
     }
+    nlohmann::json annotation;  // null: the image is the plain render
+    if (f.annotated) annotation = annotationJson(f.annotation, f.annotationLayout);
     const bool nearest = options.scene.distance == DistanceMode::Nearest;
     return {
         {"file", options.path},
@@ -56,6 +86,8 @@ nlohmann::json frameJson(const CaptureOptions& options, const Camera& c, const C
           {"pitch", c.pitchDegrees},
           {"fov", c.fovDegrees}}},
         {"mode", options.grid ? "grid" : "perspective"},
+        {"annotated", f.annotated},
+        {"annotation", annotation},
         {"pixels", options.scene.pixels},
         {"metric", metric == format::kMetricPaper ? "paper" : "max"},
         {"distance", nearest ? "nearest" : "centre"},
@@ -226,6 +258,12 @@ bool runCapture(const CaptureOptions& options, CaptureResult& result, std::strin
             if (ok) ok = renderer.renderFrame(view, true, &rgba, error);
             if (!ok) break;
             CaptureFrame frame;
+            if (options.annotate) {
+                frame.annotated = true;
+                frame.annotation = annotationFor(view);
+                annotateImage(rgba, options.width, options.height, frame.annotation,
+                              &frame.annotationLayout);
+            }
             frame.blocks = renderer.scene().selection();
             frame.stats = renderer.scene().stats();
             result.frames.push_back(std::move(frame));

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "annotate.h"
 #include "camera.h"
 #include "device.h"
 #include "scene.h"
@@ -34,6 +35,8 @@ struct CaptureOptions {
     bool settle = true;  // wait until each frame's wanted levels are resident (deterministic)
     bool grid = false;   // 2D grid mode (top-down wireframe)
     bool rivers = true;
+    // Colour key, scale bar and north arrow on every frame (annotate.h); the JSON records where.
+    bool annotate = false;
     DeviceOptions device;
     std::string spirvDir;  // empty: $UNILOD_SPIRV_DIR, else the build's spirv folder
 };
@@ -41,6 +44,9 @@ struct CaptureOptions {
 struct CaptureFrame {
     std::vector<BlockSelection> blocks;
     FrameStats stats;
+    bool annotated = false;
+    Annotation annotation;         // with annotated: what was drawn ...
+    AnnotationLayout annotationLayout;  // ... and where
     std::string pngPath, jsonPath;
 };
 

@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "annotate.h"
 #include "pngwrite.h"
 #include "vkcheck.h"
 #include "window.h"
@@ -48,14 +49,17 @@ std::string nextScreenshotPath() {
     }
 }
 
+// `annotate`: the frame's view, for the annotation (annotate.h); null: the plain image.
 bool saveScreenshot(const Device& device, WindowTarget& target, const std::string& path,
-                    const format::OutputOptions& output, std::string& error) {
+                    const format::OutputOptions& output, const FrameView* annotate,
+                    std::string& error) {
     std::uint32_t width = 0, height = 0;
     std::vector<std::uint8_t> rgba;
     if (!readWindowScreenshot(device, target, width, height, rgba, error)) {
         error = path + ": " + error;
         return false;
     }
+    if (annotate) annotateImage(rgba, width, height, annotationFor(*annotate));
     return format::writePng(path, width, height, rgba, output, error);
 }
 
@@ -267,7 +271,8 @@ bool runView(const ViewOptions& options, ViewResult& result, std::string& error)
             format::OutputOptions output;
             output.replace = finalShot;
             output.inputs = {options.path};
-            if (saveScreenshot(device, target, path, output, shotError)) {
+            if (saveScreenshot(device, target, path, output,
+                               options.annotate ? &view : nullptr, shotError)) {
                 std::printf("screenshot %s (%ux%u)\n", path.c_str(),
                             target.swapchain.extent.width, target.swapchain.extent.height);
             } else if (finalShot) {

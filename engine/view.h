@@ -21,6 +21,7 @@ struct ViewOptions {
     DeviceOptions device;
     std::uint64_t frames = 0;    // 0: until the window closes
     std::string screenshotPath;  // with frames: the last frame as PNG
+    bool annotate = false;       // screenshots get a colour key, scale bar, north arrow (annotate.h)
     bool grid = false;           // start in grid mode
     // With frames: resize the window to this size after half of them (as a window manager
     // would; exercises swapchain recreation). 0: no resize.

@@ -10,6 +10,7 @@ namespace unilod::engine::shader {
 using mat4 = glm::mat4;
 using vec4 = glm::vec4;
 using vec3 = glm::vec3;
+using glm::mix;
 #endif
 
 // Per draw (one block). Positions reach the GPU relative to the eye: blockOffset = block origin
@@ -28,6 +29,19 @@ struct DrawConstants {
 const float kRiverDepthBias = 0.002;
 const vec3 kRiverColour = vec3(0.0, 0.2, 1.0);
 const vec3 kGridColour = vec3(0.35, 0.35, 0.35);  // grid mode: triangle edges
+
+// Hypsometric tint of the terrain before shading: t = (z - zRange.x) / (zRange.y - zRange.x)
+// clamped to [0, 1]; lowland green, brown slopes, pale summits, never river blue. The fragment
+// shader and the colour key of annotated images (engine/annotate.h) both call this.
+const vec3 kTintLow = vec3(0.25, 0.55, 0.25);
+const vec3 kTintMid = vec3(0.70, 0.60, 0.38);
+const vec3 kTintHigh = vec3(0.95, 0.93, 0.90);
+#ifdef __cplusplus
+inline
+#endif
+vec3 hypsometricTint(float t) {
+    return t < 0.5 ? mix(kTintLow, kTintMid, t * 2.0f) : mix(kTintMid, kTintHigh, t * 2.0f - 1.0f);
+}
 
 #ifdef __cplusplus
 static_assert(sizeof(DrawConstants) == 96);

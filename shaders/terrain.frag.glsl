@@ -19,8 +19,5 @@ void main() {
     float lambert = 0.35 + 0.65 * max(dot(n, light), 0.0);
     float range = max(pc.zRange.y - pc.zRange.x, 1e-3);
     float t = clamp((inZ - pc.zRange.x) / range, 0.0, 1.0);
-    // Hypsometric tint: lowland green, brown slopes, pale summits. Never river blue.
-    vec3 low = vec3(0.25, 0.55, 0.25), mid = vec3(0.70, 0.60, 0.38), high = vec3(0.95, 0.93, 0.90);
-    vec3 tint = t < 0.5 ? mix(low, mid, t * 2.0) : mix(mid, high, t * 2.0 - 1.0);
-    outColour = vec4(tint * lambert, 1.0);
+    outColour = vec4(hypsometricTint(t) * lambert, 1.0);  // shared.h
 }

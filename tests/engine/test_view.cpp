@@ -15,10 +15,13 @@
 #include <fstream>
 #include <set>
 
+#include "annotate.h"
 #include "pngread.h"
 #include "shared.h"
 #include "testutil.h"
 #include "tools/cliutil.h"
+#include "ulod.h"
+#include "view.h"
 
 namespace fs = std::filesystem;
 using namespace unilod;
@@ -153,6 +156,38 @@ TEST_F(View, GridModeShowsGridAndRivers) {
     EXPECT_GT(grid, pixels / 20);
     EXPECT_GT(river, 50u);
     EXPECT_NE(r.out.find(", grid"), std::string::npos) << r.out;
+}
+
+// --annotate: the screenshot carries the colour key (the renderer's ramp over the file's z range,
+// max at the top) where annotateImage lays it out for a 640x480 image.
+TEST_F(View, AnnotatedScreenshotHasTheColourKey) {
+    SKIP_WITHOUT_XVFB();
+    CliResult r;
+    const Image image = view("annotated", " --annotate", r);
+    ASSERT_EQ(image.width, 640u);
+    ASSERT_EQ(image.height, 480u);
+    format::Reader reader;
+    std::string error;
+    ASSERT_TRUE(reader.open(file_, error)) << error;
+    engine::FrameView v;
+    v.width = 640;
+    v.height = 480;
+    v.minZ = reader.header().minZ;
+    v.maxZ = reader.header().maxZ;
+    v.camera = engine::defaultViewCamera(reader.header(), 60);
+    std::vector<std::uint8_t> scratch(640 * 480 * 4, 0);
+    engine::AnnotationLayout layout;
+    engine::annotateImage(scratch, 640, 480, engine::annotationFor(v), &layout);
+    const engine::PixelRect bar = layout.keyBar;
+    ASSERT_GT(bar.height, 40);
+    for (std::int32_t row = 0; row < bar.height; ++row) {
+        const engine::shader::vec3 want =
+            engine::shader::hypsometricTint(float(1.0 - (row + 0.5) / bar.height));
+        const std::uint8_t* p =
+            &image.rgba[(std::size_t(bar.y + row) * image.width + std::size_t(bar.x + 2)) * 4];
+        EXPECT_TRUE(near(p, want)) << "row " << row << ": " << int(p[0]) << "," << int(p[1])
+                                   << "," << int(p[2]);
+    }
 }
 
 // The window is resized half way (as a window manager would): the swapchain is recreated, the

@@ -111,6 +111,9 @@ void addCaptureCommand(CLI::App& app, int& exitCode) {
     c->engine.add(*sub, "1024x768");
     sub->add_flag("--grid", c->o.grid,
                   "2D grid mode: top-down orthographic wireframe, river edges highlighted");
+    sub->add_flag("--annotate", c->o.annotate,
+                  "draw a colour key (height, m), a scale bar and a north arrow on each frame; the "
+                  "JSON records where");
     sub->add_flag("--no-settle", c->noSettle,
                   "draw each frame with what is resident (default: wait until the blocks the "
                   "view wants are loaded, so the output is deterministic)");

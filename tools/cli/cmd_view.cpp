@@ -80,6 +80,8 @@ void addViewCommand(CLI::App& app, int& exitCode) {
                     "with --frames: resize the window to WxH after half the frames (tests the "
                     "swapchain recreation)");
     sub->add_flag("--grid", c->o.grid, "start in the 2D grid mode (top-down wireframe)");
+    sub->add_flag("--annotate", c->o.annotate,
+                  "screenshots get a colour key (height, m), a scale bar and a north arrow");
     addQuietFlag(sub, c->quiet);  // view prints nothing on stderr but errors: accepted for scripts
     sub->callback([c, &exitCode] { exitCode = run(*c); });
 }
