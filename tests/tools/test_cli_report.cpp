@@ -1,7 +1,10 @@
 // `unilod report` (tools/report/report.h) on the bundled Jacksboro model: every file is written;
 // tables.csv is byte-identical to `unilod stats --csv`; the grid diagrams have the requested
-// size, are not blank, draw exactly the levels chooseLevel picks at the stats viewpoint (counts
-// recomputed here) and fewer edges far than near; the curves match the file's error arrays; the
+// size, are not blank, draw exactly the cut's nodes at the stored levels it picks at the stats
+// viewpoint (counts recomputed here), never fewer points or triangles than tables.md counts (both
+// outputs say why), fewer edges far than near, and carry a title band (diagrams whose wireframes
+// are equal are named in report.md); --no-annotate changes only the annotation corners; the
+// frame-time plot has a line per benchmark run; the curves match the file's error arrays; the
 // river comparison has rows for the landform classes present and is exact at a 100 % budget;
 // failures leave no folder behind.
 #include <gtest/gtest.h>
@@ -11,8 +14,13 @@
 #include <set>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+
+#include "annotate.h"
+#include "cut.h"
 #include "lod.h"
 #include "pngread.h"
+#include "stats.h"
 #include "testutil.h"
 #include "tools/cliutil.h"
 #include "ulod.h"
@@ -71,7 +79,8 @@ protected:
         blocks = std::move(m.blocks);
         out = dir->file("report");
         result = runCli("report " + q(model) + " -o " + q(out) + " --distance " + kDistances +
-                        " --budget 10,100 --image-size 300");
+                        " --budget 10,100 --image-size 300 --bench-frames 4 --bench-size 160x90"
+                        " --validation");
     }
     static void TearDownTestSuite() {
         delete dir;
@@ -85,7 +94,7 @@ TEST_F(ReportTest, WritesEveryFile) {
     ASSERT_EQ(result.code, 0) << result.err;
     for (const char* f : {"report.md", "report.json", "tables.md", "tables.csv", "curves.svg",
                           "curves.csv", "rivers.md", "rivers.csv", "grid.csv", "grid_5km.png",
-                          "grid_30km.png", "grid_1000km.png"}) {
+                          "grid_30km.png", "grid_1000km.png", "frametime.png", "frametime.csv"}) {
         EXPECT_TRUE(fs::is_regular_file(fs::path(out) / f)) << f;
         EXPECT_GT(fs::file_size(fs::path(out) / f), 0u) << f;
         EXPECT_NE(result.out.find(f), std::string::npos) << "the CLI names " << f;
@@ -114,34 +123,44 @@ TEST_F(ReportTest, GridDiagrams) {
     ASSERT_EQ(result.code, 0) << result.err;
     const auto rows = readCsv(out + "/grid.csv");
     ASSERT_EQ(rows.size(), 4u);
+    ASSERT_EQ(rows[0][3], "nodes");
+    const auto tables = readCsv(out + "/tables.csv");
+    std::vector<engine::LodNode> nodes;
+    for (const format::Block& b : blocks)
+        nodes.push_back(engine::lodNode(b));
     std::vector<std::uint64_t> edges;
     for (std::size_t i = 1; i < rows.size(); ++i) {
         const double d = std::stod(rows[i][0]);
-        SCOPED_TRACE(rows[i][1]);
-        // The stats viewpoint, Eq. 11 and chooseLevel, written out again.
-        const double eye[3] = {(header.minX + header.maxX) / 2, (header.minY + header.maxY) / 2,
-                               header.maxZ + d};
-        std::uint64_t triangles = 0, river = 0;
-        for (std::size_t b = 0; b < blocks.size(); ++b) {
-            const format::BlockInfo& in = infos[b];
-            const double s = std::hypot((in.minX + in.maxX) / 2 - eye[0],
-                                        (in.minY + in.maxY) / 2 - eye[1],
-                                        (in.minZ + in.maxZ) / 2 - eye[2]);
-            const double h = 2 * 1.0 * s * std::tan(30 * M_PI / 180) / 1080;
-            const auto choice = engine::chooseLevel(blocks[b].levels, blocks[b].errorMax, h);
-            triangles += blocks[b].levels[choice.level].triangleCount;
-            river += blocks[b].levels[choice.level].riverCount;
+        SCOPED_TRACE(rows[i][2]);
+        EXPECT_EQ(std::stod(rows[i][1]), 1.0);  // P: the first pixel tolerance
+        // The stats view, the cut through the hierarchy, the stored level of each drawn node.
+        std::vector<engine::NodeChoice> cut;
+        engine::selectCut(statsView(header, StatsOptions{}, d, 1.0), nodes, header.defaultMetric,
+                          cut);
+        std::uint64_t points = 0, triangles = 0, river = 0;
+        for (const engine::NodeChoice& c : cut) {
+            const format::Level& level = blocks[c.block].levels[c.wanted.level];
+            points += level.vertexCount;
+            triangles += level.triangleCount;
+            river += level.riverCount;
         }
-        EXPECT_EQ(std::stoull(rows[i][2]), blocks.size());
-        EXPECT_EQ(std::stoull(rows[i][3]), triangles);
-        EXPECT_EQ(std::stoull(rows[i][5]), river);
-        edges.push_back(std::stoull(rows[i][4]));
+        EXPECT_EQ(std::stoull(rows[i][3]), cut.size());
+        EXPECT_EQ(std::stoull(rows[i][4]), points);
+        EXPECT_EQ(std::stoull(rows[i][5]), triangles);
+        EXPECT_EQ(std::stoull(rows[i][7]), river);
+        // The same nodes as tables.csv (its `nodes` column), at stored levels: the largest
+        // stored step <= the exact step, so never fewer points or triangles.
+        ASSERT_EQ(tables[i][0], rows[i][0]);
+        EXPECT_EQ(tables[i][9], rows[i][3]);
+        EXPECT_GE(points, std::stoull(tables[i][5]));
+        EXPECT_GE(triangles, std::stoull(tables[i][7]));
+        edges.push_back(std::stoull(rows[i][6]));
         // Every triangle has 3 edges, shared ones counted once per block.
         EXPECT_GT(edges.back(), triangles);
         EXPECT_LT(edges.back(), 3 * triangles);
 
         Image img;
-        ASSERT_TRUE(readPng(out + "/" + rows[i][1], img));
+        ASSERT_TRUE(readPng(out + "/" + rows[i][2], img));
         EXPECT_EQ(img.width, 300u);
         EXPECT_EQ(img.height, 300u);
         std::size_t grey = 0, blue = 0;
@@ -152,10 +171,140 @@ TEST_F(ReportTest, GridDiagrams) {
         }
         EXPECT_GT(grey, 1000u);
         EXPECT_GT(blue, 100u);
-        EXPECT_NE(slurp(out + "/report.md").find("| " + rows[i][3] + " |"), std::string::npos);
+        EXPECT_NE(slurp(out + "/report.md").find("| " + rows[i][5] + " |"), std::string::npos);
+        // The title band: dark text on white in the top rows, nothing of the wireframe there.
+        std::size_t dark = 0, blueInBand = 0;
+        for (std::uint32_t y = 0; y < 24; ++y) {
+            for (std::uint32_t x = 0; x < img.width; ++x) {
+                const std::uint8_t* p = &img.rgba[(std::size_t(y) * img.width + x) * 4];
+                dark += p[0] < 100 && p[1] < 100 && p[2] < 100;
+                blueInBand += p[2] > 200 && p[0] < 50;
+            }
+        }
+        EXPECT_GT(dark, 50u);
+        EXPECT_EQ(blueInBand, 0u);
     }
     EXPECT_GT(edges[0], edges[1]);
     EXPECT_GT(edges[1], edges[2]);
+    // Both outputs say how their counts differ.
+    EXPECT_NE(slurp(out + "/tables.md").find("EXACT deletion step"), std::string::npos);
+    EXPECT_NE(slurp(out + "/report.md").find("exact deletion step k*"), std::string::npos);
+}
+
+// The titles make every diagram distinct; equal wireframes are named in report.md.
+TEST_F(ReportTest, GridTitlesAndEqualDiagrams) {
+    ASSERT_EQ(result.code, 0) << result.err;
+    const std::string md = slurp(out + "/report.md");
+    const char* files[] = {"grid_5km.png", "grid_30km.png", "grid_1000km.png"};
+    std::vector<std::string> bytes;
+    for (const char* f : files)
+        bytes.push_back(slurp(out + "/" + f));
+    for (std::size_t i = 0; i < 3; ++i)
+        for (std::size_t k = i + 1; k < 3; ++k)
+            EXPECT_NE(bytes[i], bytes[k]) << files[i] << " vs " << files[k];
+    // Far away every node of the cut is at its coarsest stored level: 3000 km and 10000 km draw
+    // the same wireframe and report.md says so; 1000 km draws finer levels. The wireframe (below
+    // the title band) is equal exactly when report.md names the pair.
+    const std::string other = dir->file("far");
+    const auto r = runCli("report -q " + q(model) + " -o " + q(other) +
+                          " --no-rivers --bench-frames 0 --distance 1000km,3000km,10000km "
+                          "--image-size 200");
+    ASSERT_EQ(r.code, 0) << r.err;
+    const auto grid = readCsv(other + "/grid.csv");
+    ASSERT_EQ(grid.size(), 4u);
+    const std::string otherMd = slurp(other + "/report.md");
+    const std::size_t band = engine::titleBandHeight(200, 2);
+    const char* km[] = {"1000", "3000", "10000"};
+    Image images[3];
+    for (int i = 0; i < 3; ++i)
+        ASSERT_TRUE(readPng(other + "/grid_" + km[i] + "km.png", images[i]));
+    for (int i = 0; i < 3; ++i) {
+        for (int k = i + 1; k < 3; ++k) {
+            SCOPED_TRACE(std::string(km[i]) + " vs " + km[k]);
+            const Image& a = images[i];
+            const Image& b = images[k];
+            const auto split = std::ptrdiff_t(band * a.width * 4);
+            EXPECT_FALSE(std::equal(a.rgba.begin(), a.rgba.begin() + split, b.rgba.begin()))
+                << "the titles differ";
+            const bool sameBelowBand =
+                std::equal(a.rgba.begin() + split, a.rgba.end(), b.rgba.begin() + split);
+            const bool told = otherMd.find(std::string("D = ") + km[i] + " km and " + km[k] +
+                                           " km draw the same nodes") != std::string::npos;
+            EXPECT_EQ(sameBelowBand, told) << otherMd;
+            EXPECT_EQ(told, i > 0) << otherMd;  // only 3000 km and 10000 km
+        }
+    }
+    EXPECT_EQ(grid[2][4], grid[3][4]);  // the same points drawn
+    EXPECT_NE(grid[1][4], grid[2][4]);
+}
+
+// --no-annotate: the same diagram without the scale bar and north arrow; they sit in the left
+// corners below the title band (scale bar bottom left, north arrow top left).
+TEST_F(ReportTest, NoAnnotateChangesOnlyTheCorners) {
+    ASSERT_EQ(result.code, 0) << result.err;
+    const std::string plain = dir->file("plain");
+    const auto r = runCli("report -q " + q(model) + " -o " + q(plain) +
+                          " --no-rivers --bench-frames 0 --no-annotate --distance 30km "
+                          "--image-size 300");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_FALSE(fs::exists(plain + "/frametime.png"));
+    Image annotated, bare;
+    ASSERT_TRUE(readPng(out + "/grid_30km.png", annotated));
+    ASSERT_TRUE(readPng(plain + "/grid_30km.png", bare));
+    ASSERT_EQ(annotated.rgba.size(), bare.rgba.size());
+    std::size_t differ = 0, outside = 0, inScaleBar = 0, inArrow = 0;
+    for (std::uint32_t y = 0; y < bare.height; ++y) {
+        for (std::uint32_t x = 0; x < bare.width; ++x) {
+            const std::size_t i = (std::size_t(y) * bare.width + x) * 4;
+            if (std::equal(&bare.rgba[i], &bare.rgba[i] + 4, &annotated.rgba[i])) continue;
+            ++differ;
+            const bool left = x < bare.width / 2;
+            inScaleBar += left && y > bare.height * 3 / 4;
+            inArrow += left && y < bare.height / 3;
+            outside += !(left && (y > bare.height * 3 / 4 || y < bare.height / 3));
+        }
+    }
+    EXPECT_GT(inScaleBar, 100u);
+    EXPECT_GT(inArrow, 100u);
+    EXPECT_EQ(outside, 0u) << differ;
+}
+
+TEST_F(ReportTest, FrameTimePlot) {
+    ASSERT_EQ(result.code, 0) << result.err;
+    const auto rows = readCsv(out + "/frametime.csv");
+    ASSERT_EQ(rows.size(), 5u);  // header + 4 frames
+    EXPECT_EQ(rows[0], (std::vector<std::string>{"frame", "lod_frame_ms", "resident_frame_ms",
+                                                 "bare_frame_ms", "full_frame_ms"}));
+    std::vector<double> sums(5, 0.0);
+    for (std::size_t i = 1; i < rows.size(); ++i) {
+        ASSERT_EQ(rows[i].size(), 5u);
+        for (std::size_t c = 1; c < 5; ++c) {
+            EXPECT_GE(std::stod(rows[i][c]), 0.0);
+            sums[c] += std::stod(rows[i][c]);
+        }
+    }
+    for (std::size_t c = 1; c < 5; ++c)
+        EXPECT_GT(sums[c], 0.0) << rows[0][c];
+    const nlohmann::json j = nlohmann::json::parse(slurp(out + "/report.json"));
+    ASSERT_TRUE(j.contains("frame_times"));
+    EXPECT_EQ(j["frame_times"]["size"], nlohmann::json({160, 90}));
+    EXPECT_EQ(j["frame_times"]["runs"]["lod"]["frame_ms"].size(), 4u);
+    EXPECT_NE(slurp(out + "/report.md").find("![frame time](frametime.png)"), std::string::npos);
+    Image img;
+    ASSERT_TRUE(readPng(out + "/frametime.png", img));
+    EXPECT_EQ(img.width, 900u);
+    EXPECT_EQ(img.height, 480u);
+    // A line (and a legend mark) per run, in its colour (frametimes.cpp kRuns).
+    const std::uint8_t colours[4][3] = {{204, 38, 38}, {230, 140, 26}, {38, 153, 64},
+                                        {31, 77, 204}};
+    for (const auto& c : colours) {
+        std::size_t n = 0;
+        for (std::size_t p = 0; p < img.rgba.size(); p += 4) {
+            n += std::abs(img.rgba[p] - c[0]) <= 2 && std::abs(img.rgba[p + 1] - c[1]) <= 2 &&
+                 std::abs(img.rgba[p + 2] - c[2]) <= 2;
+        }
+        EXPECT_GT(n, 40u) << int(c[0]) << "," << int(c[1]) << "," << int(c[2]);
+    }
 }
 
 TEST_F(ReportTest, CurvesMatchTheFile) {
@@ -271,7 +420,7 @@ TEST_F(ReportTest, FailuresLeaveNothing) {
 
     // Without the river comparison no DEM or rivers are needed and no rivers.* is written.
     r = runCli("report -q " + q(model) + " -o " + q(other) + " --no-rivers --dem " +
-               q(dir->file("no.tif")) + " --distance 50km --image-size 64");
+               q(dir->file("no.tif")) + " --distance 50km --image-size 64 --bench-frames 0");
     ASSERT_EQ(r.code, 0) << r.err;
     EXPECT_TRUE(fs::exists(other + "/tables.csv"));
     EXPECT_TRUE(fs::exists(other + "/grid_50km.png"));

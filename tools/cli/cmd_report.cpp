@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "commands.h"
+#include "engineopts.h"
 #include "numbers.h"
 #include "outputopts.h"
 #include "progress.h"
@@ -105,6 +106,25 @@ void addReportCommand(CLI::App& app, int& exitCode) {
         ->check(numberIn(0.0, 100.0));
     sub->add_option("--image-size", c->o.imageSize, "grid diagram size in pixels (default 1024)")
         ->check(CLI::Range(16, 16384));
+    sub->add_flag("--annotate,!--no-annotate", c->o.annotate,
+                  "grid diagrams get a scale bar and a north arrow (default on; the title with D, "
+                  "P and the counts is always drawn)");
+    sub->add_option("--bench-frames", c->o.benchFrames,
+                    "frames of the frame-time plot along the camera path (default 60; 0: no plot, "
+                    "no Vulkan device needed)")
+        ->check(CLI::Range(0u, 100000u));
+    sub->add_option("--bench-path", c->o.benchPath,
+                    "camera path JSON for the frame-time plot (default: a fly-over generated from "
+                    "the data's extent)");
+    sub->add_option_function<std::string>(
+        "--bench-size",
+        [c](const std::string& s) {
+            if (!parseSize(s, c->o.benchWidth, c->o.benchHeight))
+                throw CLI::ValidationError("--bench-size", "'" + s + "' is not WxH (1..16384)");
+        },
+        "image size WxH of the frame-time benchmark (default 640x360)");
+    sub->add_flag("--validation", c->o.device.validation,
+                  "Vulkan validation layer for the frame-time benchmark; any message fails");
     addQuietFlag(sub, c->quiet);
     sub->callback([c, &exitCode] { exitCode = run(*c); });
 }

@@ -1,9 +1,12 @@
 // Top-down wireframe of the levels drawn at one view distance (the paper's Figures 7-12): CPU
-// line drawing (Bresenham) of every triangle edge in grey, river edges in blue on top, north up.
+// line drawing (Bresenham) of every triangle edge in grey, river edges in blue on top, north up,
+// under a title band; with `annotate` a scale bar and a north arrow (engine/annotate.h).
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 
+#include "annotate.h"
 #include "cut.h"
 #include "report.h"
 #include "ulod.h"
@@ -50,9 +53,20 @@ constexpr std::uint8_t kRiver[3] = {0, 70, 230};
 
 }  // namespace
 
+std::vector<std::string> gridTitle(const GridDiagram& g) {
+    char a[160], b[240];
+    std::snprintf(a, sizeof a, "View distance %g km, P = %g px", g.distance / 1000, g.pixels);
+    std::snprintf(b, sizeof b, "%llu node%s drawn: %llu points, %llu triangles, %llu river edges",
+                  static_cast<unsigned long long>(g.nodes), g.nodes == 1 ? "" : "s",
+                  static_cast<unsigned long long>(g.points),
+                  static_cast<unsigned long long>(g.triangles),
+                  static_cast<unsigned long long>(g.riverEdges));
+    return {a, b};
+}
+
 bool renderGrid(const std::string& path, const StatsOptions& stats, double distance,
-                std::uint32_t size, std::vector<std::uint8_t>& rgba, GridDiagram& counts,
-                std::string& error) {
+                std::uint32_t size, bool annotate, std::vector<std::uint8_t>& rgba,
+                GridDiagram& counts, std::string& error) {
     format::Reader reader;
     if (!reader.open(path, error)) return false;
     const format::Header& h = reader.header();
@@ -65,12 +79,31 @@ bool renderGrid(const std::string& path, const StatsOptions& stats, double dista
     const double pixels = stats.pixels.empty() ? 1.0 : stats.pixels.front();
     const engine::ViewSpec view = statsView(h, stats, distance, pixels);  // as `stats` counts
 
-    // World -> image: the data's extent fitted into the square with a margin, north up.
+    // The cut of the view through the block hierarchy, as `stats` and the engine take it.
+    // Only the levels stay in memory; the drawn blocks are read again below.
+    format::Block block;
+    std::vector<std::vector<format::Level>> levels(reader.blocks().size());
+    std::vector<engine::LodNode> nodes;
+    for (std::size_t i = 0; i < levels.size(); ++i) {
+        if (!reader.readBlock(i, block, error)) return false;
+        nodes.push_back(engine::lodNode(block));
+        levels[i] = block.levels;
+        nodes.back().levels = &levels[i];
+    }
+    std::vector<engine::NodeChoice> cut;
+    engine::selectCut(view, nodes, metric, cut);
+    std::sort(cut.begin(), cut.end(), [](const engine::NodeChoice& a, const engine::NodeChoice& b) {
+        return a.block < b.block;  // file order: the drawing does not depend on distances
+    });
+
+    // World -> image: the data's extent fitted below the title band with a margin, north up.
+    const std::uint32_t band = std::min(engine::titleBandHeight(size, 2), size / 2);
     const double margin = std::max(2.0, size * 0.02);
-    const double span = std::max({h.maxX - h.minX, h.maxY - h.minY, 1e-9});
-    const double scale = (size - 2 * margin) / span;
+    const double areaH = double(size - band);
+    const double spanX = std::max(h.maxX - h.minX, 1e-9), spanY = std::max(h.maxY - h.minY, 1e-9);
+    const double scale = std::min((size - 2 * margin) / spanX, (areaH - 2 * margin) / spanY);
     const double offX = margin + ((size - 2 * margin) - (h.maxX - h.minX) * scale) / 2;
-    const double offY = margin + ((size - 2 * margin) - (h.maxY - h.minY) * scale) / 2;
+    const double offY = margin + ((areaH - 2 * margin) - (h.maxY - h.minY) * scale) / 2;
     auto px = [&](double x) { return offX + (x - h.minX) * scale; };
     auto py = [&](double y) { return double(size) - (offY + (y - h.minY) * scale); };
 
@@ -78,14 +111,12 @@ bool renderGrid(const std::string& path, const StatsOptions& stats, double dista
     Canvas canvas{size, &rgba};
     counts = GridDiagram{};
     counts.distance = distance;
-    format::Block block;
+    counts.pixels = pixels;
     std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
     std::vector<std::array<double, 4>> riverLines;
-    for (std::size_t i = 0; i < reader.blocks().size(); ++i) {
-        if (!reader.readBlock(i, block, error)) return false;
-        const engine::LevelChoice choice =
-            engine::chooseNode(view, engine::lodNode(block), std::uint32_t(i), metric).wanted;
-        const format::Level& level = block.levels[choice.level];
+    for (const engine::NodeChoice& choice : cut) {
+        if (!reader.readBlock(choice.block, block, error)) return false;
+        const format::Level& level = block.levels[choice.wanted.level];
         auto X = [&](std::uint32_t v) { return px(block.originX + double(block.vertices[v].x)); };
         auto Y = [&](std::uint32_t v) { return py(block.originY + double(block.vertices[v].y)); };
         // Each undirected edge once (shared by two triangles inside the block).
@@ -106,14 +137,26 @@ bool renderGrid(const std::string& path, const StatsOptions& stats, double dista
             const format::Edge& edge = block.riverIndices[level.riverFirst + e];
             riverLines.push_back({X(edge.a), Y(edge.a), X(edge.b), Y(edge.b)});
         }
-        counts.blocks += 1;
+        counts.nodes += 1;
+        counts.points += level.vertexCount;
         counts.triangles += level.triangleCount;
         counts.triangleEdges += edges.size();
         counts.riverEdges += level.riverCount;
+        counts.drawn.push_back({choice.block, choice.wanted.level});
     }
     // Rivers last, over every block's terrain.
     for (const auto& l : riverLines)
         canvas.line(l[0], l[1], l[2], l[3], kRiver);
+
+    engine::drawTitleBand(rgba, size, size, band, gridTitle(counts));
+    if (annotate) {
+        engine::Annotation a;  // orthographic and north up: the scale is exact everywhere
+        a.scaleBar = true;
+        a.metresPerPixel = 1.0 / scale;
+        a.northArrow = true;
+        a.area = {0, std::int32_t(band), std::int32_t(size), std::int32_t(size - band)};
+        engine::annotateImage(rgba, size, size, a);
+    }
     return true;
 }
 

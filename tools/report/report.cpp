@@ -1,6 +1,7 @@
 // `unilod report` (report.h): runs the pieces and writes the folder.
 #include "report.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -47,6 +48,12 @@ std::string tablesMd(const StatsTable& t, const std::string& path) {
       << t.middleRow << "); " << t.fullPoints
       << " points at full resolution. Definitions: preprocess/stats.h (same as `unilod "
          "stats`).\n\n"
+      << "Counts are those of the cut of the view through the block hierarchy, each drawn node "
+         "at its EXACT deletion step k* (the largest step whose error fits its h_lim). The grid "
+         "diagrams (report.md, grid.csv) draw the same nodes at the STORED level the engine "
+         "draws (the stored level with the largest step <= k*: the levels are a subset of the "
+         "steps), so their points and triangles are at least these for the same distance and "
+         "the first pixel tolerance.\n\n"
       << "| View distance (km) | Pixel tolerance | h_lim edge (m) | h_lim corner (m) | h_lim "
          "middle (m) | Points | River bound edges | Triangles | Retention (%) |\n"
       << "|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
@@ -200,6 +207,87 @@ std::string riversMd(const std::vector<RiverRow>& rows) {
     return s.str();
 }
 
+constexpr std::uint32_t kPlotWidth = 900, kPlotHeight = 480;
+
+std::string frameTimesCsv(const FrameTimes& t) {
+    std::string s = "frame";
+    std::size_t frames = 0;
+    for (std::size_t r = 0; r < t.runs.size(); ++r) {
+        s += "," + t.runs[r] + "_frame_ms";
+        frames = std::max(frames, t.ms[r].size());
+    }
+    s += "\n";
+    for (std::size_t i = 0; i < frames; ++i) {
+        s += std::to_string(i);
+        for (const std::vector<double>& ms : t.ms)
+            s += i < ms.size() ? fmt(",%.6f", ms[i]) : std::string(",");
+        s += "\n";
+    }
+    return s;
+}
+
+// The grid diagrams' table, next to the tables' counts for the same D, and what differs.
+void gridSection(std::ostringstream& md, const ReportSummary& summary) {
+    md << "## Grid diagrams (top-down, levels drawn at view distance D)\n\n"
+       << "Each diagram draws the cut of the stats view (the nodes tables.md counts) with every "
+          "node at the stored level the engine draws; tables.md counts each node at its exact "
+          "deletion step k*, which usually lies between two stored levels: the engine draws the "
+          "finer one (the largest stored step <= k*), so the diagrams' points and triangles are "
+          "larger than or equal to tables.md's (columns \"tables.md\").\n\n"
+       << "| D (km) | P (px) | Image | Nodes | Points | Triangles | Triangle edges | River edges "
+          "| Points (tables.md) | Triangles (tables.md) |\n"
+       << "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|\n";
+    for (const GridDiagram& g : summary.grids) {
+        std::string tablePoints = "-", tableTriangles = "-";
+        for (const StatsRow& r : summary.table.rows) {
+            if (r.distance == g.distance && r.pixels == g.pixels) {
+                tablePoints = fmtU(r.points);
+                tableTriangles = fmtU(r.triangles);
+                break;
+            }
+        }
+        md << "| " << fmt("%g", g.distance / 1000) << " | " << fmt("%g", g.pixels) << " | ["
+           << g.file << "](" << g.file << ") | " << g.nodes << " | " << g.points << " | "
+           << g.triangles << " | " << g.triangleEdges << " | " << g.riverEdges << " | "
+           << tablePoints << " | " << tableTriangles << " |\n";
+    }
+    // Diagrams that draw the same nodes at the same levels are the same wireframe.
+    std::vector<bool> told(summary.grids.size(), false);
+    for (std::size_t i = 0; i < summary.grids.size(); ++i) {
+        if (told[i]) continue;
+        std::string same;
+        for (std::size_t k = i + 1; k < summary.grids.size(); ++k) {
+            if (summary.grids[k].drawn == summary.grids[i].drawn) {
+                told[k] = true;
+                same += (same.empty() ? "" : ", ") + fmt("%g km", summary.grids[k].distance / 1000);
+            }
+        }
+        if (same.empty()) continue;
+        md << "\nD = " << fmt("%g km", summary.grids[i].distance / 1000) << " and " << same
+           << " draw the same nodes at the same stored levels: the wireframes are identical, "
+              "only the titles differ (h_lim moved between the same two stored levels, or past "
+              "a node's coarsest one, without changing the level drawn). "
+              "tables.md can still differ between these distances: it counts the exact step.\n";
+    }
+    md << "\n";
+    for (const GridDiagram& g : summary.grids)
+        md << "![D = " << fmt("%g km", g.distance / 1000) << "](" << g.file << ")\n";
+}
+
+void frameTimeSection(std::ostringstream& md, const FrameTimes& t) {
+    md << "\n## Frame time along a camera path\n\n"
+       << "`unilod bench` (engine/bench.h) runs lod, resident, bare and full on " << t.device
+       << " at " << t.width << "x" << t.height << ", cameras: " << t.cameras
+       << ". Frame time = wall-clock interval between successive submissions. lod streams "
+          "without waiting: until the loader delivers, it draws the coarse fallback (compare its "
+          "triangles with resident's, the same level choice preloaded).\n\n"
+       << "| Run | Median frame (ms) | Triangles (last frame) |\n|---|---:|---:|\n";
+    for (std::size_t r = 0; r < t.runs.size(); ++r)
+        md << "| " << t.runs[r] << " | " << fmt("%.3f", t.medianMs[r]) << " | " << t.triangles[r]
+           << " |\n";
+    md << "\n![frame time](frametime.png)\n";
+}
+
 std::string gridName(double distance) {
     return "grid_" + fmt("%g", distance / 1000) + "km.png";
 }
@@ -218,6 +306,11 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
     if (!format::checkOutputPath(o.outDir, output, true, error)) return false;
     if (o.imageSize < 16 || o.imageSize > 16384) {
         error = "image size must be in 16..16384";
+        return false;
+    }
+    if (o.benchFrames > 0 && (o.benchWidth == 0 || o.benchHeight == 0 || o.benchWidth > 16384 ||
+                              o.benchHeight > 16384)) {
+        error = "benchmark size must be in 1..16384";
         return false;
     }
     for (std::size_t i = 0; i < o.stats.distances.size(); ++i) {
@@ -241,6 +334,11 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
         if (!compareRivers(o, buildInfo, summary.rivers, error)) return false;
     }
 
+    if (o.benchFrames > 0) {
+        say("frame times along a camera path (bench: lod, resident, bare, full)");
+        if (!measureFrameTimes(o, summary.frameTimes, error)) return false;
+    }
+
     // Everything computed: write into a temporary folder, move it into place at the end.
     format::AtomicFile folder;
     if (!folder.openFolder(o.outDir, output, error)) return false;
@@ -250,7 +348,8 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
     for (double d : o.stats.distances) {
         say("grid diagram at " + fmt("%g km", d / 1000));
         GridDiagram g;
-        if (!renderGrid(o.path, o.stats, d, o.imageSize, rgba, g, error)) return false;
+        if (!renderGrid(o.path, o.stats, d, o.imageSize, o.annotate, rgba, g, error))
+            return false;
         g.file = gridName(d);
         if (!format::writePng((temp / g.file).string(), o.imageSize, o.imageSize, rgba,
                               kInTempFolder, error))
@@ -269,12 +368,24 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
                      !writeText(temp, "rivers.md", riversMd(summary.rivers), summary, error))) {
         return false;
     }
-    std::string grid = "view_distance_m,file,blocks,triangles,triangle_edges,river_edges\n";
+    std::string grid =
+        "view_distance_m,pixels,file,nodes,points,triangles,triangle_edges,river_edges\n";
     for (const GridDiagram& g : summary.grids) {
-        grid += fmt("%.17g", g.distance) + "," + g.file + "," + fmtU(g.blocks) + "," +
-                fmtU(g.triangles) + "," + fmtU(g.triangleEdges) + "," + fmtU(g.riverEdges) + "\n";
+        grid += fmt("%.17g", g.distance) + fmt(",%.17g", g.pixels) + "," + g.file + "," +
+                fmtU(g.nodes) + "," + fmtU(g.points) + "," + fmtU(g.triangles) + "," +
+                fmtU(g.triangleEdges) + "," + fmtU(g.riverEdges) + "\n";
     }
     if (!writeText(temp, "grid.csv", grid, summary, error)) return false;
+
+    const FrameTimes& ft = summary.frameTimes;
+    if (!ft.runs.empty()) {
+        plotFrameTimes(ft, kPlotWidth, kPlotHeight, rgba);
+        if (!format::writePng((temp / "frametime.png").string(), kPlotWidth, kPlotHeight, rgba,
+                              kInTempFolder, error))
+            return false;
+        summary.files.push_back("frametime.png");
+        if (!writeText(temp, "frametime.csv", frameTimesCsv(ft), summary, error)) return false;
+    }
 
     nlohmann::json j;
     j["source"] = o.path;
@@ -282,8 +393,10 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
     j["grids"] = nlohmann::json::array();
     for (const GridDiagram& g : summary.grids) {
         j["grids"].push_back({{"distance_m", g.distance},
+                              {"pixels", g.pixels},
                               {"file", g.file},
-                              {"blocks", g.blocks},
+                              {"nodes", g.nodes},
+                              {"points", g.points},
                               {"triangles", g.triangles},
                               {"triangle_edges", g.triangleEdges},
                               {"river_edges", g.riverEdges}});
@@ -299,6 +412,15 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
                                {"max_hausdorff_bai_m", r.maxBai},
                                {"max_hausdorff_plain_m", r.maxPlain}});
     }
+    if (!ft.runs.empty()) {
+        nlohmann::json runs = nlohmann::json::object();
+        for (std::size_t r = 0; r < ft.runs.size(); ++r)
+            runs[ft.runs[r]] = {{"frame_ms", ft.ms[r]}, {"median_frame_ms", ft.medianMs[r]}};
+        j["frame_times"] = {{"device", ft.device},
+                            {"size", {ft.width, ft.height}},
+                            {"cameras", ft.cameras},
+                            {"runs", runs}};
+    }
     j["files"] = summary.files;  // the files above; report.json and report.md come last
     if (!writeText(temp, "report.json", jsonText(j, 2) + "\n", summary, error)) return false;
 
@@ -312,18 +434,13 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
         md << "- [rivers.md](rivers.md), [rivers.csv](rivers.csv): BAI vs no BAI, 2D "
               "Hausdorff distance at equal point budgets by landform class\n";
     }
-    md << "- [grid.csv](grid.csv), [report.json](report.json): the numbers\n\n"
-       << "## Grid diagrams (top-down, levels drawn at view distance D)\n\n"
-       << "| D (km) | Image | Blocks | Triangles | Triangle edges | River edges |\n"
-       << "|---:|---|---:|---:|---:|---:|\n";
-    for (const GridDiagram& g : summary.grids) {
-        md << "| " << fmt("%g", g.distance / 1000) << " | [" << g.file << "](" << g.file << ") | "
-           << g.blocks << " | " << g.triangles << " | " << g.triangleEdges << " | "
-           << g.riverEdges << " |\n";
+    if (!ft.runs.empty()) {
+        md << "- [frametime.png](frametime.png), [frametime.csv](frametime.csv): frame time per "
+              "frame along a camera path (`unilod bench` runs lod, resident, bare, full)\n";
     }
-    md << "\n";
-    for (const GridDiagram& g : summary.grids)
-        md << "![D = " << fmt("%g km", g.distance / 1000) << "](" << g.file << ")\n";
+    md << "- [grid.csv](grid.csv), [report.json](report.json): the numbers\n\n";
+    gridSection(md, summary);
+    if (!ft.runs.empty()) frameTimeSection(md, ft);
     md << "\n![error vs retention](curves.svg)\n";
     if (!writeText(temp, "report.md", md.str(), summary, error)) return false;
 

@@ -5,8 +5,12 @@
 //   DIR/curves.svg, .csv model error vs retention for both metrics, aggregated over blocks
 //   DIR/rivers.md, .csv  BAI vs plain 3D_DP: 2D Hausdorff distance of simplified rivers to the
 //                        originals at equal point budgets, by landform (Table 1 altitude) class
-//   DIR/grid_<D>.png     top-down wireframe of the levels drawn at view distance D (Figs. 7-12)
-//   DIR/grid.csv         what each diagram drew (blocks, triangles, river edges)
+//   DIR/grid_<D>.png     top-down wireframe of the levels drawn at view distance D (Figs. 7-12),
+//                        titled with D, P and what it drew; with `annotate` a scale bar and a
+//                        north arrow (engine/annotate.h)
+//   DIR/grid.csv         what each diagram drew (nodes, points, triangles, river edges)
+//   DIR/frametime.png, .csv  frame time (ms) per frame along a camera path: `unilod bench`'s
+//                        lod, resident, bare and full runs (engine/bench.h), Vulkan
 //   DIR/report.json      the numbers above, machine-readable
 //
 // Definitions (also in the README):
@@ -27,9 +31,23 @@
 //   the mean altitude of the river's vertices (z sampled from the DEM), classes by Table 1's
 //   lower bounds 0 / 500 / 1000 m.
 // - Grid diagrams: the stats viewpoint (stats.h statsView: above the centre of the data, D above
-//   its maximum z, S = distance to the block centre, h_lim = 2·P·S·tan(α/2)/H); each block draws
-//   the stored level the cut chooses for it (engine/lod/cut.h chooseNode), the level the engine
-//   would draw.
+//   its maximum z, S = distance to the block centre, h_lim = 2·P·S·tan(α/2)/H, P the first
+//   pixel tolerance); the cut of that view through the block hierarchy (engine/lod/cut.h
+//   selectCut, the nodes `stats` counts), each drawn node at the stored level the cut chooses
+//   for it: the level the engine would draw. So the diagrams count the same nodes as the tables
+//   but at their stored levels, while tables.md counts each node's exact deletion step k*
+//   (stats.h): the stored levels are a subset of the steps and the engine draws the one with
+//   the largest step <= k*, so the diagrams' points and triangles are >= the tables' for the
+//   same D. Two distances whose cuts draw the
+//   same nodes at the same levels (e.g. everything at its coarsest stored level) give the same
+//   wireframe; only the title differs, and report.md says so.
+// - Frame times: `benchFrames` cameras along `benchPath` (default: a fly-over generated from the
+//   data's extent: from south of the data, 0.4 x its span above its top, to above its centre
+//   at 0.15 x the span, looking north 30 degrees down), `benchWidth` x `benchHeight`, P and the
+//   metric of the tables; the four runs of engine/bench.h with per-frame numbers. The lod run
+//   streams without waiting: until the loader delivers a block's levels it draws the coarse
+//   fallback, so on a short path its line can stay at the coarse cost; resident is the same
+//   level choice with everything preloaded.
 #pragma once
 
 #include <cstdint>
@@ -37,6 +55,8 @@
 #include <string>
 #include <vector>
 
+#include "camera.h"
+#include "device.h"
 #include "rivers.h"
 #include "stats.h"
 
@@ -50,13 +70,31 @@ struct ReportOptions {
     bool rivers = true;               // false: no BAI comparison (no DEM / rivers needed)
     std::vector<double> budgets = {0.05, 0.10, 0.20, 0.40};  // river point budgets (fractions)
     std::uint32_t imageSize = 1024;                           // grid diagrams: square, pixels
+    bool annotate = true;  // grid diagrams: scale bar and north arrow (the title is always there)
+    std::uint32_t benchFrames = 60;  // frame-time plot: frames along the path; 0: no plot
+    std::uint32_t benchWidth = 640, benchHeight = 360;
+    std::string benchPath;  // camera path JSON (engine/capture.h); empty: a generated fly-over
+    engine::DeviceOptions device;  // the benchmark's Vulkan device and validation
+    std::string spirvDir;
     std::function<void(const std::string&)> progress;         // one line per stage
 };
 
 struct GridDiagram {
-    double distance = 0;
+    double distance = 0, pixels = 0;
     std::string file;  // name inside outDir
-    std::uint64_t blocks = 0, triangles = 0, triangleEdges = 0, riverEdges = 0;
+    // Summed over the drawn nodes at their stored levels (points: the levels' vertexCount).
+    std::uint64_t nodes = 0, points = 0, triangles = 0, triangleEdges = 0, riverEdges = 0;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> drawn;  // (node, level), file order
+};
+
+// The frame-time measurement (definitions above).
+struct FrameTimes {
+    std::string device, cameras;  // the Vulkan device; the path file or "generated fly-over"
+    std::uint32_t width = 0, height = 0;
+    std::vector<std::string> runs;          // "lod", "resident", "bare", "full"
+    std::vector<std::vector<double>> ms;    // per run: frame time (ms) of each frame
+    std::vector<double> medianMs;           // per run
+    std::vector<std::uint64_t> triangles;   // per run: triangles of the last frame
 };
 
 struct RiverRow {
@@ -80,6 +118,7 @@ struct ReportSummary {
     bool hasMax = false, hasPaper = false;
     std::vector<RiverRow> rivers;
     std::vector<GridDiagram> grids;
+    FrameTimes frameTimes;           // runs empty: not measured (benchFrames 0)
     std::vector<std::string> files;  // written, relative to outDir
 };
 
@@ -105,10 +144,26 @@ double hausdorff2D(const std::vector<XY>& a, const std::vector<XY>& b, int sampl
 bool computeCurve(const std::string& path, std::vector<CurvePoint>& curve, bool& hasMax,
                   bool& hasPaper, std::string& error);
 
-// Renders one grid diagram (RGBA8, size x size) and counts what it drew.
+// Renders one grid diagram (RGBA8, size x size, title band on top) and counts what it drew.
 bool renderGrid(const std::string& path, const StatsOptions& stats, double distance,
-                std::uint32_t size, std::vector<std::uint8_t>& rgba, GridDiagram& counts,
-                std::string& error);
+                std::uint32_t size, bool annotate, std::vector<std::uint8_t>& rgba,
+                GridDiagram& counts, std::string& error);
+
+// The title of a grid diagram: D, P, then the drawn nodes, points, triangles and river edges.
+std::vector<std::string> gridTitle(const GridDiagram& g);
+
+// The cameras of the frame-time measurement (definitions above) for a file's header.
+std::vector<engine::Camera> flyOverCameras(const format::Header& header, std::uint32_t frames);
+
+// Runs the benchmark for the frame-time plot. False with a message (no Vulkan device, a
+// validation message, an unreadable camera path).
+bool measureFrameTimes(const ReportOptions& options, FrameTimes& out, std::string& error);
+
+// The plot (RGBA8, width x height, white): frame time (ms) over the frame index, one line per
+// run, legend with each run's median.
+void plotFrameTimes(const FrameTimes& t, std::uint32_t width, std::uint32_t height,
+                    std::vector<std::uint8_t>& rgba);
+
 
 }  // namespace unilod::report
 
