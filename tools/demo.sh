@@ -76,7 +76,9 @@ $unilod bench "$paper_model" --path "$orbit" --frames "$frames" --size "$size" \
     --metric paper --distance centre --overwrite -o "$out/bench_orbit_paper.json"
 echo "== 7. unilod export: the oblique capture's LOD as glTF 2.0 (Blender, three.js) =="
 $unilod export "$model" -q --camera 735000,4034000,3500,30,-20 --size 1280x720 \
-    -o "$out/jacksboro_oblique.glb"
+    -o "$out/jacksboro_oblique.glb" --overwrite
+echo "-- the whole model as a 3D Tiles 1.1 tileset on the WGS84 globe (CesiumJS) --"
+$unilod export "$model" -q --3dtiles "$out/jacksboro_3dtiles" --overwrite
 echo "== 8. unilod report: tables, error curves, BAI vs no BAI rivers, grid diagrams =="
 $unilod report "$model" -q --overwrite -o "$out/report" --dem "$dem" --rivers "$rivers"
 echo "-- the same for the paper's configuration (Tables 2/3 as in the paper) --"
@@ -90,6 +92,7 @@ echo "  captures (PNG+JSON): $out/capture/{oblique,topdown,grid,path}/"
 echo "  benchmark JSON:     $out/bench.json (fly-over), $out/bench_orbit.json (orbit),"
 echo "                      $out/bench_orbit_paper.json (orbit, the paper's configuration)"
 echo "  glTF export:        $out/jacksboro_oblique.glb"
+echo "  3D Tiles tileset:   $out/jacksboro_3dtiles/tileset.json (CesiumJS, QGIS 3D)"
 echo "  report:             $out/report/report.md (tables, curves, rivers, grid diagrams)"
 echo "  paper's report:     $out/report_paper/report.md (3ddp order, paper metric)"
 echo "  importance order:   $out/jacksboro_order.csv"

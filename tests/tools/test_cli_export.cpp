@@ -268,8 +268,15 @@ TEST_F(ExportTest, HLimRoundTrip) {
         const std::string out = dir->file("h.glb");
         std::ostringstream hs;
         hs << h;
-        const auto r = runCli("export -q " + q(model) + " --h-lim " + hs.str() + " -o " + q(out));
+        // The same output every time: replaced with --overwrite (refused without it: below).
+        const auto r = runCli("export -q " + q(model) + " --h-lim " + hs.str() + " -o " + q(out) +
+                              " --overwrite");
         ASSERT_EQ(r.code, 0) << r.err;
+        if (h == 0.0) {
+            const auto again = runCli("export -q " + q(model) + " --h-lim 5 -o " + q(out));
+            EXPECT_EQ(again.code, 1);
+            EXPECT_NE(again.err.find("--overwrite"), std::string::npos) << again.err;
+        }
         const tinygltf::Model m = load(out);
         std::uint64_t triangles = 0, edges = 0;
         checkModel(m, std::vector<double>(blocks.size(), h), triangles, edges, allLevels);

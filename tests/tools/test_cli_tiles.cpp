@@ -219,6 +219,14 @@ TEST_F(TilesTest, ErrorsLeaveNoFolder) {
     EXPECT_EQ(r.code, 1);
     EXPECT_NE(r.err.find(tiles), std::string::npos) << r.err;
     EXPECT_TRUE(fs::exists(tiles + "/tileset.json"));
+    // --overwrite replaces a folder (here one with a stray file, which goes with the old one).
+    const std::string again = dir->file("again");
+    fs::create_directory(again);
+    std::ofstream(again + "/stray.txt") << "old";
+    r = runCli("export -q " + q(model) + " --3dtiles " + q(again) + " --overwrite");
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_TRUE(fs::exists(again + "/tileset.json"));
+    EXPECT_FALSE(fs::exists(again + "/stray.txt"));
     r = runCli("export -q " + q(model) + " --3dtiles " + q(out) + " --s-srs NOT_A_CRS");
     EXPECT_EQ(r.code, 1);
     EXPECT_NE(r.err.find("NOT_A_CRS"), std::string::npos) << r.err;

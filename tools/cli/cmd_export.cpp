@@ -16,6 +16,8 @@
 #include "gltfexport.h"
 #include "tiles3d.h"
 #include "numbers.h"
+#include "outputopts.h"
+#include "progress.h"
 #include "ulod.h"
 
 namespace unilod::cli {
@@ -31,9 +33,9 @@ struct ExportCli {
     std::string distance = "nearest";
     bool noCull = false;
     bool quiet = false;
+    OutputFlags output;     // -o/--output, --overwrite
     std::string tilesDir;   // --3dtiles
     std::string sourceSrs;  // --s-srs
-    bool overwrite = false;
 };
 
 bool parseSize(const std::string& s, double& width, double& height) {
@@ -50,22 +52,31 @@ int runTileset(ExportCli& c) {
     exporter::TilesetOptions t;
     t.path = c.o.path;
     t.outDir = c.tilesDir;
-    t.overwrite = c.overwrite;
     t.sourceSrs = c.sourceSrs;
     if (c.metric == "paper") t.metric = format::kMetricPaper;
     if (c.metric == "max") t.metric = format::kMetricMax;
-    if (!c.quiet) {
-        t.progress = [](std::size_t done, std::size_t total) {
-            if (done == total || done % 16 == 0)
-                std::fprintf(stderr, "  entries %zu / %zu\n", done, total);
-        };
-    }
-    exporter::TilesetSummary summary;
+    // The folder rule of outputopts.h: an existing non-empty folder only with --overwrite, and
+    // then the old one stays until the new one is in place.
+    const OutputFlags folder{c.tilesDir, c.output.overwrite};
     std::string error;
-    if (!exporter::exportTileset(t, summary, error)) {
+    ReplacedFolder old;
+    if (!checkOutput(folder, OutputKind::Folder, error) ||
+        (folder.overwrite && !old.moveAside(folder.path, error))) {
         std::fprintf(stderr, "unilod export: error: %s\n", error.c_str());
         return 1;
     }
+    Progress progress("export", !c.quiet, "tiles", 0);
+    t.progress = [&progress](std::size_t done, std::size_t total) {
+        progress.update(done, total);
+    };
+    exporter::TilesetSummary summary;
+    const bool ok = exporter::exportTileset(t, summary, error);
+    progress.finish();
+    if (!ok) {
+        std::fprintf(stderr, "unilod export: error: %s\n", error.c_str());
+        return 1;  // `old` goes back in place
+    }
+    old.keep();
     std::printf("%s: 3D Tiles 1.1 tileset, %zu tiles from %zu entries (depth %zu), %llu "
                 "triangles, %llu river edges in all tiles, %llu bytes; root geometricError %.2f m; "
                 "origin %.6f, %.6f (longitude, latitude)\n",
@@ -106,15 +117,17 @@ int run(ExportCli& c) {
     s.metric = 0;
     if (c.metric == "paper") s.metric = format::kMetricPaper;
     if (c.metric == "max") s.metric = format::kMetricMax;
-    if (!c.quiet) {
-        c.o.progress = [](std::size_t done, std::size_t total) {
-            if (done == total || done % 16 == 0)
-                std::fprintf(stderr, "  blocks %zu / %zu\n", done, total);
-        };
-    }
+    c.o.outPath = c.output.path;
+    c.o.overwrite = c.output.overwrite;
+    Progress progress("export", !c.quiet, "blocks", 0);
+    c.o.progress = [&progress](std::size_t done, std::size_t total) {
+        progress.update(done, total);
+    };
     exporter::ExportSummary summary;
     std::string error;
-    if (!exporter::exportGltf(c.o, summary, error)) {
+    const bool ok = exporter::exportGltf(c.o, summary, error);
+    progress.finish();
+    if (!ok) {
         std::fprintf(stderr, "unilod export: error: %s\n", error.c_str());
         return 1;
     }
@@ -162,7 +175,7 @@ void addExportCommand(CLI::App& app, int& exitCode) {
     sub->add_flag("--no-cull", c->noCull, "with yaw,pitch: keep the blocks outside the view");
     sub->add_option("--metric", c->metric, "error metric (default: the file's)")
         ->check(CLI::IsMember({"max", "paper"}));
-    CLI::Option* out = sub->add_option("-o,--out", c->o.outPath, "output .glb");
+    CLI::Option* out = addOutputOptions(sub, c->output, "output .glb", false);
     CLI::Option* tiles = sub->add_option(
         "--3dtiles", c->tilesDir,
         "write the whole model as a 3D Tiles 1.1 tileset into this new folder (tileset.json + "
@@ -172,14 +185,13 @@ void addExportCommand(CLI::App& app, int& exitCode) {
     sub->add_option("--s-srs", c->sourceSrs,
                     "--3dtiles: CRS of the file's coordinates (any GDAL form, e.g. EPSG:32616); "
                     "default the file's own");
-    sub->add_flag("--overwrite,--force", c->overwrite, "replace an existing output");
-    sub->add_flag("-q,--quiet", c->quiet, "no progress lines on stderr");
+    addQuietFlag(sub, c->quiet);
     sub->callback([c, sub, &exitCode] {
         if (!c->tilesDir.empty()) {
             exitCode = runTileset(*c);
             return;
         }
-        if (c->o.outPath.empty()) {
+        if (c->output.path.empty()) {
             std::fprintf(stderr, "unilod export: error: one of -o/--output or --3dtiles is "
                                  "required\n%s",
                          sub->help().c_str());

@@ -23,7 +23,8 @@ namespace unilod::exporter {
 
 struct ExportOptions {
     std::string path;     // the .ulod file
-    std::string outPath;  // the .glb to write (format::AtomicFile; replaced, never the input)
+    std::string outPath;  // the .glb to write (format::AtomicFile; never the input)
+    bool overwrite = false;  // replace an existing outPath (--overwrite)
     SelectionOptions selection;
     std::function<void(std::size_t, std::size_t)> progress;  // blocks done, total
 };

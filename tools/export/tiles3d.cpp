@@ -205,7 +205,7 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
     summary = {};
     // The output first: a bad -o (an existing folder, the input) fails before the work.
     format::AtomicFile folder;
-    if (!folder.openFolder(options.outDir, {.replace = options.overwrite, .inputs = {options.path}},
+    if (!folder.openFolder(options.outDir, {.replace = false, .inputs = {options.path}},
                            error)) {
         return false;
     }

@@ -29,7 +29,8 @@
 //   orthometric DEM sits the local geoid undulation, -30 m to +60 m, off).
 // - asset: version "1.1", generator, tilesetVersion; tileset `extras`: source path, CRS WKT,
 //   metric, centre longitude/latitude and the layout above in words.
-// The folder appears whole or not at all (format::AtomicFile::openFolder).
+// The folder appears whole or not at all (format::AtomicFile::openFolder: a missing or empty
+// folder; the CLI moves an old one aside for --overwrite).
 #pragma once
 
 #include <cstdint>
@@ -41,7 +42,6 @@ namespace unilod::exporter {
 struct TilesetOptions {
     std::string path;          // the .ulod file
     std::string outDir;        // the tileset folder to create
-    bool overwrite = false;    // replace an existing output (--overwrite)
     std::string sourceSrs;     // --s-srs: CRS of the file's coordinates (default: the file's own)
     std::uint32_t metric = 0;  // format::kMetricMax / kMetricPaper; 0 = the file's default
     std::function<void(std::size_t, std::size_t)> progress;  // entries done, total
