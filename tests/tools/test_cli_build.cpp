@@ -606,7 +606,7 @@ TEST(CliBuildBad, ExistingOutputNeedsForce) {
     const Result r = run(build(c, c.in("dem.tif"), c.in("rivers.geojson")));
     EXPECT_EQ(r.code, 1);
     EXPECT_NE(r.err.find(c.out()), std::string::npos) << r.err;
-    EXPECT_NE(r.err.find("--force"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("--overwrite"), std::string::npos) << r.err;
     EXPECT_EQ(slurp(c.out()), "precious");
     EXPECT_EQ(c.outEntries().size(), 1u);
     expectAcceptedAndChecked(c, run(build(c, c.in("dem.tif"), c.in("rivers.geojson"), "--force")));
