@@ -3,8 +3,8 @@
 // 127.0.0.1, looks at it from near and from far, and checks what it drew:
 // - near: every selected tile loaded without a failure, model pixels cover a good part of the
 //   view and river pixels are blue (the unlit river material);
-// - far: the number of tiles Cesium selects for rendering falls (the coarse levels replace the
-//   fine ones: geometricError drives the selection).
+// - far: the numbers of tiles Cesium selects for rendering and keeps loaded (after
+//   trimLoadedTiles: no cache beyond the view) fall: the coarse levels replace the fine ones, geometricError drives the selection.
 // Usage: node run.mjs --tileset DIR [--out PNG_PREFIX] [--chromium PATH]
 // Exit: 0 pass, 1 fail, 77 skip (Chromium cannot start: the message says why).
 import { chromium } from "playwright-core";
@@ -109,10 +109,12 @@ try {
         await page.evaluate(({ range, pitch }) => window.unilod.look(range, pitch), v);
         const settled = await page.evaluate((t) => window.unilod.settle(t), 240000);
         const px = await page.evaluate(() => window.unilod.pixels());
-        const selected = await page.evaluate(() => window.unilod.selected);
-        results[v.name] = { settled, selected, ...px };
+        const { selected, loaded } = await page.evaluate(
+            () => ({ selected: window.unilod.selected, loaded: window.unilod.loaded }));
+        results[v.name] = { settled, selected, loaded, ...px };
         console.log(`${v.name}: range ${v.range.toFixed(0)} m, settled ${settled}, ${selected} ` +
-            `tiles selected, ${px.model} model pixels, ${px.blue} blue of ${px.width}x${px.height}`);
+            `tiles selected, ${loaded} loaded, ${px.model} model pixels, ${px.blue} blue of ` +
+            `${px.width}x${px.height}`);
         if (outPrefix) await page.screenshot({ path: `${outPrefix}_${v.name}.png` });
     }
     const errors = await page.evaluate(() => window.unilod.errors);
@@ -122,10 +124,12 @@ try {
     check(requests.tiles > 0, `the client fetched tile content (${requests.tiles} .glb requests)`);
     const n = results.near;
     check(n.model > 0.3 * n.width * n.height,
-        `near: the model covers the view (${n.model} of ${n.width * n.height} pixels)`);
+        `near: terrain-grey pixels cover the view (${n.model} of ${n.width * n.height} pixels)`);
     check(n.blue > 200, `near: rivers drawn blue (${n.blue} pixels)`);
     check(results.far.selected >= 1 && results.far.selected < n.selected,
         `far: fewer tiles selected than near (${results.far.selected} < ${n.selected})`);
+    check(results.far.loaded >= 1 && results.far.loaded < n.loaded,
+        `far: fewer tiles loaded than near (${results.far.loaded} < ${n.loaded})`);
     check(results.far.model > 0 && results.far.model < n.model,
         `far: the model is smaller on screen (${results.far.model} pixels)`);
     const bad = consoleErrors.filter((t) => !/favicon/.test(t));
