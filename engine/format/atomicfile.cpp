@@ -253,6 +253,32 @@ bool AtomicFile::writeAt(const void* data, std::size_t size, std::uint64_t offse
     return true;
 }
 
+bool AtomicFile::writeInside(const std::string& relative, std::string_view data,
+                             std::string& error) {
+    if (!folder_ || temp_.empty()) {
+        return fail("write failed: not an open folder output", error);
+    }
+    const std::string file = temp_ + "/" + relative;
+    const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (fd < 0) return fail(relative + ": cannot create: " + errnoText(), error);
+    const char* p = data.data();
+    std::size_t size = data.size();
+    while (size > 0) {
+        const ssize_t put = ::write(fd, p, size);
+        if (put < 0 && errno == EINTR) continue;
+        if (put <= 0) {
+            const int e = put < 0 ? errno : EIO;
+            ::close(fd);
+            return fail(relative + ": write failed: " + errnoText(e), error);
+        }
+        p += put;
+        size -= static_cast<std::size_t>(put);
+    }
+    if (::close(fd) != 0) return fail(relative + ": write failed (close): " + errnoText(), error);
+    unsynced_ = true;
+    return true;
+}
+
 bool AtomicFile::commit(std::string& error) {
     if (temp_.empty()) return fail("nothing to commit (not open or already committed)", error);
     // Our descriptor first: errors of delayed writes (a full disk) show up in fsync and close.
@@ -264,6 +290,16 @@ bool AtomicFile::commit(std::string& error) {
     }
     // What a library wrote by name (tempPath()) reaches the disk too; the size is what landed.
     if (folder_) {
+        if (unsynced_) {
+            // What writeInside wrote: one sync of the file system (errors of delayed writes,
+            // a full disk, are reported by syncfs since Linux 5.8).
+            const int fd = ::open(temp_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+            if (fd < 0) return fail("cannot reopen the temporary folder: " + errnoText(), error);
+            const bool synced = ::syncfs(fd) == 0;
+            const int syncError = errno;
+            ::close(fd);
+            if (!synced) return fail("write failed (syncfs): " + errnoText(syncError), error);
+        }
         syncFolder(temp_);
     } else {
         const int fd = ::open(temp_.c_str(), O_RDONLY | O_CLOEXEC);

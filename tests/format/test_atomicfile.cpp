@@ -228,6 +228,39 @@ TEST(AtomicFile, FolderCommittedWholeAndOnlyOverAnEmptyFolder) {
     EXPECT_EQ(names(dir), (std::set<std::string>{"later", "report"}));
 }
 
+TEST(AtomicFile, WriteInsideAFolderSyncedOnceAtCommit) {
+    TempDir dir("inside");
+    const std::string path = dir.file("tiles");
+    AtomicFile folder;
+    std::string error;
+    ASSERT_TRUE(folder.openFolder(path, kNoReplace, error)) << error;
+    fs::create_directory(folder.tempPath() + "/sub");
+    ASSERT_TRUE(folder.writeInside("sub/a.bin", std::string(100000, 'a'), error)) << error;
+    ASSERT_TRUE(folder.writeInside("b.txt", "", error)) << error;  // an empty file is a file
+    EXPECT_FALSE(fs::exists(path));
+    ASSERT_TRUE(folder.commit(error)) << error;
+    EXPECT_EQ(slurp(path + "/sub/a.bin"), std::string(100000, 'a'));
+    EXPECT_TRUE(fs::exists(path + "/b.txt"));
+    EXPECT_EQ(names(dir), std::set<std::string>{"tiles"});
+
+    // A name written twice, or into a missing folder: an error naming it, nothing left.
+    AtomicFile twice;
+    ASSERT_TRUE(twice.openFolder(dir.file("twice"), kNoReplace, error)) << error;
+    ASSERT_TRUE(twice.writeInside("x", "1", error)) << error;
+    EXPECT_FALSE(twice.writeInside("x", "2", error));
+    EXPECT_NE(error.find("x: cannot create"), std::string::npos) << error;
+    EXPECT_FALSE(twice.commit(error));
+    AtomicFile missing;
+    ASSERT_TRUE(missing.openFolder(dir.file("missing"), kNoReplace, error)) << error;
+    EXPECT_FALSE(missing.writeInside("no/such/y", "1", error));
+    EXPECT_EQ(names(dir), std::set<std::string>{"tiles"});
+    // Not a folder output: refused.
+    AtomicFile file;
+    ASSERT_TRUE(file.open(dir.file("f"), kNoReplace, error)) << error;
+    EXPECT_FALSE(file.writeInside("z", "1", error));
+    EXPECT_EQ(names(dir), std::set<std::string>{"tiles"});
+}
+
 TEST(CheckInputFile, RefusesWhatIsNotARegularFileWithoutOpeningIt) {
     TempDir dir("inputs");
     std::string why;

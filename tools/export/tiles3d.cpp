@@ -228,7 +228,6 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
         error = options.outDir + ": cannot create the folder 'tiles': " + ec.message();
         return false;
     }
-    const format::OutputOptions inTemp{.replace = false, .inputs = {}};
 
     const std::size_t count = reader.blocks().size();
     std::vector<Entry> entries(count);
@@ -289,9 +288,7 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
             }
             t.uri = "tiles/" + name + ".glb";
             t.hasContent = true;
-            if (!format::writeFileAtomically((temp / t.uri).string(), glb, inTemp, error)) {
-                return false;
-            }
+            if (!folder.writeInside(t.uri, glb, error)) return false;
             summary.bytes += glb.size();
             summary.vertices += counts.vertices;
             summary.triangles += counts.triangles;
@@ -358,9 +355,7 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
            "child entries' chains. geometricError = the level's stored error (metric), never "
            "below a descendant's. Content tiles/<entry>-<level>.glb."}}}};
     const std::string text = tileset.dump(1) + "\n";
-    if (!format::writeFileAtomically((temp / "tileset.json").string(), text, inTemp, error)) {
-        return false;
-    }
+    if (!folder.writeInside("tileset.json", text, error)) return false;
     summary.bytes += text.size();
     summary.rootError = rootError;
     summary.depth = depth;
