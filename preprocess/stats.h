@@ -90,8 +90,8 @@ bool computeStats(const std::string& path, const StatsOptions& options, StatsTab
 //   points = vertexCount - k*, triangles = steps[k*-1].trianglesAlive (k* = 0: levels[0]).
 // - level: the stored level the engine draws for h_lim = e (format::storedLevelFor: the level
 //   with the largest step whose stored error is <= e, level 0 when none is); points = its
-//   vertexCount, triangles = its triangleCount. Coarser than exact or equal to it: stored levels
-//   are a subset of the steps.
+//   vertexCount, triangles = its triangleCount. Finer than exact or equal to it (never coarser):
+//   stored levels are a subset of the steps, so the level's step is <= k*.
 struct ErrorStatsRow {
     double error = 0;  // e (metres)
     std::uint64_t exactPoints = 0, exactTriangles = 0;
