@@ -58,9 +58,9 @@ echo "== 4. unilod stats: the paper's Table 2 / 3 for this model (1-3 pixels, 10
 $unilod stats "$model" --pixels 1,2,3
 echo "== 5. unilod capture: headless frames (Vulkan; validation on) =="
 $unilod capture "$model" --validation --size 1280x720 --camera 735000,4034000,3500,30,-20 \
-    --overwrite -o "$out/capture/oblique"
+    --annotate --overwrite -o "$out/capture/oblique"
 $unilod capture "$model" --validation --size 1024x1024 --camera 746400,4052900,30000,0,-90 \
-    --overwrite -o "$out/capture/topdown"
+    --annotate --overwrite -o "$out/capture/topdown"
 $unilod capture "$model" --validation --size 1024x1024 --camera 746400,4052900,30000,0,-90 \
     --grid --overwrite -o "$out/capture/grid"
 $unilod capture "$model" --validation --size 640x360 --path "$path" --frames 5 \
