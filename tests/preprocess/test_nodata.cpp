@@ -256,7 +256,8 @@ void expectDomainModel(const DemGrid& dem, const std::string& name, int blockSiz
     // down on the whole DEM, the pixels drawn are the valid area's share of those the unmasked
     // DEM (same relief, same camera) draws. A bridged hole or bay would add its whole area.
     auto r = unilod::test::runCli("export -q " + unilod::test::q(o.outPath) + " --h-lim 1 -o " +
-                                  unilod::test::q(testing::TempDir() + name + ".glb"));
+                                  unilod::test::q(testing::TempDir() + name + ".glb") +
+                                  " --overwrite");
     EXPECT_EQ(r.code, 0) << r.err;
     const DemGrid full = plane(dem.width, dem.height);
     BuildOptions fo = o;
@@ -276,7 +277,7 @@ void expectDomainModel(const DemGrid& dem, const std::string& name, int blockSiz
         const std::string out = testing::TempDir() + name + "_" + tag;
         const auto c = unilod::test::runCli("capture " + unilod::test::q(file) +
                                             " --validation --camera " + camera +
-                                            " --size 640x480 --pixels 1 --fov 60 --out " +
+                                            " --size 640x480 --pixels 1 --fov 60 --overwrite -o " +
                                             unilod::test::q(out));
         EXPECT_EQ(c.code, 0) << c.err;
         unilod::test::Image image;
