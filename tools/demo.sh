@@ -6,7 +6,8 @@
 # and prints where every output is. On an interactive terminal with a display (or with --view)
 # it then opens the viewer on the model.
 #
-# Options: --frames N   bench frames per run (default 200; CI uses a handful)
+# Options: --frames N   bench frames per run, also the report's frame-time plot (default 200;
+#                       CI uses a handful)
 #          --size WxH   bench frame size (default 1920x1080)
 #          --out DIR    output folder (default out/)
 #          --no-build   use the existing build (build/tools/unilod, or $UNILOD_BIN)
@@ -24,7 +25,7 @@ while [ $# -gt 0 ]; do
         --no-build) build=0; shift ;;
         --view) view=1; shift ;;
         --no-view) view=0; shift ;;
-        -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
+        -h|--help) sed -n '2,15p' "$0"; exit 0 ;;
         *) echo "tools/demo.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
     esac
 done
@@ -80,9 +81,11 @@ $unilod export "$model" -q --camera 735000,4034000,3500,30,-20 --size 1280x720 \
 echo "-- the whole model as a 3D Tiles 1.1 tileset on the WGS84 globe (CesiumJS) --"
 $unilod export "$model" -q --3dtiles "$out/jacksboro_3dtiles" --overwrite
 echo "== 8. unilod report: tables, error curves, BAI vs no BAI rivers, grid diagrams =="
-$unilod report "$model" -q --overwrite -o "$out/report" --dem "$dem" --rivers "$rivers"
+$unilod report "$model" -q --overwrite -o "$out/report" --dem "$dem" --rivers "$rivers" \
+    --bench-frames "$frames"
 echo "-- the same for the paper's configuration (Tables 2/3 as in the paper) --"
-$unilod report "$paper_model" -q --overwrite -o "$out/report_paper" --dem "$dem" --rivers "$rivers"
+$unilod report "$paper_model" -q --overwrite -o "$out/report_paper" --dem "$dem" --rivers "$rivers" \
+    --bench-frames "$frames"
 echo "== 9. unilod order: improved 3D_DP importance order of the whole point set =="
 $unilod order "$dem" "$rivers" -o "$out/jacksboro_order.csv" --overwrite -q
 echo "== outputs =="
