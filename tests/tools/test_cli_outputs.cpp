@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <fstream>
 #include <set>
 #include <string>
 
@@ -142,6 +143,16 @@ TEST_F(CliOutputs, StaleTemporariesOfKilledRunsRemoved) {
     ASSERT_EQ(b.code, 0) << b.err;
     EXPECT_EQ(entries(dir->path, "stale.ulod"), std::set<std::string>{"stale.ulod"});
     fs::remove(built);
+}
+
+TEST_F(CliOutputs, ViewScreenshotRefusesAnExistingFileBeforeAWindowOpens) {
+    // No display is needed: the rule is checked before the window (and exit 1, not a GLFW error).
+    const std::string shot = dir->file("shot.png");
+    std::ofstream(shot) << "keep";
+    const auto r = runCli("view " + q(model) + " --frames 1 --screenshot " + q(shot));
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find(shot + ": already exists (use --overwrite"), std::string::npos) << r.err;
+    EXPECT_EQ(unilod::test::slurp(shot), "keep");
 }
 
 TEST_F(CliOutputs, FifoInputRefusedWithoutBlocking) {

@@ -24,6 +24,7 @@ struct ViewCli {
     std::vector<double> camera;
     std::string resize;
     bool quiet = false;
+    bool overwrite = false;  // --screenshot onto an existing file
 };
 
 int run(ViewCli& c) {
@@ -31,6 +32,13 @@ int run(ViewCli& c) {
     if (!c.o.screenshotPath.empty() && c.o.frames == 0) {
         std::fprintf(stderr, "unilod view: error: --screenshot needs --frames N\n");
         return 2;
+    }
+    // The existing-output rule of outputopts.h for --screenshot, before a window opens.
+    std::string error;
+    if (!c.o.screenshotPath.empty() &&
+        !checkOutput({c.o.screenshotPath, c.overwrite}, OutputKind::File, error)) {
+        std::fprintf(stderr, "unilod view: error: %s\n", error.c_str());
+        return 1;
     }
     if (!c.resize.empty() &&
         (c.o.frames == 0 || !parseSize(c.resize, c.o.resizeWidth, c.o.resizeHeight))) {
@@ -46,7 +54,6 @@ int run(ViewCli& c) {
         c.o.camera.pitchDegrees = c.camera[4];
     }
     engine::ViewResult result;
-    std::string error;
     if (!engine::runView(c.o, result, error)) {
         std::fprintf(stderr, "unilod view: error: %s\n",
                      errorForFile(c.o.path, error).c_str());
@@ -76,6 +83,8 @@ void addViewCommand(CLI::App& app, int& exitCode) {
         ->check(positive());
     sub->add_option("--screenshot", c->o.screenshotPath,
                     "with --frames: write the last frame to this PNG");
+    sub->add_flag("--overwrite", c->overwrite, "--screenshot: replace an existing PNG");
+    sub->add_flag("--force", c->overwrite, "old spelling of --overwrite")->group("");
     sub->add_option("--resize", c->resize,
                     "with --frames: resize the window to WxH after half the frames (tests the "
                     "swapchain recreation)");
