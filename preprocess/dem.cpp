@@ -16,6 +16,7 @@
 
 #include "atomicfile.h"
 #include "gdal_errors.h"
+#include "srs.h"
 
 // Bilinear samples must be bit-identical on every platform (the synthetic data's river altitudes
 // are compared exactly): no fused multiply-add contraction. GCC does not contract in ISO mode.
@@ -171,7 +172,7 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
     OGRSpatialReference assumed;
     std::string assumedWkt;
     if (srcSrs == nullptr && !options.assumeSrs.empty()) {
-        if (assumed.SetFromUserInput(options.assumeSrs.c_str()) != OGRERR_NONE) {
+        if (!parseSrs(options.assumeSrs, assumed)) {
             error = "DEM '" + path + "': cannot parse the assumed source CRS '" +
                     options.assumeSrs + "' (--s-srs)";
             return false;
@@ -183,7 +184,7 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
     OGRSpatialReference target;
     bool warp = false;
     if (!options.targetSrs.empty()) {
-        if (target.SetFromUserInput(options.targetSrs.c_str()) != OGRERR_NONE) {
+        if (!parseSrs(options.targetSrs, target)) {
             error = "DEM '" + path + "': cannot parse the target CRS '" + options.targetSrs +
                     "' (--t-srs)";
             return false;

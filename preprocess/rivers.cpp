@@ -12,6 +12,7 @@
 
 #include "atomicfile.h"
 #include "gdal_errors.h"
+#include "srs.h"
 
 namespace unilod {
 
@@ -113,7 +114,7 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
         if (const OGRSpatialReference* declared = layer->GetSpatialRef()) {
             src = *declared;
         } else if (!options.assumeSrs.empty()) {
-            if (src.SetFromUserInput(options.assumeSrs.c_str()) != OGRERR_NONE) {
+            if (!parseSrs(options.assumeSrs, src)) {
                 error = what + ": cannot parse the assumed CRS '" + options.assumeSrs +
                         "' (--assume-crs)";
                 return false;

@@ -180,6 +180,30 @@ TEST_F(CliOutputs, FifoInputRefusedWithoutBlocking) {
     fs::remove(fifo);
 }
 
+// A CRS option is text, never a file to open (preprocess/srs.h): GDAL's parser would otherwise
+// open a path it is given, and a FIFO there blocks forever. A .ulod header's CRS text takes the
+// same parser (export --3dtiles).
+TEST_F(CliOutputs, FifoAsCrsTextIsNotOpened) {
+    const std::string fifo = dir->file("crs.fifo");
+    ASSERT_EQ(mkfifo(fifo.c_str(), 0644), 0);
+    auto r = runCli("build -q " + q(dem) + " " + q(rivers) + " --t-srs " + q(fifo) + " -o " +
+                        q(dir->file("crs.ulod")),
+                    kTimeout);
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find("--t-srs"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir->file("crs.ulod")));
+    r = runCli("order -q " + q(dem) + " " + q(rivers) + " --t-srs " + q(fifo), kTimeout);
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find("--t-srs"), std::string::npos) << r.err;
+    r = runCli("export -q " + q(model) + " --3dtiles " + q(dir->file("crs_tiles")) + " --s-srs " +
+                   q(fifo),
+               kTimeout);
+    EXPECT_EQ(r.code, 1) << r.err;  // 124: blocked on the FIFO until `timeout` killed it
+    EXPECT_NE(r.err.find("cannot read the CRS"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir->file("crs_tiles")));
+    fs::remove(fifo);
+}
+
 TEST_F(CliOutputs, DirectoryInputRefusedWithAClearMessage) {
     const std::string folder = dir->file("a_folder");
     fs::create_directories(folder);

@@ -15,6 +15,7 @@
 #include "gltfmodel.h"
 #include "jsontext.h"
 #include "selection.h"
+#include "srs.h"
 #include "ulod.h"
 
 namespace unilod::exporter {
@@ -37,7 +38,7 @@ public:
                            "on the globe";
             return false;
         }
-        if (src.SetFromUserInput(srsText.c_str()) != OGRERR_NONE) {
+        if (!parseSrs(srsText, src)) {
             error = what + ": GDAL cannot read the CRS '" + srsText.substr(0, 80) + "'";
             return false;
         }
