@@ -113,8 +113,6 @@ void putStream(std::vector<unsigned char>& out, const std::vector<unsigned char>
 
 bool hasVertex(const Triangle& t, std::uint32_t v) { return t.a == v || t.b == v || t.c == v; }
 bool hasVertex(const Edge& e, std::uint32_t v) { return e.a == v || e.b == v; }
-bool same(const Triangle& l, const Triangle& r) { return l.a == r.a && l.b == r.b && l.c == r.c; }
-bool same(const Edge& l, const Edge& r) { return l.a == r.a && l.b == r.b; }
 void forVertices(const Triangle& t, auto&& f) {
     f(t.a);
     f(t.b);
@@ -179,7 +177,7 @@ public:
         if (maxVertex(t) >= head_.size()) return false;
         bool found = false;
         walk(maxVertex(t), [&](std::uint32_t slot) {
-            if (!same(lives_[slot].item, t)) return false;
+            if (!sameIndex(lives_[slot].item, t)) return false;
             lives_[slot].death = step;
             dead_[slot] = 1;
             --count_;

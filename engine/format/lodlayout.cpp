@@ -19,8 +19,6 @@ std::size_t hashOf(const Edge& e) {
     const std::uint64_t h = (std::uint64_t(e.a) << 32 | e.b) * 0x9E3779B97F4A7C15ULL;
     return std::size_t(h ^ (h >> 32));
 }
-bool same(const Triangle& l, const Triangle& r) { return l.a == r.a && l.b == r.b && l.c == r.c; }
-bool same(const Edge& l, const Edge& r) { return l.a == r.a && l.b == r.b; }
 
 // Flat open-addressing table from an element to its index in the lifetime list. Every element
 // is inserted once and erased at most once, so erased slots simply stay as tombstones and the
@@ -43,14 +41,14 @@ public:
                 values_[i] = value;
                 return true;
             }
-            if (values_[i] != kErased && same(keys_[i], key)) return false;
+            if (values_[i] != kErased && sameIndex(keys_[i], key)) return false;
         }
     }
     // Removes the key; returns its value or kEmpty when absent.
     std::uint32_t erase(const T& key) {
         for (std::size_t i = hashOf(key) & mask_;; i = (i + 1) & mask_) {
             if (values_[i] == kEmpty) return kEmpty;
-            if (values_[i] != kErased && same(keys_[i], key)) {
+            if (values_[i] != kErased && sameIndex(keys_[i], key)) {
                 const std::uint32_t v = values_[i];
                 values_[i] = kErased;
                 return v;

@@ -28,6 +28,11 @@ inline bool lessIndex(const Triangle& l, const Triangle& r) {
 inline bool lessIndex(const Edge& l, const Edge& r) {
     return l.a != r.a ? l.a < r.a : l.b < r.b;
 }
+// The same element: every index equal, in order.
+inline bool sameIndex(const Triangle& l, const Triangle& r) {
+    return l.a == r.a && l.b == r.b && l.c == r.c;
+}
+inline bool sameIndex(const Edge& l, const Edge& r) { return l.a == r.a && l.b == r.b; }
 
 // An element's life: alive after k deletion steps iff birth <= k < death (kAliveToTheEnd: never
 // removed).

@@ -9,7 +9,7 @@
 
 #include "blockcodec.h"
 #include "build.h"
-#include "synthetic.h"
+#include "synthbuild.h"
 #include "testutil.h"
 #include "ulod.h"
 #include "ulodbytes.h"
@@ -27,17 +27,9 @@ protected:
 
     static void SetUpTestSuite() {
         dir = new test::TempDir("blockcodec");
-        SyntheticOptions so;
-        so.targetPoints = 6000;
-        so.seed = 11;
-        const SyntheticData data = generateSyntheticData(so);
-        ASSERT_GT(data.rivers.size(), 0u);
-        std::string error;
-        ASSERT_TRUE(writeSyntheticData(data, dir->file("synth"), error)) << error;
         BuildOptions o;
-        o.demPath = dir->file("synth/dem.tif");
-        o.riversPath = dir->file("synth/rivers.geojson");
-        o.blockSize = (std::max(data.dem.width, data.dem.height) - 1) / 2;
+        std::string error;
+        ASSERT_TRUE(test::writeTwoByTwoWorld(*dir, 6000, 11, o, error)) << error;
         o.threads = 2;
         BuildSummary summary;
         compact = o.outPath = dir->file("compact.ulod");

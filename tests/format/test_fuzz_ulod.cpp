@@ -34,7 +34,7 @@
 #include <string>
 
 #include "build.h"
-#include "synthetic.h"
+#include "synthbuild.h"
 #include "testutil.h"
 #include "ulod.h"
 #include "ulodbytes.h"
@@ -323,18 +323,10 @@ protected:
     // with raw blocks (whose arrays the field-aware edits reach).
     static void SetUpTestSuite() {
         dir = new test::TempDir("fuzz");
-        SyntheticOptions so;
-        so.targetPoints = 1500;
-        so.seed = 5;
-        const SyntheticData data = generateSyntheticData(so);
-        ASSERT_GT(data.rivers.size(), 0u);
-        std::string error;
-        ASSERT_TRUE(writeSyntheticData(data, dir->file("synth"), error)) << error;
         BuildOptions o;
-        o.demPath = dir->file("synth/dem.tif");
-        o.riversPath = dir->file("synth/rivers.geojson");
+        std::string error;
+        ASSERT_TRUE(test::writeTwoByTwoWorld(*dir, 1500, 5, o, error)) << error;
         o.outPath = dir->file("seed.ulod");
-        o.blockSize = (std::max(data.dem.width, data.dem.height) - 1) / 2;
         o.threads = 1;
         o.tree = true;  // the tree links and a node are fuzzed too
         BuildSummary summary;
