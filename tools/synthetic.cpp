@@ -111,7 +111,7 @@ double smooth(double t) {
 }
 
 // Altitudes (row 0 north) in metres.
-std::vector<float> generateTerrain(int width, int height, std::uint64_t seed) {
+std::vector<float> generateTerrain(int width, int height, std::uint64_t seed, double roughness) {
     std::vector<Octave> octaves;
     const std::uint64_t seedHash = hash64(seed ^ 0x7465727261696E00ull);  // "terrain"
     double wavelength = std::max(width, height) / 2.0, amplitude = 1.0, amplitudeSum = 0;
@@ -142,7 +142,7 @@ std::vector<float> generateTerrain(int width, int height, std::uint64_t seed) {
         amplitudeSum += amplitude;
         octaves.push_back(std::move(oct));
         wavelength *= 0.5;
-        amplitude *= 0.5;
+        amplitude *= roughness;
     }
 
     std::vector<float> z(static_cast<std::size_t>(width) * height);
@@ -550,6 +550,7 @@ void gridFor(std::size_t demPoints, int& width, int& height) {
 
 SyntheticData generateSyntheticData(const SyntheticOptions& options) {
     assert(options.cellSize > 0);
+    assert(options.roughness > 0 && options.roughness < 1);
     assert(options.targetPoints > 0);
     // The river count depends on the grid, the grid on the river count: a few fixed-point rounds
     // (rivers only, cheap) settle the DEM share of the target.
@@ -579,7 +580,7 @@ SyntheticData generateSyntheticData(const SyntheticOptions& options) {
     dem.cellY = -options.cellSize;
     dem.originX = kSyntheticOriginX + 0.5 * options.cellSize;
     dem.originY = kSyntheticOriginY + (height - 0.5) * options.cellSize;
-    dem.z = generateTerrain(width, height, options.seed);
+    dem.z = generateTerrain(width, height, options.seed, options.roughness);
 
     // Cell units -> metres. The junction copies are transformed by the same expression, so they
     // stay bit-identical to the main river vertex they join.

@@ -10,6 +10,7 @@
 #include <set>
 
 #include "grid.h"
+#include "greedytin.h"
 #include "synthetic.h"
 
 using namespace unilod;
@@ -278,11 +279,13 @@ TEST(Synthetic, ExplicitRiverCount) {
 // Bit-identical output on every platform and compiler: a checksum of a small point set, taken
 // when the generator was written. A deliberate change of the generator updates the constant; any
 // other change (a libm call, FMA contraction, a std distribution, iteration order) breaks it.
+// The default roughness (0.75) and the smooth terrain of earlier versions (0.5, the constant taken
+// when the generator was written: only the octave amplitude ratio changed since).
 constexpr std::size_t kGoldenPoints = 20053;
-constexpr std::uint64_t kGoldenHash = 0xcb410fd6fb5e6c25ull;
+constexpr std::uint64_t kGoldenHash = 0xc9874dc5c3bc5b0aull;
+constexpr std::uint64_t kGoldenHashSmooth = 0xcb410fd6fb5e6c25ull;
 
-TEST(Synthetic, GoldenChecksum) {
-    const PointSet set = generateSyntheticTerrain(options(20000, 42, true));
+std::uint64_t checksum(const PointSet& set) {
     std::uint64_t h = 0xcbf29ce484222325ull;  // FNV-1a, 64 bit
     auto mix = [&h](std::uint64_t v) {
         for (int i = 0; i < 8; ++i) {
@@ -301,6 +304,35 @@ TEST(Synthetic, GoldenChecksum) {
         for (PointId id : line)
             mix(id);
     }
+    return h;
+}
+
+TEST(Synthetic, GoldenChecksum) {
+    const PointSet set = generateSyntheticTerrain(options(20000, 42, true));
     EXPECT_EQ(set.points.size(), kGoldenPoints);
-    EXPECT_EQ(h, kGoldenHash) << std::hex << "0x" << h;
+    EXPECT_EQ(checksum(set), kGoldenHash) << std::hex << "0x" << checksum(set);
+    SyntheticOptions smooth = options(20000, 42, true);
+    smooth.roughness = 0.5;
+    const PointSet old = generateSyntheticTerrain(smooth);
+    EXPECT_EQ(old.points.size(), kGoldenPoints);
+    EXPECT_EQ(checksum(old), kGoldenHashSmooth) << std::hex << "0x" << checksum(old);
+}
+
+// Roughness is what its name says: a greedy TIN of the rougher terrain needs more triangles for
+// the same vertical error (the benchmarks' baseline, preprocess/greedytin.h).
+TEST(Synthetic, RougherTerrainNeedsMoreTriangles) {
+    std::vector<std::uint64_t> previous;
+    for (double roughness : {0.5, 0.65, 0.8}) {
+        SyntheticOptions o = options(60000, 3);
+        o.roughness = roughness;
+        const PointSet set = generateSyntheticTerrain(o);
+        std::vector<std::uint64_t> triangles;
+        std::string error;
+        ASSERT_TRUE(greedyTinTriangles(set, {5.0, 20.0}, triangles, error)) << error;
+        if (!previous.empty()) {
+            EXPECT_GT(triangles[0], previous[0] * 3 / 2) << roughness;
+            EXPECT_GT(triangles[1], previous[1] * 3 / 2) << roughness;
+        }
+        previous = triangles;
+    }
 }

@@ -22,6 +22,7 @@ struct SynthOptions {
     std::uint64_t seed = 1;
     double cellSize = 30.0;
     int rivers = 0;
+    double roughness = kDefaultRoughness;
     OutputFlags output;
     bool quiet = false;
 };
@@ -43,6 +44,7 @@ int runSynth(const SynthOptions& o) {
     so.seed = o.seed;
     so.cellSize = o.cellSize;
     so.rivers = o.rivers;
+    so.roughness = o.roughness;
     const SyntheticData data = generateSyntheticData(so);
     progress.stage("writing " + o.output.path);
     const bool ok = writeSyntheticData(data, o.output.path, error, o.output.overwrite);
@@ -78,6 +80,11 @@ void addSynthCommand(CLI::App& app, int& exitCode) {
         ->capture_default_str();
     sub->add_option("--cell-size", opts->cellSize, "DEM cell size in metres")
         ->check(numberIn(0.01, 100000.0))
+        ->capture_default_str();
+    sub->add_option("--roughness", opts->roughness,
+                    "Terrain roughness: amplitude ratio of successive fBm octaves (0.5 smooth, "
+                    "0.75 like real DEMs)")
+        ->check(numberIn(0.05, 0.95))
         ->capture_default_str();
     sub->add_option("--rivers", opts->rivers, "Main rivers (0: scale with the size)")
         ->check(CLI::Range(0, 1000))
