@@ -5,9 +5,9 @@
 #include <chrono>
 #include <cmath>
 
+#include "blockcodec.h"
 #include "cdt.h"
 #include "deletion.h"
-#include "blockcodec.h"
 #include "lodindex.h"
 
 namespace unilod {
@@ -50,6 +50,7 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
         del.paperError = false;
         del.errorFloor = del.chainSlack = node->errorFloor;
         if (node->originals) {
+            extra.reserve(node->originalCount);  // a root's: every original point of the model
             node->originals([&](const Point& p) {
                 extra.push_back({std::int32_t(std::llround((p.x - cdt.originX) / cdt.gridUnit)),
                                  std::int32_t(std::llround((p.y - cdt.originY) / cdt.gridUnit)),
@@ -135,8 +136,8 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
             use(e.a);
             use(e.b);
         }
-        coarse->errorMax = records.errorMax.empty() ? records.initialErrorMax
-                                                    : records.errorMax.back();
+        coarse->errorMax =
+            records.errorMax.empty() ? records.initialErrorMax : records.errorMax.back();
     }
 
     stats.vertices = block.vertices.size();

@@ -4,8 +4,8 @@
 #pragma once
 
 #include <cstdint>
-#include <limits>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -25,9 +25,9 @@ const char* deletionOrderName(DeletionOrderKind kind);  // "greedy" / "3ddp"
 struct BlockBuildOptions {
     DeletionOrderKind order = DeletionOrderKind::Greedy;
     ImportanceOptions importance;  // BAI options (both orders); the 3D_DP settings (3ddp)
-    bool maxError = true;    // record the `max` metric
-    bool paperError = true;  // record the `paper` metric
-    double lodRatio = 1.3;   // stored levels: see lodindex.h
+    bool maxError = true;          // record the `max` metric
+    bool paperError = true;        // record the `paper` metric
+    double lodRatio = 1.3;         // stored levels: see lodindex.h
     // Greedy order: stop at this many alive triangles (0: run to the end): the hand-over of a
     // block or node to its parent in issue 18's tree (nodebuild.h).
     std::uint32_t stopTriangles = 0;
@@ -62,6 +62,7 @@ struct CoarseState {
 // running `max` starts at `errorFloor` and every chain deviation gets it as slack (deletion.h).
 struct NodeErrorInput {
     std::function<void(const std::function<void(const Point&)>&)> originals;
+    std::size_t originalCount = 0;  // how many points `originals` gives (a capacity hint)
     double errorFloor = 0;
 };
 

@@ -1,6 +1,10 @@
 // `unilod build` pipeline (build.h).
 #include "build.h"
 
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
+
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -12,8 +16,8 @@
 #include <thread>
 
 #include "blockbuild.h"
-#include "nodebuild.h"
 #include "jsontext.h"
+#include "nodebuild.h"
 
 namespace unilod {
 
@@ -138,7 +142,7 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     // refuses a DEM without any).
     struct Item {
         std::uint32_t level = 0, col = 0, row = 0;
-        std::size_t source = 0;                 // a leaf: its BlockSource index
+        std::size_t source = 0;  // a leaf: its BlockSource index
         std::uint32_t firstChild = format::kNoChild, childCount = 0;
         std::size_t leafFirst = 0, leafCount = 1;  // the leaves under it (file order)
         std::uint32_t parent = format::kNoChild;
@@ -155,7 +159,8 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     auto morton = [](std::uint32_t x, std::uint32_t y) {
         std::uint64_t m = 0;
         for (int b = 0; b < 32; ++b)
-            m |= (std::uint64_t(x >> b & 1u) << (2 * b)) | (std::uint64_t(y >> b & 1u) << (2 * b + 1));
+            m |= (std::uint64_t(x >> b & 1u) << (2 * b)) |
+                 (std::uint64_t(y >> b & 1u) << (2 * b + 1));
         return m;
     };
     std::sort(items.begin(), items.end(), [&](const Item& a, const Item& b) {
@@ -261,8 +266,8 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
             bool ok;
             if (it.level == 0) {
                 const PointSet set = source.points(it.source);
-                ok = buildBlock(set, it.col, it.row, itemOptions, results[i], stats[i],
-                                errors[i], nullptr, tree ? &coarse[i] : nullptr);
+                ok = buildBlock(set, it.col, it.row, itemOptions, results[i], stats[i], errors[i],
+                                nullptr, tree ? &coarse[i] : nullptr);
             } else {
                 std::vector<const CoarseState*> children;
                 for (std::uint32_t c = 0; c < it.childCount; ++c)
@@ -274,8 +279,17 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
                             f(p);
                     }
                 };
+                std::size_t originalCount = 0;
+                for (std::size_t l = it.leafFirst; l < it.leafFirst + it.leafCount; ++l)
+                    originalCount += stats[l].points;
+#ifdef __GLIBC__
+                // A node high in the tree measures its error against millions of original
+                // points (16 B each, in large buffers of their own): first hand the pages the
+                // finished blocks freed back to the system, so that peak RSS is not the sum.
+                if (originalCount >= (std::size_t(1) << 22)) malloc_trim(0);
+#endif
                 ok = buildNode(children, nodeBorder(it), it.col, it.row, itemOptions, originals,
-                               results[i], stats[i], coarse[i], errors[i]);
+                               originalCount, results[i], stats[i], coarse[i], errors[i]);
                 if (ok) {
                     // The node's box holds its children's (the cut culls a subtree by it).
                     format::Block& b = results[i];
@@ -362,9 +376,9 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     for (std::size_t i = 0; i < n; ++i) {
         if (!errors[i].empty()) {
             const Item& it = items[i];
-            error = "DEM '" + o.demPath + "' + rivers '" + o.riversPath + "': " +
-                    (it.level == 0 ? "block (" : "tree node (") + std::to_string(it.col) + "," +
-                    std::to_string(it.row) + ")" +
+            error = "DEM '" + o.demPath + "' + rivers '" + o.riversPath +
+                    "': " + (it.level == 0 ? "block (" : "tree node (") + std::to_string(it.col) +
+                    "," + std::to_string(it.row) + ")" +
                     (it.level == 0 ? "" : " of level " + std::to_string(it.level)) + ": " +
                     errors[i];
             return false;

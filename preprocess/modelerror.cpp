@@ -124,25 +124,26 @@ void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool 
         // shrinks); in an exterior triangle (outside the domain, inside the hull) they have no
         // vertical error yet but are kept like the set's points: when the outline moves out over
         // them (an outline vertex deleted), a domain triangle takes them (locateError).
-        std::vector<PoolPoint> extraPoints;
+        // Only each extra sample's triangle is kept here (kNil: left out); the pool is filled
+        // from `extra` itself, which a tree root's caller then frees (it holds every original
+        // point of the model: one copy at a time, not two).
         std::vector<std::uint32_t> extraTri;
         if (extra != nullptr && !extra->empty() && n > 0) {
+            extraTri.reserve(extra->size());
             std::uint32_t at = realTriangleAt(cdt, cdt.representative[keys[0].second]);
             for (const ExtraSample& e : *extra) {
                 const std::uint32_t t = cdt.locateGridFrom(e.gx, e.gy, at);
-                if (cdt.isGhost(t)) continue;
+                if (cdt.isGhost(t)) {
+                    extraTri.push_back(kNil);
+                    continue;
+                }
                 at = t;
-                extraPoints.push_back({e.gx, e.gy, e.z});
                 extraTri.push_back(t);
                 ++rangeCount_[t];
                 if (cdt.inDomain(t))
-                    runningMax_ = std::max(runningMax_,
-                                           std::fabs(e.z - heightGrid(set, cdt, t, e.gx, e.gy)));
+                    runningMax_ =
+                        std::max(runningMax_, std::fabs(e.z - heightGrid(set, cdt, t, e.gx, e.gy)));
             }
-        }
-        if (releaseExtra != nullptr) {
-            assert(releaseExtra == extra);
-            std::vector<ExtraSample>().swap(*releaseExtra);
         }
         std::uint32_t offset = 0;
         for (std::uint32_t t = 0; t < rangeCount_.size(); ++t) {
@@ -150,17 +151,25 @@ void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool 
             offset += rangeCount_[t];
             rangeCount_[t] = 0;
         }
-        const std::size_t total = n + extraPoints.size();
-        pool_.reserve(2 * total + 64);
+        const std::size_t total = offset;
+        // Room for the points re-appended by the deletions before a compaction (updateMax
+        // compacts rather than grow the pool past its capacity).
+        pool_.reserve(total + total / 4 + 1024);
         pool_.resize(total);
         for (std::uint32_t s = 0; s < n; ++s) {
             const std::uint32_t t = tri[s];
             pool_[rangeStart_[t] + rangeCount_[t]++] = {samples_[s].gx, samples_[s].gy,
                                                         samples_[s].z};
         }
-        for (std::size_t i = 0; i < extraPoints.size(); ++i) {
+        for (std::size_t i = 0; i < extraTri.size(); ++i) {
             const std::uint32_t t = extraTri[i];
-            pool_[rangeStart_[t] + rangeCount_[t]++] = extraPoints[i];
+            if (t == kNil) continue;
+            const ExtraSample& e = (*extra)[i];
+            pool_[rangeStart_[t] + rangeCount_[t]++] = {e.gx, e.gy, e.z};
+        }
+        if (releaseExtra != nullptr) {
+            assert(releaseExtra == extra);
+            std::vector<ExtraSample>().swap(*releaseExtra);
         }
         garbage_ = 0;
     }
@@ -193,12 +202,11 @@ void ModelError::loadAddedTriangles(const Cdt& cdt, const std::vector<std::uint3
     // orientations are the barycentric weights of the height (same arithmetic as heightGrid).
     addedTris_.clear();
     for (std::uint32_t t : addedSlots)
-        loadTriangle(cdt, cdt.tv[3 * t], cdt.tv[3 * t + 1], cdt.tv[3 * t + 2], t,
-                     cdt.exterior(t));
+        loadTriangle(cdt, cdt.tv[3 * t], cdt.tv[3 * t + 1], cdt.tv[3 * t + 2], t, cdt.exterior(t));
 }
 
-void ModelError::loadTriangle(const Cdt& cdt, PointId a, PointId b, PointId c,
-                              std::uint32_t slot, bool exterior) {
+void ModelError::loadTriangle(const Cdt& cdt, PointId a, PointId b, PointId c, std::uint32_t slot,
+                              bool exterior) {
     // An exterior triangle (cdt.h "Domain") may have frame corners, which have no height.
     auto z = [&](PointId v) { return exterior ? 0.0 : set_->points[v].z; };
     addedTris_.push_back({{cdt.gx[a], cdt.gx[b], cdt.gx[c]},
@@ -254,7 +262,8 @@ double ModelError::evaluateMax(const Cdt& cdt, const std::vector<std::uint32_t>&
     return evaluateLoaded(removedSlots);
 }
 
-double ModelError::evaluatePlannedMax(const Cdt& cdt, const std::vector<std::uint32_t>& removedSlots,
+double ModelError::evaluatePlannedMax(const Cdt& cdt,
+                                      const std::vector<std::uint32_t>& removedSlots,
                                       const std::vector<PointId>& corners, bool exterior) {
     if (!maxMetric_) return 0;
     addedTris_.clear();
@@ -290,10 +299,16 @@ double ModelError::updateMax(const Cdt& cdt, const std::vector<std::uint32_t>& r
         garbage_ += rangeCount_[t];
         rangeCount_[t] = 0;
     }
-    // Locate every pending point among the created triangles (exact, closed triangles).
-    destination_.resize(pending_.size());
     for (std::uint32_t t : addedSlots)
         rangeCount_[t] = 0;
+    // Compact in place once the garbage outweighs the live points, or before the pending points
+    // would make the pool outgrow its capacity (a reallocation would hold the old and the new
+    // pool at once: a tree root's pool holds every original point of the model).
+    if ((garbage_ > pool_.size() / 2 && pool_.size() > 1024) ||
+        (garbage_ > 0 && pool_.size() + pending_.size() > pool_.capacity()))
+        compact(cdt);
+    // Locate every pending point among the created triangles (exact, closed triangles).
+    destination_.resize(pending_.size());
     loadAddedTriangles(cdt, addedSlots);
     double stepMax = 0;
     std::size_t last = 0;
@@ -316,27 +331,27 @@ double ModelError::updateMax(const Cdt& cdt, const std::vector<std::uint32_t>& r
         const std::uint32_t t = destination_[i];
         pool_[rangeStart_[t] + rangeCount_[t]++] = pending_[i];
     }
-    // Compact in place once the garbage outweighs the live points.
-    if (garbage_ > pool_.size() / 2 && pool_.size() > 1024) {
-        std::vector<std::uint32_t>& live = destination_;
-        live.clear();
-        for (std::uint32_t t = 0; t < cdt.triangleSlots(); ++t) {
-            if (rangeCount_[t] > 0 && cdt.triangleAlive(t)) live.push_back(t);
-        }
-        std::sort(live.begin(), live.end(), [&](std::uint32_t a, std::uint32_t b) {
-            return rangeStart_[a] < rangeStart_[b];
-        });
-        std::uint32_t w = 0;
-        for (std::uint32_t t : live) {
-            std::copy(pool_.begin() + rangeStart_[t],
-                      pool_.begin() + rangeStart_[t] + rangeCount_[t], pool_.begin() + w);
-            rangeStart_[t] = w;
-            w += rangeCount_[t];
-        }
-        pool_.resize(w);
-        garbage_ = 0;
-    }
     return stepMax;
+}
+
+void ModelError::compact(const Cdt& cdt) {
+    // The live ranges (alive triangles with points) moved to the front, in pool order.
+    std::vector<std::uint32_t>& live = destination_;
+    live.clear();
+    for (std::uint32_t t = 0; t < cdt.triangleSlots(); ++t) {
+        if (rangeCount_[t] > 0 && cdt.triangleAlive(t)) live.push_back(t);
+    }
+    std::sort(live.begin(), live.end(),
+              [&](std::uint32_t a, std::uint32_t b) { return rangeStart_[a] < rangeStart_[b]; });
+    std::uint32_t w = 0;
+    for (std::uint32_t t : live) {
+        std::copy(pool_.begin() + rangeStart_[t], pool_.begin() + rangeStart_[t] + rangeCount_[t],
+                  pool_.begin() + w);
+        rangeStart_[t] = w;
+        w += rangeCount_[t];
+    }
+    pool_.resize(w);
+    garbage_ = 0;
 }
 
 void ModelError::removeVertex(PointId v) {
@@ -517,7 +532,8 @@ PointId ModelError::nearest(std::int32_t gx, std::int32_t gy, double z) const {
                 const std::int64_t right =
                     bx + R < bnx - 1 ? gridX0_ + (bx + R + 1) * side - gx : kFar;
                 const std::int64_t down = by - R > 0 ? gy - (gridY0_ + (by - R) * side) : kFar;
-                const std::int64_t up = by + R < bny - 1 ? gridY0_ + (by + R + 1) * side - gy : kFar;
+                const std::int64_t up =
+                    by + R < bny - 1 ? gridY0_ + (by + R + 1) * side - gy : kFar;
                 const std::int64_t gap = std::min({left, right, down, up});
                 if (gap == kFar) break;
                 const double bound = double(gap) * unit_;

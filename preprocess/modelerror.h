@@ -104,6 +104,8 @@ private:
     };
     static_assert(sizeof(Entry) == 24);
     void buildGrid();
+    // Moves the live ranges to the front of the pool (drops the garbage).
+    void compact(const Cdt& cdt);
     void loadAddedTriangles(const Cdt& cdt, const std::vector<std::uint32_t>& addedSlots);
     void loadTriangle(const Cdt& cdt, PointId a, PointId b, PointId c, std::uint32_t slot,
                       bool exterior);

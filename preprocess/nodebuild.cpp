@@ -158,10 +158,11 @@ PointSet nodePointSet(const std::vector<const CoarseState*>& children, const Nod
 bool buildNode(const std::vector<const CoarseState*>& children, const NodeBorder& border,
                std::uint32_t col, std::uint32_t row, const BlockBuildOptions& options,
                const std::function<void(const std::function<void(const Point&)>&)>& originals,
-               format::Block& block, BlockBuildStats& stats, CoarseState& coarse,
-               std::string& error) {
+               std::size_t originalCount, format::Block& block, BlockBuildStats& stats,
+               CoarseState& coarse, std::string& error) {
     NodeErrorInput input;
     input.originals = originals;
+    input.originalCount = originalCount;
     for (const CoarseState* child : children)
         input.errorFloor = std::max(input.errorFloor, child->errorMax);
     const PointSet set = nodePointSet(children, border);

@@ -24,8 +24,8 @@
 // starting error. Errors then about double per tree level, as the view distance at which a node
 // is drawn does (the chunked-LOD rule), and a node's outer border, locked at full resolution, is
 // not what its error is spent on (measured, 16M points: with the triangle rule alone the root's
-// children reached 327 m and a uniform 100 m cut had to draw 5 nodes of 16-32k triangles). Without it the
-// children would delete to their very end (only locked points, errors of the whole relief or
+// children reached 327 m and a uniform 100 m cut had to draw 5 nodes of 16-32k triangles). Without
+// it the children would delete to their very end (only locked points, errors of the whole relief or
 // of a collapsed outline) and no node could start below that error.
 //
 // Stop rule: the tree is built up to one root covering the whole model (a block grid of
@@ -70,7 +70,7 @@ PointSet nodePointSet(const std::vector<const CoarseState*>& children, const Nod
 bool buildNode(const std::vector<const CoarseState*>& children, const NodeBorder& border,
                std::uint32_t col, std::uint32_t row, const BlockBuildOptions& options,
                const std::function<void(const std::function<void(const Point&)>&)>& originals,
-               format::Block& block, BlockBuildStats& stats, CoarseState& coarse,
-               std::string& error);
+               std::size_t originalCount, format::Block& block, BlockBuildStats& stats,
+               CoarseState& coarse, std::string& error);
 
 }  // namespace unilod

@@ -21,13 +21,13 @@ inline constexpr double kDefaultRoughness = 0.75;
 struct SyntheticOptions {
     std::size_t targetPoints = 100000;  // DEM + river points, approximately (within a few %)
     std::uint64_t seed = 1;
-    double cellSize = 30.0;   // metres
+    double cellSize = 30.0;  // metres
     // fBm persistence: each octave (half the wavelength) has this fraction of the previous one's
     // amplitude. 0.75 gives greedy-TIN statistics close to real DEMs and to the 4097^2 synthetic
     // of issue 15's table (README "Synthetic data"); 0.5 is the smooth terrain of earlier versions.
     double roughness = kDefaultRoughness;
-    int rivers = 0;           // main rivers; 0 = scale with the grid size
-    bool lockBorder = false;  // lock the grid border points (a block border)
+    int rivers = 0;             // main rivers; 0 = scale with the grid size
+    bool lockBorder = false;    // lock the grid border points (a block border)
     int width = 0, height = 0;  // explicit grid size in cells (both > 0): overrides the grid
                                 // derived from targetPoints
 };

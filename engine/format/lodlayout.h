@@ -32,7 +32,9 @@ inline bool lessIndex(const Edge& l, const Edge& r) {
 inline bool sameIndex(const Triangle& l, const Triangle& r) {
     return l.a == r.a && l.b == r.b && l.c == r.c;
 }
-inline bool sameIndex(const Edge& l, const Edge& r) { return l.a == r.a && l.b == r.b; }
+inline bool sameIndex(const Edge& l, const Edge& r) {
+    return l.a == r.a && l.b == r.b;
+}
 
 // An element's life: alive after k deletion steps iff birth <= k < death (kAliveToTheEnd: never
 // removed).
@@ -49,10 +51,11 @@ struct Life {
 void layOutLevels(Block& block, std::vector<Life<Triangle>>& triangles,
                   std::vector<Life<Edge>>& edges);
 
-// The same from the records: fills block.terrainIndices, block.riverIndices and every level's triangleFirst/Count and
-// riverFirst/Count from the level steps already in block.levels, the records (removed/added
-// triangles and edges with their offsets) and the mesh before the first step. Returns false with
-// `error` when a step removes an element that is not alive or adds one that is.
+// The same from the records: fills block.terrainIndices, block.riverIndices and every level's
+// triangleFirst/Count and riverFirst/Count from the level steps already in block.levels, the
+// records (removed/added triangles and edges with their offsets) and the mesh before the first
+// step. Returns false with `error` when a step removes an element that is not alive or adds one
+// that is.
 bool layOutLevels(Block& block, const std::vector<Triangle>& initialTriangles,
                   const std::vector<Edge>& initialEdges, std::string& error);
 

@@ -9,8 +9,8 @@
 #include <map>
 #include <set>
 
-#include "grid.h"
 #include "greedytin.h"
+#include "grid.h"
 #include "synthetic.h"
 
 using namespace unilod;

@@ -195,9 +195,9 @@ TEST_F(CliOutputs, FifoAsCrsTextIsNotOpened) {
     r = runCli("order -q " + q(dem) + " " + q(rivers) + " --t-srs " + q(fifo), kTimeout);
     EXPECT_EQ(r.code, 1) << r.err;
     EXPECT_NE(r.err.find("--t-srs"), std::string::npos) << r.err;
-    r = runCli("export -q " + q(model) + " --3dtiles " + q(dir->file("crs_tiles")) + " --s-srs " +
-                   q(fifo),
-               kTimeout);
+    r = runCli(
+        "export -q " + q(model) + " --3dtiles " + q(dir->file("crs_tiles")) + " --s-srs " + q(fifo),
+        kTimeout);
     EXPECT_EQ(r.code, 1) << r.err;  // 124: blocked on the FIFO until `timeout` killed it
     EXPECT_NE(r.err.find("cannot read the CRS"), std::string::npos) << r.err;
     EXPECT_FALSE(fs::exists(dir->file("crs_tiles")));
