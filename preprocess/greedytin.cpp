@@ -8,6 +8,7 @@
 #include <unordered_map>
 
 #include "modelerror.h"
+#include "trianglepool.h"
 
 namespace unilod {
 
@@ -349,22 +350,7 @@ void GreedyTin::distribute(const std::vector<std::uint32_t>& slots) {
 }
 
 void GreedyTin::compact() {
-    // Live ranges in pool order, moved down in place.
-    std::vector<std::uint32_t>& live = destination_;
-    live.clear();
-    for (std::uint32_t t = 0; t < cdt_.triangleSlots(); ++t) {
-        if (rangeCount_[t] > 0 && cdt_.triangleAlive(t)) live.push_back(t);
-    }
-    std::sort(live.begin(), live.end(),
-              [&](std::uint32_t a, std::uint32_t b) { return rangeStart_[a] < rangeStart_[b]; });
-    std::uint32_t w = 0;
-    for (std::uint32_t t : live) {
-        std::copy(pool_.begin() + rangeStart_[t], pool_.begin() + rangeStart_[t] + rangeCount_[t],
-                  pool_.begin() + w);
-        rangeStart_[t] = w;
-        w += rangeCount_[t];
-    }
-    pool_.resize(w);
+    compactTrianglePool(cdt_, pool_, rangeStart_, rangeCount_, destination_);
     garbage_ = 0;
 }
 

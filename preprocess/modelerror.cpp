@@ -5,6 +5,8 @@
 #include <cassert>
 #include <cmath>
 
+#include "trianglepool.h"
+
 namespace unilod {
 
 namespace {
@@ -335,22 +337,7 @@ double ModelError::updateMax(const Cdt& cdt, const std::vector<std::uint32_t>& r
 }
 
 void ModelError::compact(const Cdt& cdt) {
-    // The live ranges (alive triangles with points) moved to the front, in pool order.
-    std::vector<std::uint32_t>& live = destination_;
-    live.clear();
-    for (std::uint32_t t = 0; t < cdt.triangleSlots(); ++t) {
-        if (rangeCount_[t] > 0 && cdt.triangleAlive(t)) live.push_back(t);
-    }
-    std::sort(live.begin(), live.end(),
-              [&](std::uint32_t a, std::uint32_t b) { return rangeStart_[a] < rangeStart_[b]; });
-    std::uint32_t w = 0;
-    for (std::uint32_t t : live) {
-        std::copy(pool_.begin() + rangeStart_[t], pool_.begin() + rangeStart_[t] + rangeCount_[t],
-                  pool_.begin() + w);
-        rangeStart_[t] = w;
-        w += rangeCount_[t];
-    }
-    pool_.resize(w);
+    compactTrianglePool(cdt, pool_, rangeStart_, rangeCount_, destination_);
     garbage_ = 0;
 }
 
