@@ -203,6 +203,48 @@ json treeBenchmark(const std::string& path, const std::vector<double>& errors) {
         levels[i] = std::move(g.levels);
         nodes[i].levels = &levels[i];
     }
+    // What the uniform cuts keep on the hierarchy's locked borders: vertices flagged locked that
+    // lie on their node's box outline inside the model (the model's own outer edge excluded), and
+    // the drawn triangles that touch one.
+    {
+        const unilod::format::Header& hd = reader.header();
+        for (std::size_t k = 0; k < errors.size(); ++k) {
+            unilod::engine::ViewSpec v;
+            v.kind = unilod::engine::ViewSpec::Kind::Uniform;
+            v.hLim = errors[k];
+            std::vector<unilod::engine::NodeChoice> cut;
+            unilod::engine::selectCut(v, nodes, unilod::format::kMetricMax, cut);
+            std::uint64_t vertices = 0, border = 0, borderTriangles = 0, triangles = 0;
+            for (const unilod::engine::NodeChoice& n : cut) {
+                unilod::format::BlockGeometry g;
+                if (!reader.readGeometry(n.block, int(n.wanted.level), g, error)) fail(error);
+                const auto near = [](double a, double b) { return std::fabs(a - b) < 0.01; };
+                std::vector<char> onBorder(g.vertices.size(), 0);
+                for (std::size_t i = 0; i < g.vertices.size(); ++i) {
+                    const unilod::format::Vertex& p = g.vertices[i];
+                    if (!(p.flags & unilod::format::kVertexLocked)) continue;
+                    const double x = g.originX + p.x, y = g.originY + p.y;
+                    const bool edge = (near(x, g.minX) && !near(x, hd.minX)) ||
+                                      (near(x, g.maxX) && !near(x, hd.maxX)) ||
+                                      (near(y, g.minY) && !near(y, hd.minY)) ||
+                                      (near(y, g.maxY) && !near(y, hd.maxY));
+                    onBorder[i] = edge;
+                    border += edge;
+                }
+                vertices += g.vertices.size();
+                triangles += g.terrainIndices.size();
+                for (const unilod::format::Triangle& t : g.terrainIndices)
+                    borderTriangles += onBorder[t.a] || onBorder[t.b] || onBorder[t.c];
+            }
+            for (json& c : out["cuts"]) {
+                if (c["error"] != errors[k]) continue;
+                c["vertices"] = vertices;
+                c["locked_border_vertices"] = border;
+                c["triangles_touching_locked_border"] = borderTriangles;
+                c["triangles_read"] = triangles;
+            }
+        }
+    }
     const unilod::format::Header& h = reader.header();
     const double w = std::max(h.maxX - h.minX, h.maxY - h.minY);
     const double cx = (h.minX + h.maxX) / 2, cy = (h.minY + h.maxY) / 2;
