@@ -236,8 +236,24 @@ json treeBenchmark(const std::string& path, const std::vector<double>& errors) {
                 for (const unilod::format::Triangle& t : g.terrainIndices)
                     borderTriangles += onBorder[t.a] || onBorder[t.b] || onBorder[t.c];
             }
+            // Each drawn node: tree level, the level drawn and its stored error, the node's
+            // finest (starting) and coarsest (hand-over) errors and triangles.
+            json drawn = json::array();
+            for (const unilod::engine::NodeChoice& n : cut) {
+                const std::vector<unilod::format::Level>& l = *nodes[n.block].levels;
+                drawn.push_back({{"tree_level", n.treeLevel},
+                                 {"level", n.wanted.level},
+                                 {"levels", l.size()},
+                                 {"error", l[n.wanted.level].errorMax},
+                                 {"triangles", l[n.wanted.level].triangleCount},
+                                 {"start_error", l.front().errorMax},
+                                 {"start_triangles", l.front().triangleCount},
+                                 {"coarsest_error", l.back().errorMax},
+                                 {"coarsest_triangles", l.back().triangleCount}});
+            }
             for (json& c : out["cuts"]) {
                 if (c["error"] != errors[k]) continue;
+                c["drawn"] = drawn;
                 c["vertices"] = vertices;
                 c["locked_border_vertices"] = border;
                 c["triangles_touching_locked_border"] = borderTriangles;
