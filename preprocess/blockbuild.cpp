@@ -49,6 +49,7 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
         }
         del.paperError = false;
         del.errorFloor = del.chainSlack = node->errorFloor;
+        del.riverSlack = &node->riverSlack;
         if (node->originals) {
             extra.reserve(node->originalCount);  // a root's: every original point of the model
             node->originals([&](const Point& p) {
@@ -121,6 +122,17 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
         *coarse = CoarseState{};
         coarse->triangles = collectTriangles(cdt);
         coarse->rivers = collectRiverEdges(cdt);
+        // Each river edge's slack: its reported deviation, else (not reported) the final error.
+        const double finalError =
+            records.errorMax.empty() ? records.initialErrorMax : records.errorMax.back();
+        coarse->riverSlack.reserve(coarse->rivers.size());
+        for (const RiverEdge& e : coarse->rivers) {
+            const auto it = std::lower_bound(
+                records.riverDeviation.begin(), records.riverDeviation.end(), e,
+                [](const auto& l, const RiverEdge& r) { return l.first < r; });
+            coarse->riverSlack.push_back(
+                it != records.riverDeviation.end() && it->first == e ? it->second : finalError);
+        }
         std::vector<PointId> local(set.points.size(), kNoPoint);
         auto use = [&](PointId& v) {
             if (local[v] == kNoPoint) {

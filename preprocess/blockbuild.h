@@ -7,6 +7,7 @@
 #include <functional>
 #include <limits>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "cdt.h"
@@ -54,6 +55,9 @@ struct CoarseState {
     std::vector<Point> points;
     std::vector<TriangleTriple> triangles;
     std::vector<RiverEdge> rivers;
+    // Per river edge: the bound on the deviation of the original river points it stands for
+    // (DeletionRecords::riverDeviation).
+    std::vector<double> riverSlack;
     double errorMax = 0;
 };
 
@@ -64,6 +68,8 @@ struct NodeErrorInput {
     std::function<void(const std::function<void(const Point&)>&)> originals;
     std::size_t originalCount = 0;  // how many points `originals` gives (a capacity hint)
     double errorFloor = 0;
+    // The slack of each river edge of the node's point set (DeletionOptions::riverSlack).
+    std::unordered_map<std::uint64_t, double> riverSlack;
 };
 
 // Builds `block` (vertices, records, errors, levels, indices; bbox and origin from the points).

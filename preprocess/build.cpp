@@ -261,8 +261,13 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
             }
             const Item& it = items[i];
             BlockBuildOptions itemOptions = blockOptions;
-            if (it.parent != format::kNoChild)
+            if (it.parent != format::kNoChild) {
                 itemOptions.stopTriangles = nodeHandoffTriangles(side, it.level);
+                itemOptions.stopKey = nodeHandoffError(
+                    std::max(header.blockWidth, header.blockHeight),
+                    std::max(dem.width * std::fabs(dem.cellX), dem.height * std::fabs(dem.cellY)),
+                    it.level, o.handoffPixels);
+            }
             bool ok;
             if (it.level == 0) {
                 const PointSet set = source.points(it.source);

@@ -16,6 +16,7 @@
 #include "blocks.h"
 #include "importance.h"
 #include "ingest.h"
+#include "nodebuild.h"
 #include "ulod.h"
 
 namespace unilod {
@@ -42,6 +43,10 @@ struct BuildOptions : IngestOptions {
     // Build issue 18's block hierarchy (nodebuild.h) above the blocks: the greedy order without
     // the paper metric only (the paper's runs keep its flat block grid). --no-tree: blocks only.
     bool tree = true;
+    // Tree hand-over (nodebuild.h nodeHandoffError): a block or node of tree level L stops before
+    // a deletion costing more than its extent 2^L * block side (metres) / handoffPixels.
+    // --handoff-pixels.
+    double handoffPixels = kDefaultHandoffPixels;
     // Blocks stored as plain arrays (format::Writer::storeRaw) instead of the compact encoding:
     // about 35-40 times larger; for tools and tests that edit the bytes. --encoding raw.
     bool rawBlocks = false;

@@ -319,7 +319,7 @@ void Cdt::legalize(std::vector<std::uint32_t>& stack) {
         const std::uint32_t i = h % 3;
         const PointId a = tv[3 * t + i], b = tv[3 * t + nextIndex(i)], c = tv[3 * t + prevIndex(i)];
         const PointId d = tv[3 * n + g % 3];
-        if (incircle(gx[a], gy[a], gx[b], gy[b], gx[c], gy[c], gx[d], gy[d]) <= 0) continue;
+        if (incirclePerturbed(gx[a], gy[a], gx[b], gy[b], gx[c], gy[c], gx[d], gy[d]) <= 0) continue;
         flip(h);
         stack.push_back(3 * t);
         stack.push_back(3 * t + 2);
@@ -419,7 +419,7 @@ void Cdt::planHole(const std::vector<PointId>& poly, std::vector<std::uint32_t>&
         const std::uint32_t a = triangles[3 * t + e], u = triangles[3 * t + nextIndex(e)],
                             w = triangles[3 * t + prevIndex(e)], d = triangles[3 * o + f];
         const PointId pa = poly[a], pu = poly[u], pw = poly[w], pd = poly[d];
-        if (incircle(gx[pa], gy[pa], gx[pu], gy[pu], gx[pw], gy[pw], gx[pd], gy[pd]) <= 0)
+        if (incirclePerturbed(gx[pa], gy[pa], gx[pu], gy[pu], gx[pw], gy[pw], gx[pd], gy[pd]) <= 0)
             continue;
         // Quadrilateral a, u, d, w (counter-clockwise): u-w becomes a-d; t = (a, u, d),
         // o = (a, d, w).
@@ -802,8 +802,8 @@ Cdt::SplitEdge Cdt::insertPoint(PointId p, std::uint32_t hint) {
                                      std::int64_t(gy[w] - gy[u]) * (gy[w] - gy[u]);
             return dot > 0 && dot < len;
         }
-        return incircle(gx[v[0]], gy[v[0]], gx[v[1]], gy[v[1]], gx[v[2]], gy[v[2]], gx[p], gy[p]) >
-               0;
+        return incirclePerturbed(gx[v[0]], gy[v[0]], gx[v[1]], gy[v[1]], gx[v[2]], gy[v[2]], gx[p],
+                                 gy[p]) > 0;
     };
     if (mark_.size() < triangleSlots()) mark_.resize(triangleSlots() + triangleSlots() / 2, 0);
     ++markStamp_;
@@ -885,15 +885,21 @@ bool quantisePoints(const PointSet& set, const CdtOptions& options, Cdt& cdt,
         minX = std::min(minX, p.x), maxX = std::max(maxX, p.x);
         minY = std::min(minY, p.y), maxY = std::max(maxY, p.y);
     }
+    // Positions are rounded to the grid in absolute coordinates and the origin is a grid point
+    // (the one nearest the bounding box centre): a point gets the same grid position, up to one
+    // integer translation, in every block and tree node that holds it, so the exact predicates
+    // (and incirclePerturbed's tie breaks) decide alike everywhere (nodebuild.h).
     cdt.gridUnit = options.gridUnit;
-    cdt.originX = n ? 0.5 * (minX + maxX) : 0;
-    cdt.originY = n ? 0.5 * (minY + maxY) : 0;
+    const double ox = n ? std::round(0.5 * (minX + maxX) / cdt.gridUnit) : 0.0;
+    const double oy = n ? std::round(0.5 * (minY + maxY) / cdt.gridUnit) : 0.0;
+    cdt.originX = ox * cdt.gridUnit;
+    cdt.originY = oy * cdt.gridUnit;
     cdt.gx.resize(n);
     cdt.gy.resize(n);
     const double limit = double(kMaxGridCoordinate);
     for (std::size_t i = 0; i < n; ++i) {
-        const double fx = std::round((set.points[i].x - cdt.originX) / cdt.gridUnit);
-        const double fy = std::round((set.points[i].y - cdt.originY) / cdt.gridUnit);
+        const double fx = std::round(set.points[i].x / cdt.gridUnit) - ox;
+        const double fy = std::round(set.points[i].y / cdt.gridUnit) - oy;
         if (std::fabs(fx) > limit || std::fabs(fy) > limit) {
             error = "block too large for the exact grid: point " + std::to_string(i) +
                     " lies more than 2^28-1 grid units (" + std::to_string(limit * cdt.gridUnit) +

@@ -125,6 +125,10 @@ private:
     // The deviation of the chain (river or ring) at x: deletion.h.
     double chainDeviation(PointId x) const;
     double builtChainDeviation(std::uint32_t p) const;  // from the chain as built, at position p
+    // The deviation bound of the original chain points between positions pa and pc from the
+    // segment between their vertices (builtChainDeviation with explicit ends).
+    double spanDeviation(std::uint32_t pa, std::uint32_t pc, bool flat) const;
+    void reportRiverDeviation();
     void rollback(PointId x, PointId a, PointId c);
     void setBoundary(PointId x, PointId a, PointId c, bool deleted);
     void block(PointId x, std::initializer_list<PointId> blockers);
@@ -161,6 +165,8 @@ private:
     std::vector<PointId> riverVertex_;     // per position
     std::vector<std::uint32_t> riverPrev_, riverNext_, riverSucc_;
     std::vector<std::uint8_t> ring_;
+    std::vector<double> slack_;  // per position: slack of the built edge to riverSucc_ (options)
+    std::vector<std::uint32_t> riverFirst_;  // first position of each river line
     bool greedy_ = false;        // ring vertices are candidates (the greedy order only)
     bool boundaryStep_ = false;  // classify() accepted a ring vertex (a, c: its ring neighbours)
     std::uint32_t domainTriangles_ = 0, riverEdges_ = 0;  // alive, for the records
@@ -216,9 +222,20 @@ void Sequence::start(std::size_t expectedSteps) {
     riverNext_.clear();
     riverSucc_.clear();
     ring_.clear();
+    slack_.clear();
+    riverFirst_.clear();
+    auto slackOf = [&](PointId u, PointId w) {
+        if (options_.riverSlack != nullptr) {
+            const auto it = options_.riverSlack->find(Cdt::edgeKey(std::min(u, w), std::max(u, w)));
+            if (it != options_.riverSlack->end()) return it->second;
+        }
+        return options_.chainSlack;
+    };
     for (const Polyline& line : cdt_.rivers) {
         const std::uint32_t base = std::uint32_t(riverVertex_.size());
+        riverFirst_.push_back(base);
         for (std::size_t i = 0; i < line.size(); ++i) {
+            slack_.push_back(i + 1 == line.size() ? 0.0 : slackOf(line[i], line[i + 1]));
             const std::uint32_t p = base + std::uint32_t(i);
             riverVertex_.push_back(line[i]);
             riverPrev_.push_back(i == 0 ? kNil : p - 1);
@@ -239,6 +256,7 @@ void Sequence::start(std::size_t expectedSteps) {
             riverNext_.push_back(base + (i + 1) % len);
             riverSucc_.push_back(riverNext_.back());
             ring_.push_back(1);
+            slack_.push_back(options_.chainSlack);
             if (ring[i] < n && riverPos_[ring[i]] == kNil) riverPos_[ring[i]] = p;
         }
     }
@@ -474,23 +492,46 @@ void Sequence::rollback(PointId x, PointId a, PointId c) {
 double Sequence::chainDeviation(PointId x) const {
     const std::uint32_t p = riverPos_[x];
     if (p == kNil) return 0;
-    return builtChainDeviation(p) + options_.chainSlack;
+    return builtChainDeviation(p);
 }
 
 double Sequence::builtChainDeviation(std::uint32_t p) const {
-    const std::uint32_t pa = riverPrev_[p], pc = riverNext_[p];
-    assert(pa != kNil && pc != kNil);
-    const PointId a = riverVertex_[pa], c = riverVertex_[pc];
+    assert(riverPrev_[p] != kNil && riverNext_[p] != kNil);
     // Rings: the planimetric deviation (the outline is drawn on the surface); rivers: 3D.
-    const bool flat = ring_[p] != 0;
+    return spanDeviation(riverPrev_[p], riverNext_[p], ring_[p] != 0);
+}
+
+void Sequence::reportRiverDeviation() {
+    rec_.riverDeviation.clear();
+    for (const std::uint32_t first : riverFirst_) {
+        for (std::uint32_t p = first; riverNext_[p] != kNil; p = riverNext_[p]) {
+            const std::uint32_t q = riverNext_[p];
+            const PointId a = riverVertex_[p], b = riverVertex_[q];
+            // (A line end of degree 2 may have gone, joining two lines: its position is not
+            // updated, and the edges it left are not reported.)
+            if (!cdt_.isVertex(a) || !cdt_.isVertex(b)) continue;
+            const std::uint32_t h = cdt_.findEdge(a, b);
+            if (h == Cdt::kNone || !cdt_.isConstrained(h)) continue;
+            rec_.riverDeviation.push_back(
+                {{std::min(a, b), std::max(a, b)}, spanDeviation(p, q, false)});
+            if (q == first) break;  // a closed loop
+        }
+    }
+    std::sort(rec_.riverDeviation.begin(), rec_.riverDeviation.end(),
+              [](const auto& l, const auto& r) { return l.first < r.first; });
+}
+
+double Sequence::spanDeviation(std::uint32_t pa, std::uint32_t pc, bool flat) const {
+    const PointId a = riverVertex_[pa], c = riverVertex_[pc];
     const double u = cdt_.gridUnit;
     const double ax = double(cdt_.gx[a]) * u, ay = double(cdt_.gy[a]) * u,
                  az = flat ? 0.0 : set_.points[a].z;
     const double dx = double(cdt_.gx[c]) * u - ax, dy = double(cdt_.gy[c]) * u - ay,
                  dz = flat ? 0.0 : set_.points[c].z - az;
     const double len2 = dx * dx + dy * dy + dz * dz;
-    double worst = 0;
+    double worst = 0, slack = slack_[pa];
     for (std::uint32_t q = riverSucc_[pa]; q != pc; q = riverSucc_[q]) {
+        slack = std::max(slack, slack_[q]);
         const PointId m = riverVertex_[q];
         const double mx = double(cdt_.gx[m]) * u - ax, my = double(cdt_.gy[m]) * u - ay,
                      mz = flat ? 0.0 : set_.points[m].z - az;
@@ -499,7 +540,7 @@ double Sequence::builtChainDeviation(std::uint32_t p) const {
         const double ex = mx - t * dx, ey = my - t * dy, ez = mz - t * dz;
         worst = std::max(worst, std::sqrt(ex * ex + ey * ey + ez * ez));
     }
-    return worst;
+    return worst + slack;
 }
 
 void Sequence::record(PointId x, PointId a, PointId c) {
@@ -721,6 +762,7 @@ bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
             if (state_[v] == State::Deferred) rec_.kept.push_back({v, KeptReason::Deferred});
         }
     }
+    reportRiverDeviation();
     return true;
 }
 

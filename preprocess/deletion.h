@@ -59,6 +59,7 @@
 #include <functional>
 #include <limits>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "cdt.h"
@@ -96,6 +97,10 @@ struct DeletionRecords {
     std::uint32_t deferrals = 0;         // deferred attempts (a vertex may be deferred often)
     std::uint32_t deferredVertices = 0;  // distinct vertices deferred at least once
     std::uint32_t mergedSkipped = 0;     // order entries skipped as merged duplicates
+    // Greedy order: after the last step, every alive river edge (a < b, sorted) with a bound on
+    // the 3D distance of the original river points it stands for (those deleted between a and b)
+    // from it: what a tree node's river chains start from (DeletionOptions::riverSlack).
+    std::vector<std::pair<RiverEdge, double>> riverDeviation;
 
     std::size_t memoryBytes() const;
 };
@@ -111,8 +116,8 @@ struct DeletionOptions {
     // maxSteps, `kept` then lists no Deferred entries.
     std::uint32_t stopTriangles = 0;
     // Greedy order: stop before a step whose key (the error it causes, times its BAI factor)
-    // exceeds this: a tree node hands over once its error would pass twice its starting error
-    // (nodebuild.h). Infinity: no such stop.
+    // exceeds this: a tree node's hand-over error (nodebuild.h nodeHandoffError). Infinity: no
+    // such stop.
     double stopKey = std::numeric_limits<double>::infinity();
     // Called after every step with the step count (tests run the checker here).
     std::function<void(std::uint32_t)> afterStep;
@@ -122,11 +127,14 @@ struct DeletionOptions {
     bool releaseExtraSamples = false;  // free them once placed (ModelError::init releaseExtra)
     // Issue 18's tree nodes (nodebuild.h), whose points are their children's coarsest vertices:
     // `errorFloor` is the error the running `max` starts from (the children's largest final
-    // error: errors stay monotone up the tree); `chainSlack` is added to every chain deviation
-    // (river and outline), since the chains as built are the children's coarsest ones, each
-    // within that error of the original chain (triangle inequality: the deviation from the
-    // original vertices is at most the deviation from the built ones plus the slack).
+    // error: errors stay monotone up the tree). A chain as built is the children's coarsest, so
+    // each of its edges stands for original points within a slack of it: `riverSlack` (by
+    // Cdt::edgeKey(min, max) of the built river edge: the child's riverDeviation), else
+    // `chainSlack` (outline edges, and river edges the triangulation split). A deviation is then
+    // bounded by the one from the built points plus the largest slack of the edges it replaces
+    // (the distance to a segment is convex along each replaced edge).
     double errorFloor = 0, chainSlack = 0;
+    const std::unordered_map<std::uint64_t, double>* riverSlack = nullptr;
 };
 
 // Runs the deletion sequence on `cdt` (built from `set` by buildCdt, no deletion yet).

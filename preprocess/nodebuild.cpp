@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <map>
 #include <unordered_map>
 #include <unordered_set>
@@ -32,7 +33,14 @@ std::uint32_t nodeHandoffTriangles(int side, std::uint32_t level) {
     return std::uint32_t(std::clamp<std::uint64_t>(count, 64, 1u << 30));
 }
 
-PointSet nodePointSet(const std::vector<const CoarseState*>& children, const NodeBorder& border) {
+double nodeHandoffError(double blockExtent, double modelExtent, std::uint32_t level,
+                        double pixels) {
+    return std::min(std::ldexp(blockExtent, int(std::min<std::uint32_t>(level, 60))) / pixels,
+                    modelExtent / kRootPixels);
+}
+
+PointSet nodePointSet(const std::vector<const CoarseState*>& children, const NodeBorder& border,
+                      std::unordered_map<std::uint64_t, double>* riverSlack) {
     PointSet set;
     std::unordered_map<std::pair<double, double>, PointId, XYHash> ids;
     std::vector<TriangleTriple> triangles;
@@ -53,9 +61,14 @@ PointSet nodePointSet(const std::vector<const CoarseState*>& children, const Nod
         }
         for (const TriangleTriple& t : child->triangles)
             triangles.push_back({{map[t.v[0]], map[t.v[1]], map[t.v[2]]}});
-        for (const RiverEdge& e : child->rivers) {
+        for (std::size_t k = 0; k < child->rivers.size(); ++k) {
+            const RiverEdge& e = child->rivers[k];
             const PointId a = map[e.a], b = map[e.b];
             rivers.push_back({std::min(a, b), std::max(a, b)});
+            if (riverSlack != nullptr && k < child->riverSlack.size()) {
+                double& s = (*riverSlack)[directedKey(std::min(a, b), std::max(a, b))];
+                s = std::max(s, child->riverSlack[k]);
+            }
         }
     }
     const std::size_t n = set.points.size();
@@ -165,11 +178,8 @@ bool buildNode(const std::vector<const CoarseState*>& children, const NodeBorder
     input.originalCount = originalCount;
     for (const CoarseState* child : children)
         input.errorFloor = std::max(input.errorFloor, child->errorMax);
-    const PointSet set = nodePointSet(children, border);
-    BlockBuildOptions nodeOptions = options;
-    // A node with a parent hands over before its error passes twice its starting error.
-    if (options.stopTriangles > 0) nodeOptions.stopKey = 2 * input.errorFloor;
-    return buildBlock(set, col, row, nodeOptions, block, stats, error, &input, &coarse);
+    const PointSet set = nodePointSet(children, border, &input.riverSlack);
+    return buildBlock(set, col, row, options, block, stats, error, &input, &coarse);
 }
 
 }  // namespace unilod

@@ -14,19 +14,24 @@
 //
 // The node then runs the same greedy deletion as a block (deletion.h), with its `max` error
 // measured against every ORIGINAL point of its area (ModelError extra samples), the running
-// maximum starting at its children's largest final error (errors stay monotone up the tree) and
-// that error as slack on every chain deviation (deletion.h DeletionOptions::chainSlack). Its
-// records, errors, levels and index data are stored like a block's.
+// maximum starting at its children's largest final error (errors stay monotone up the tree).
+// Its river chains start as the children's coarsest, so each river edge carries its child's
+// bound on the original river points it replaced (CoarseState::riverSlack, deletion.h
+// DeletionOptions::riverSlack); outline chains take the starting error as slack. Its records,
+// errors, levels and index data are stored like a block's.
 //
-// Hand-over: a block or node that has a parent stops deleting once it has
-// nodeHandoffTriangles(side, level) triangles or fewer (its coarsest state; the root runs to the
-// end), a node above the blocks also once its next deletion would cost more than twice its
-// starting error. Errors then about double per tree level, as the view distance at which a node
-// is drawn does (the chunked-LOD rule), and a node's outer border, locked at full resolution, is
-// not what its error is spent on (measured, 16M points: with the triangle rule alone the root's
-// children reached 327 m and a uniform 100 m cut had to draw 5 nodes of 16-32k triangles). Without
-// it the children would delete to their very end (only locked points, errors of the whole relief or
-// of a collapsed outline) and no node could start below that error.
+// The node's starting triangulation is exactly the union of its children's: Delaunay ties
+// (cocircular grid points) are broken by one symbolic perturbation everywhere (predicates.h
+// incirclePerturbed), and the children's full-resolution shared border keeps each side's
+// triangles Delaunay in the union, so the node starts at its children's error (measured, 4M
+// points: without the perturbation level-1 nodes started at 11-28 m above children that ended
+// at 7.5 m, and the 100 m cut was 4.9x the river-holding TIN; with it 1.6x).
+//
+// Hand-over: a block or node that has a parent stops before a deletion costing more than
+// nodeHandoffError (the same for every node of a tree level: siblings hand over alike) or once
+// it has nodeHandoffTriangles(side, level) triangles or fewer (its coarsest state; the root runs
+// to the end). Errors then double per tree level, as the view distance at which a node is drawn
+// does (the chunked-LOD rule), up to the cap at which one root draws the whole model.
 //
 // Stop rule: the tree is built up to one root covering the whole model (a block grid of
 // bx x by blocks has ceil(log2(max(bx, by))) levels above the leaves); the leaves are the blocks,
@@ -35,6 +40,7 @@
 
 #include <cstdint>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "blockbuild.h"
@@ -46,10 +52,20 @@ namespace unilod {
 // sampled cells: twice the node's locked border (4 side 2^level points), which no deletion
 // removes: below that the node would be its border alone, with an error of the whole relief;
 // for a block at least side^2 / 8 (1/16 of its 2 side^2 triangles; 8192 for 256-cell blocks, 512
-// for 64-cell ones). A node above the blocks also hands over before its error passes twice its
-// starting error (buildNode: DeletionOptions::stopKey), so errors about double per tree level
-// as the view distance that draws a node does.
+// for 64-cell ones). The error rule (nodeHandoffError) usually stops a node first.
 std::uint32_t nodeHandoffTriangles(int side, std::uint32_t level);
+
+// The hand-over error of a block or node of tree `level` whose blocks are `blockExtent` metres
+// on a side, in a model `modelExtent` metres across: its extent (blockExtent 2^level) divided by
+// `pixels`, at most modelExtent / kRootPixels. A node stops before a deletion that would cost
+// more (deletion.h DeletionOptions::stopKey), so its parent starts at most there whatever its
+// siblings did. The same target for all nodes of a level: siblings hand over alike, and the error
+// doubles per tree level as the node's extent does (chunked LOD): a view in which the node spans
+// about `pixels` pixels at P = 1 draws its parent. The cap: once the whole model fits a
+// 1920-pixel screen at P = 1, one draw of the root shows it (issue 18's far view).
+inline constexpr double kDefaultHandoffPixels = 256;
+inline constexpr double kRootPixels = 1920;
+double nodeHandoffError(double blockExtent, double modelExtent, std::uint32_t level, double pixels);
 
 // The lines of a node's outer border (cell-centre coordinates of its first and last column and
 // row) and whether points on each are locked.
@@ -61,7 +77,10 @@ struct NodeBorder {
 // The node's starting point set (above): points merged by exact (x, y), rings from the outline
 // of the union of the children's triangles (the domain on the left of every ring edge), rivers
 // from their coarsest river edges. Deterministic for a given child order.
-PointSet nodePointSet(const std::vector<const CoarseState*>& children, const NodeBorder& border);
+// `riverSlack` (optional) gets each river edge's slack (CoarseState::riverSlack, the largest where
+// children share an edge), by Cdt::edgeKey(min, max).
+PointSet nodePointSet(const std::vector<const CoarseState*>& children, const NodeBorder& border,
+                      std::unordered_map<std::uint64_t, double>* riverSlack = nullptr);
 
 // Builds a node from its children's coarsest states: `block` (col, row: the node's position in
 // its level's grid) and the node's own coarsest state for its parent. `originals` calls its

@@ -622,6 +622,10 @@ int main(int argc, char** argv) {
                    "only issue 18's block-hierarchy benchmark on a default build of a synthetic "
                    "DEM of about N points (reuses the model kept with --keep)")
         ->check(CLI::Range(std::size_t{1000}, std::size_t{100000000}));
+    double handoffPixels = unilod::kDefaultHandoffPixels;
+    app.add_option("--handoff-pixels", handoffPixels,
+                   "the tree builds' hand-over (unilod build --handoff-pixels)")
+        ->check(CLI::Range(1.0, 1e6));
     bool masked = false;
     app.add_flag("--masked", masked,
                  "only the domain benchmark: the bundled DEM masked by a crescent against the "
@@ -654,7 +658,12 @@ int main(int argc, char** argv) {
         unilod::BuildOptions o;
         o.demPath = dir + "/dem.tif";
         o.riversPath = dir + "/rivers.geojson";
-        o.outPath = work + "/synthetic_" + std::to_string(points) + suffix + ".ulod";
+        const std::string handoff =
+            handoffPixels == unilod::kDefaultHandoffPixels
+                ? ""
+                : "_h" + std::to_string(std::lround(handoffPixels));
+        o.outPath = work + "/synthetic_" + std::to_string(points) + suffix + handoff + ".ulod";
+        o.handoffPixels = handoffPixels;
         o.threads = threads;
         o.force = true;
         return o;

@@ -43,6 +43,39 @@ inline int incircle(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int6
     return det > 0 ? 1 : (det < 0 ? -1 : 0);
 }
 
+// incircle with ties broken by a symbolic perturbation, so that the Delaunay triangulation of
+// any point set (with given constraints) is unique: each point's lifted height x^2 + y^2 is
+// raised by an infinitesimal e_q, with e_q >> e_r whenever q precedes r in (x, y) lexicographic
+// order (the idea of Devillers & Teillaud, "Perturbations and vertex removal in a 3D Delaunay
+// triangulation", SODA 2003). A cocircular (a, b, c, d) then gets the sign of the first non-zero
+// derivative of the determinant along that order: raising a, b or c adds orient2d of the other
+// two with d (d, b, c / d, c, a / d, a, b), raising d subtracts orient2d(a, b, c). The order is
+// translation invariant, so a block and a tree node break ties alike: the triangulation a node
+// starts from is exactly the union of its children's (nodebuild.h). 0 only when all four points
+// are collinear.
+inline int incirclePerturbed(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by,
+                             std::int64_t cx, std::int64_t cy, std::int64_t dx, std::int64_t dy) {
+    const int s = incircle(ax, ay, bx, by, cx, cy, dx, dy);
+    if (s != 0) return s;
+    struct Lifted {
+        std::int64_t x, y, coefficient;
+    };
+    Lifted q[4] = {{ax, ay, orient2d(dx, dy, bx, by, cx, cy)},
+                   {bx, by, orient2d(dx, dy, cx, cy, ax, ay)},
+                   {cx, cy, orient2d(dx, dy, ax, ay, bx, by)},
+                   {dx, dy, -orient2d(ax, ay, bx, by, cx, cy)}};
+    // Four points: sort by (x, y) by hand (no <algorithm> in this header's users' hot loop).
+    for (int i = 1; i < 4; ++i)
+        for (int j = i; j > 0 && (q[j].x < q[j - 1].x || (q[j].x == q[j - 1].x && q[j].y < q[j - 1].y)); --j) {
+            const Lifted t = q[j];
+            q[j] = q[j - 1];
+            q[j - 1] = t;
+        }
+    for (const Lifted& p : q)
+        if (p.coefficient != 0) return p.coefficient > 0 ? 1 : -1;
+    return 0;
+}
+
 // Exact test whether p lies on the closed segment [a, b], given orient2d(a, b, p) == 0.
 inline bool betweenCollinear(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by,
                              std::int64_t px, std::int64_t py) {

@@ -551,14 +551,19 @@ protected:
         // Across tree levels (issue 18): the cut draws tree nodes next to leaf blocks.
         EXPECT_GT(dev.nodes, 0u) << what;
         EXPECT_LT(dev.nodes, d.json["blocks"].size()) << what;
-        // The bound is tight: observed DEM points up to 0.92 P, river vertices up to 0.83 P.
-        EXPECT_GT(std::max(dev.maxPixels, dev.riverMaxPixels), 0.6 * pixels) << what;
+        // The bound is exercised: observed 0.45-0.67 P (DEM points) with the tree's hand-over
+        // (nodebuild.h; 0.92 P on the flat block grid): a node is drawn at the tolerance of its
+        // nearest point, so its farther points keep a margin.
+        EXPECT_GT(std::max(dev.maxPixels, dev.riverMaxPixels), 0.3 * pixels) << what;
         EXPECT_GT(dev.riverChecked, 100u) << what;
     }
 
     // Oblique: 3 km south of the data, 3 km above its top, looking north 25 degrees down; the
     // data spans ~3..35 km from the eye, so near blocks are fine and far ones coarse.
     static std::string oblique() { return camera(0, -3000, 3000, 0, -25); }
+    // The same, closer and lower (1 km south, 1 km above the top): at P = 3 the far part is
+    // drawn by tree nodes, the near part by leaves.
+    static std::string obliqueNear() { return camera(0, -1000, 1000, 0, -25); }
 
     // Height of the drawn surface at world (x, y): the highest over the blocks holding the point
     // (they agree on shared borders); -inf outside the data.
@@ -591,15 +596,18 @@ TEST_F(Guarantee, ObliqueView) {
     expectGuarantee("oblique", d, 1);
 }
 
+// Top-down from 22 km: every point is 22-30 km away, so the cut mixes tree levels only where the
+// nodes' starting errors lie in that narrow band of tolerances: P = 0.4 (P = 1 draws the root
+// alone, P = 0.3 leaves only, with today's hand-over, nodebuild.h).
 TEST_F(Guarantee, TopDownView) {
     const format::Header& h = reader_->header();
     const Drawn d =
-        capture("topdown", camera(0, (h.maxY - h.minY) / 2, 22000, 0, -90), 1, "nearest");
-    expectGuarantee("top-down", d, 1);
+        capture("topdown", camera(0, (h.maxY - h.minY) / 2, 22000, 0, -90), 0.4, "nearest");
+    expectGuarantee("top-down", d, 0.4);
 }
 
 TEST_F(Guarantee, ThreePixels) {
-    const Drawn d = capture("three", oblique(), 3, "nearest");
+    const Drawn d = capture("three", obliqueNear(), 3, "nearest");
     expectGuarantee("oblique, P = 3", d, 3);
 }
 
@@ -610,7 +618,7 @@ TEST_F(Guarantee, ThreePixels) {
 // outline move by at most P px: the guarantee above; 1 px for rasterisation). Anything else is a
 // hole in the terrain.
 TEST_F(Guarantee, CutHasNoCracks) {
-    const Drawn reference = capture("reference", oblique(), 0.02, "nearest");
+    const Drawn reference = capture("reference", obliqueNear(), 0.02, "nearest");
     ASSERT_FALSE(reference.json.is_discarded());
     const auto background = [](const Image& image, int x, int y) {
         const std::uint8_t* p = &image.rgba[(std::size_t(y) * image.width + x) * 4];
@@ -622,7 +630,8 @@ TEST_F(Guarantee, CutHasNoCracks) {
     // Non-vacuous: the terrain fills most of the view, and the sky is there too.
     EXPECT_GT(terrain, reference.image.rgba.size() / 4 / 2);
     for (const double pixels : {1.0, 3.0}) {
-        const Drawn d = capture(pixels == 1 ? "cracks1" : "cracks3", oblique(), pixels, "nearest");
+        const Drawn d =
+            capture(pixels == 1 ? "cracks1" : "cracks3", obliqueNear(), pixels, "nearest");
         ASSERT_FALSE(d.json.is_discarded());
         ASSERT_EQ(d.image.width, reference.image.width);
         ASSERT_EQ(d.image.height, reference.image.height);

@@ -1,6 +1,10 @@
 // Constrained Delaunay construction (paper §3.3): exact predicates, merging, constraints.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
+#include <cstdlib>
+
 #include "cdt.h"
 #include "cdt_fixtures.h"
 #include "checker.h"
@@ -21,6 +25,75 @@ TEST(Predicates, ExactAtTheCoordinateBound) {
     EXPECT_GT(incircle(m, 0, 0, m, -m, 0, 0, -m + 1), 0);
     EXPECT_LT(incircle(m, 0, 0, m, -m, 0, 0, -m - 1), 0);
     EXPECT_GT(incircle(-m, -m, m, -m, m, m, -m + 1, m - 1), 0);
+}
+
+// Ties broken by one symbolic perturbation (predicates.h incirclePerturbed): never 0 for four
+// cocircular points in convex position, exactly one diagonal of such a quadrilateral is legal,
+// the same after any translation, and the plain sign wherever that is not 0.
+TEST(Predicates, PerturbedIncircleBreaksTiesConsistently) {
+    const std::int64_t m = kMaxGridCoordinate;
+    struct Quad {
+        std::int64_t x[4], y[4];  // counter-clockwise, cocircular
+    };
+    const Quad quads[] = {{{0, 30, 30, 0}, {0, 0, 30, 30}},
+                          {{0, 90, 90, 0}, {0, 0, 30, 30}},
+                          {{m, 0, -m, 0}, {0, m, 0, -m}},
+                          {{5, 4, -3, -4}, {0, 3, 4, -3}}};  // on the circle of radius 5
+    for (const Quad& q : quads) {
+        ASSERT_EQ(incircle(q.x[0], q.y[0], q.x[1], q.y[1], q.x[2], q.y[2], q.x[3], q.y[3]), 0);
+        for (const std::int64_t t : {std::int64_t(0), std::int64_t(7), std::int64_t(-1000)}) {
+            if (std::abs(q.x[0]) == m && t != 0) continue;  // stay within the coordinate bound
+            auto at = [&](int i, int k) {
+                const int j = (i + k) % 4;
+                return std::pair{q.x[j] + t, q.y[j] - 2 * t};
+            };
+            for (int k = 0; k < 4; ++k) {
+                const auto [ax, ay] = at(0, k);
+                const auto [bx, by] = at(1, k);
+                const auto [cx, cy] = at(2, k);
+                const auto [dx, dy] = at(3, k);
+                const int s = incirclePerturbed(ax, ay, bx, by, cx, cy, dx, dy);
+                EXPECT_NE(s, 0);
+                // The other diagonal: triangle (b, c, d) against a.
+                EXPECT_EQ(incirclePerturbed(bx, by, cx, cy, dx, dy, ax, ay), -s);
+                // Rotating the triangle's corners does not change the answer.
+                EXPECT_EQ(incirclePerturbed(bx, by, cx, cy, ax, ay, dx, dy), s);
+            }
+        }
+    }
+    EXPECT_GT(incirclePerturbed(m, 0, 0, m, -m, 0, 0, -m + 1), 0);
+    EXPECT_LT(incirclePerturbed(m, 0, 0, m, -m, 0, 0, -m - 1), 0);
+}
+
+// A regular grid is all ties; the triangulation must not depend on the order of the points (a
+// tree node rebuilt from its children's points must get their triangles back, nodebuild.h).
+TEST(Cdt, GridTriangulationIgnoresPointOrder) {
+    PointSet set;
+    for (int j = 0; j < 12; ++j)
+        for (int i = 0; i < 15; ++i) set.points.push_back(Point{30.0 * i, 30.0 * j, double((i * 7 + j * 3) % 5)});
+    auto trianglesByPosition = [](const PointSet& s) {
+        Cdt cdt;
+        std::string error;
+        EXPECT_TRUE(buildCdt(s, {}, cdt, error)) << error;
+        std::vector<std::array<std::pair<double, double>, 3>> out;
+        for (const TriangleTriple& t : collectTriangles(cdt)) {
+            std::array<std::pair<double, double>, 3> c;
+            for (int k = 0; k < 3; ++k) c[k] = {s.points[t.v[k]].x, s.points[t.v[k]].y};
+            std::sort(c.begin(), c.end());
+            out.push_back(c);
+        }
+        std::sort(out.begin(), out.end());
+        return out;
+    };
+    const auto forward = trianglesByPosition(set);
+    PointSet reversed = set;
+    std::reverse(reversed.points.begin(), reversed.points.end());
+    PointSet shuffled = set;
+    for (std::size_t i = 0; i < shuffled.points.size(); ++i)
+        std::swap(shuffled.points[i], shuffled.points[(i * 97 + 13) % shuffled.points.size()]);
+    EXPECT_EQ(forward.size(), 2u * 14 * 11);
+    EXPECT_EQ(trianglesByPosition(reversed), forward);
+    EXPECT_EQ(trianglesByPosition(shuffled), forward);
 }
 
 TEST(Cdt, RandomBlockIsValid) {

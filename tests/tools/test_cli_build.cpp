@@ -1033,6 +1033,10 @@ TEST_F(CliBuildJacksboro, TreeRetentionFallsWithDistance) {
         EXPECT_GE(startError[i], largest) << "entry " << i;
         if (infos[i].level > 0) {
             EXPECT_GT(startError[i], 0.0f) << "entry " << i;
+            // Exactly there: the node starts from the union of its children's triangles (ties
+            // broken alike, predicates.h incirclePerturbed), not a re-triangulation that lost
+            // accuracy (11-28 m above 7.5 m children on a 4M synthetic model before).
+            EXPECT_EQ(startError[i], largest) << "entry " << i;
         }
     }
 

@@ -126,6 +126,11 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
                   "build the block hierarchy (default; greedy order, max metric only): tree "
                   "nodes above the blocks whose shared borders simplify, so far views draw a few "
                   "nodes; --no-tree: the flat block grid");
+    sub->add_option("--handoff-pixels", c->o.handoffPixels,
+                    "tree hand-over: a block or node stops simplifying before an error of its "
+                    "extent / this (default 1024: the parent takes over once the node spans "
+                    "fewer pixels at P = 1); larger: coarser nodes drawn sooner")
+        ->check(CLI::Range(1.0, 1e6));
     sub->add_option("--encoding", c->encoding,
                     "block encoding: compact (default; about 7 bytes per point) or raw (plain "
                     "arrays, about 35-40 times larger, for tools that read the layout directly)")
