@@ -49,7 +49,7 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
         }
         del.paperError = false;
         del.errorFloor = del.chainSlack = node->errorFloor;
-        del.riverSlack = &node->riverSlack;
+        del.riverCover = &node->riverCover;
         if (node->originals) {
             extra.reserve(node->originalCount);  // a root's: every original point of the model
             node->originals([&](const Point& p) {
@@ -122,16 +122,20 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
         *coarse = CoarseState{};
         coarse->triangles = collectTriangles(cdt);
         coarse->rivers = collectRiverEdges(cdt);
-        // Each river edge's slack: its reported deviation, else (not reported) the final error.
+        // What each river edge stands for: its report, else (not reported) everything within
+        // the final error.
         const double finalError =
             records.errorMax.empty() ? records.initialErrorMax : records.errorMax.back();
-        coarse->riverSlack.reserve(coarse->rivers.size());
+        coarse->riverCover.reserve(coarse->rivers.size());
         for (const RiverEdge& e : coarse->rivers) {
             const auto it = std::lower_bound(
-                records.riverDeviation.begin(), records.riverDeviation.end(), e,
+                records.riverCover.begin(), records.riverCover.end(), e,
                 [](const auto& l, const RiverEdge& r) { return l.first < r; });
-            coarse->riverSlack.push_back(
-                it != records.riverDeviation.end() && it->first == e ? it->second : finalError);
+            if (it != records.riverCover.end() && it->first == e) {
+                coarse->riverCover.push_back(std::move(it->second));
+            } else {
+                coarse->riverCover.push_back(RiverCover{finalError, {}});
+            }
         }
         std::vector<PointId> local(set.points.size(), kNoPoint);
         auto use = [&](PointId& v) {

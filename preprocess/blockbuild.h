@@ -12,6 +12,7 @@
 
 #include "cdt.h"
 #include "importance.h"
+#include "deletion.h"
 #include "points.h"
 #include "ulod.h"
 
@@ -55,9 +56,8 @@ struct CoarseState {
     std::vector<Point> points;
     std::vector<TriangleTriple> triangles;
     std::vector<RiverEdge> rivers;
-    // Per river edge: the bound on the deviation of the original river points it stands for
-    // (DeletionRecords::riverDeviation).
-    std::vector<double> riverSlack;
+    // Per river edge: the original river points it stands for (DeletionRecords::riverCover).
+    std::vector<RiverCover> riverCover;
     double errorMax = 0;
 };
 
@@ -68,8 +68,8 @@ struct NodeErrorInput {
     std::function<void(const std::function<void(const Point&)>&)> originals;
     std::size_t originalCount = 0;  // how many points `originals` gives (a capacity hint)
     double errorFloor = 0;
-    // The slack of each river edge of the node's point set (DeletionOptions::riverSlack).
-    std::unordered_map<std::uint64_t, double> riverSlack;
+    // What each river edge of the node's point set stands for (DeletionOptions::riverCover).
+    std::unordered_map<std::uint64_t, RiverCover> riverCover;
 };
 
 // Builds `block` (vertices, records, errors, levels, indices; bbox and origin from the points).

@@ -128,7 +128,7 @@ private:
     // The deviation bound of the original chain points between positions pa and pc from the
     // segment between their vertices (builtChainDeviation with explicit ends).
     double spanDeviation(std::uint32_t pa, std::uint32_t pc, bool flat) const;
-    void reportRiverDeviation();
+    void reportRiverCover();
     void rollback(PointId x, PointId a, PointId c);
     void setBoundary(PointId x, PointId a, PointId c, bool deleted);
     void block(PointId x, std::initializer_list<PointId> blockers);
@@ -165,7 +165,10 @@ private:
     std::vector<PointId> riverVertex_;     // per position
     std::vector<std::uint32_t> riverPrev_, riverNext_, riverSucc_;
     std::vector<std::uint8_t> ring_;
-    std::vector<double> slack_;  // per position: slack of the built edge to riverSucc_ (options)
+    // Per position, for the built edge to riverSucc_: the original points it stands for (nodes:
+    // DeletionOptions::riverCover; null: none listed) and the slack for any not listed.
+    std::vector<const RiverCover*> cover_;
+    std::vector<double> slack_;
     std::vector<std::uint32_t> riverFirst_;  // first position of each river line
     bool greedy_ = false;        // ring vertices are candidates (the greedy order only)
     bool boundaryStep_ = false;  // classify() accepted a ring vertex (a, c: its ring neighbours)
@@ -223,19 +226,20 @@ void Sequence::start(std::size_t expectedSteps) {
     riverSucc_.clear();
     ring_.clear();
     slack_.clear();
+    cover_.clear();
     riverFirst_.clear();
-    auto slackOf = [&](PointId u, PointId w) {
-        if (options_.riverSlack != nullptr) {
-            const auto it = options_.riverSlack->find(Cdt::edgeKey(std::min(u, w), std::max(u, w)));
-            if (it != options_.riverSlack->end()) return it->second;
-        }
-        return options_.chainSlack;
+    auto coverOf = [&](PointId u, PointId w) -> const RiverCover* {
+        if (options_.riverCover == nullptr) return nullptr;
+        const auto it = options_.riverCover->find(Cdt::edgeKey(std::min(u, w), std::max(u, w)));
+        return it != options_.riverCover->end() ? &it->second : nullptr;
     };
     for (const Polyline& line : cdt_.rivers) {
         const std::uint32_t base = std::uint32_t(riverVertex_.size());
         riverFirst_.push_back(base);
         for (std::size_t i = 0; i < line.size(); ++i) {
-            slack_.push_back(i + 1 == line.size() ? 0.0 : slackOf(line[i], line[i + 1]));
+            const RiverCover* c = i + 1 == line.size() ? nullptr : coverOf(line[i], line[i + 1]);
+            cover_.push_back(c);
+            slack_.push_back(c != nullptr ? c->slack : options_.chainSlack);
             const std::uint32_t p = base + std::uint32_t(i);
             riverVertex_.push_back(line[i]);
             riverPrev_.push_back(i == 0 ? kNil : p - 1);
@@ -257,6 +261,7 @@ void Sequence::start(std::size_t expectedSteps) {
             riverSucc_.push_back(riverNext_.back());
             ring_.push_back(1);
             slack_.push_back(options_.chainSlack);
+            cover_.push_back(nullptr);
             if (ring[i] < n && riverPos_[ring[i]] == kNil) riverPos_[ring[i]] = p;
         }
     }
@@ -501,8 +506,8 @@ double Sequence::builtChainDeviation(std::uint32_t p) const {
     return spanDeviation(riverPrev_[p], riverNext_[p], ring_[p] != 0);
 }
 
-void Sequence::reportRiverDeviation() {
-    rec_.riverDeviation.clear();
+void Sequence::reportRiverCover() {
+    rec_.riverCover.clear();
     for (const std::uint32_t first : riverFirst_) {
         for (std::uint32_t p = first; riverNext_[p] != kNil; p = riverNext_[p]) {
             const std::uint32_t q = riverNext_[p];
@@ -512,12 +517,22 @@ void Sequence::reportRiverDeviation() {
             if (!cdt_.isVertex(a) || !cdt_.isVertex(b)) continue;
             const std::uint32_t h = cdt_.findEdge(a, b);
             if (h == Cdt::kNone || !cdt_.isConstrained(h)) continue;
-            rec_.riverDeviation.push_back(
-                {{std::min(a, b), std::max(a, b)}, spanDeviation(p, q, false)});
+            RiverCover c;
+            for (std::uint32_t r = p;;) {
+                c.slack = std::max(c.slack, slack_[r]);
+                if (cover_[r] != nullptr)
+                    c.points.insert(c.points.end(), cover_[r]->points.begin(),
+                                    cover_[r]->points.end());
+                r = riverSucc_[r];
+                if (r == q || r == kNil) break;
+                const Point& m = set_.points[riverVertex_[r]];
+                c.points.push_back({m.x, m.y, m.z});
+            }
+            rec_.riverCover.push_back({{std::min(a, b), std::max(a, b)}, std::move(c)});
             if (q == first) break;  // a closed loop
         }
     }
-    std::sort(rec_.riverDeviation.begin(), rec_.riverDeviation.end(),
+    std::sort(rec_.riverCover.begin(), rec_.riverCover.end(),
               [](const auto& l, const auto& r) { return l.first < r.first; });
 }
 
@@ -529,16 +544,24 @@ double Sequence::spanDeviation(std::uint32_t pa, std::uint32_t pc, bool flat) co
     const double dx = double(cdt_.gx[c]) * u - ax, dy = double(cdt_.gy[c]) * u - ay,
                  dz = flat ? 0.0 : set_.points[c].z - az;
     const double len2 = dx * dx + dy * dy + dz * dz;
-    double worst = 0, slack = slack_[pa];
-    for (std::uint32_t q = riverSucc_[pa]; q != pc; q = riverSucc_[q]) {
-        slack = std::max(slack, slack_[q]);
-        const PointId m = riverVertex_[q];
-        const double mx = double(cdt_.gx[m]) * u - ax, my = double(cdt_.gy[m]) * u - ay,
-                     mz = flat ? 0.0 : set_.points[m].z - az;
+    double worst = 0, slack = 0;
+    auto distance = [&](double mx, double my, double mz) {
         double t = len2 > 0 ? (mx * dx + my * dy + mz * dz) / len2 : 0.0;
         t = std::clamp(t, 0.0, 1.0);
         const double ex = mx - t * dx, ey = my - t * dy, ez = mz - t * dz;
         worst = std::max(worst, std::sqrt(ex * ex + ey * ey + ez * ez));
+    };
+    for (std::uint32_t q = pa;;) {
+        slack = std::max(slack, slack_[q]);
+        if (cover_[q] != nullptr) {
+            for (const auto& o : cover_[q]->points)
+                distance(o[0] - cdt_.originX - ax, o[1] - cdt_.originY - ay, flat ? 0.0 : o[2] - az);
+        }
+        q = riverSucc_[q];
+        if (q == pc) break;
+        const PointId m = riverVertex_[q];
+        distance(double(cdt_.gx[m]) * u - ax, double(cdt_.gy[m]) * u - ay,
+                 flat ? 0.0 : set_.points[m].z - az);
     }
     return worst + slack;
 }
@@ -762,7 +785,7 @@ bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
             if (state_[v] == State::Deferred) rec_.kept.push_back({v, KeptReason::Deferred});
         }
     }
-    reportRiverDeviation();
+    reportRiverCover();
     return true;
 }
 

@@ -55,6 +55,7 @@
 // re-created identically within a step appears in neither list.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <limits>
@@ -80,6 +81,14 @@ struct KeptVertex {
     KeptReason reason = KeptReason::Locked;
 };
 
+// The original river points a built river edge stands for (issue 18's tree nodes start from
+// their children's coarsest rivers): those deleted between its ends, in order, with absolute
+// x, y, z, and a slack bounding the distance of any not listed (0 when all are).
+struct RiverCover {
+    double slack = 0;
+    std::vector<std::array<double, 3>> points;
+};
+
 struct DeletionRecords {
     std::vector<DeletionStep> steps;
     // Size steps.size() + 1, first entry 0.
@@ -97,10 +106,10 @@ struct DeletionRecords {
     std::uint32_t deferrals = 0;         // deferred attempts (a vertex may be deferred often)
     std::uint32_t deferredVertices = 0;  // distinct vertices deferred at least once
     std::uint32_t mergedSkipped = 0;     // order entries skipped as merged duplicates
-    // Greedy order: after the last step, every alive river edge (a < b, sorted) with a bound on
-    // the 3D distance of the original river points it stands for (those deleted between a and b)
-    // from it: what a tree node's river chains start from (DeletionOptions::riverSlack).
-    std::vector<std::pair<RiverEdge, double>> riverDeviation;
+    // Greedy order: after the last step, every alive river edge (a < b, sorted) with the original
+    // river points it stands for: what a tree node's river chains start from
+    // (DeletionOptions::riverCover).
+    std::vector<std::pair<RiverEdge, RiverCover>> riverCover;
 
     std::size_t memoryBytes() const;
 };
@@ -128,13 +137,13 @@ struct DeletionOptions {
     // Issue 18's tree nodes (nodebuild.h), whose points are their children's coarsest vertices:
     // `errorFloor` is the error the running `max` starts from (the children's largest final
     // error: errors stay monotone up the tree). A chain as built is the children's coarsest, so
-    // each of its edges stands for original points within a slack of it: `riverSlack` (by
-    // Cdt::edgeKey(min, max) of the built river edge: the child's riverDeviation), else
-    // `chainSlack` (outline edges, and river edges the triangulation split). A deviation is then
-    // bounded by the one from the built points plus the largest slack of the edges it replaces
-    // (the distance to a segment is convex along each replaced edge).
+    // each of its edges stands for original points deleted below: `riverCover` (by
+    // Cdt::edgeKey(min, max) of the built river edge: the child's DeletionRecords::riverCover)
+    // lists them, and a river deviation is measured against them as a block's is against its
+    // own deleted river vertices; an edge without one (outline edges, river edges the
+    // triangulation split) gets `chainSlack` added instead (the original chain lies within it).
     double errorFloor = 0, chainSlack = 0;
-    const std::unordered_map<std::uint64_t, double>* riverSlack = nullptr;
+    const std::unordered_map<std::uint64_t, RiverCover>* riverCover = nullptr;
 };
 
 // Runs the deletion sequence on `cdt` (built from `set` by buildCdt, no deletion yet).

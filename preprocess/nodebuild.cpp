@@ -40,7 +40,7 @@ double nodeHandoffError(double blockExtent, double modelExtent, std::uint32_t le
 }
 
 PointSet nodePointSet(const std::vector<const CoarseState*>& children, const NodeBorder& border,
-                      std::unordered_map<std::uint64_t, double>* riverSlack) {
+                      std::unordered_map<std::uint64_t, RiverCover>* riverCover) {
     PointSet set;
     std::unordered_map<std::pair<double, double>, PointId, XYHash> ids;
     std::vector<TriangleTriple> triangles;
@@ -65,9 +65,12 @@ PointSet nodePointSet(const std::vector<const CoarseState*>& children, const Nod
             const RiverEdge& e = child->rivers[k];
             const PointId a = map[e.a], b = map[e.b];
             rivers.push_back({std::min(a, b), std::max(a, b)});
-            if (riverSlack != nullptr && k < child->riverSlack.size()) {
-                double& s = (*riverSlack)[directedKey(std::min(a, b), std::max(a, b))];
-                s = std::max(s, child->riverSlack[k]);
+            if (riverCover != nullptr && k < child->riverCover.size()) {
+                // (An edge two children share lies on their locked border: nothing deleted.)
+                const auto [it, fresh] = riverCover->try_emplace(
+                    directedKey(std::min(a, b), std::max(a, b)), child->riverCover[k]);
+                if (!fresh && child->riverCover[k].points.size() > it->second.points.size())
+                    it->second = child->riverCover[k];
             }
         }
     }
@@ -178,7 +181,7 @@ bool buildNode(const std::vector<const CoarseState*>& children, const NodeBorder
     input.originalCount = originalCount;
     for (const CoarseState* child : children)
         input.errorFloor = std::max(input.errorFloor, child->errorMax);
-    const PointSet set = nodePointSet(children, border, &input.riverSlack);
+    const PointSet set = nodePointSet(children, border, &input.riverCover);
     return buildBlock(set, col, row, options, block, stats, error, &input, &coarse);
 }
 

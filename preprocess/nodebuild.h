@@ -15,9 +15,10 @@
 // The node then runs the same greedy deletion as a block (deletion.h), with its `max` error
 // measured against every ORIGINAL point of its area (ModelError extra samples), the running
 // maximum starting at its children's largest final error (errors stay monotone up the tree).
-// Its river chains start as the children's coarsest, so each river edge carries its child's
-// bound on the original river points it replaced (CoarseState::riverSlack, deletion.h
-// DeletionOptions::riverSlack); outline chains take the starting error as slack. Its records,
+// Its river chains start as the children's coarsest, so each river edge carries the original
+// river points it replaced (CoarseState::riverCover, deletion.h DeletionOptions::riverCover): a
+// node's river deviation is measured against the original river as a block's is; outline chains
+// take the starting error as slack. Its records,
 // errors, levels and index data are stored like a block's.
 //
 // The node's starting triangulation is exactly the union of its children's: Delaunay ties
@@ -77,10 +78,10 @@ struct NodeBorder {
 // The node's starting point set (above): points merged by exact (x, y), rings from the outline
 // of the union of the children's triangles (the domain on the left of every ring edge), rivers
 // from their coarsest river edges. Deterministic for a given child order.
-// `riverSlack` (optional) gets each river edge's slack (CoarseState::riverSlack, the largest where
-// children share an edge), by Cdt::edgeKey(min, max).
+// `riverCover` (optional) gets what each river edge stands for (CoarseState::riverCover), by
+// Cdt::edgeKey(min, max).
 PointSet nodePointSet(const std::vector<const CoarseState*>& children, const NodeBorder& border,
-                      std::unordered_map<std::uint64_t, double>* riverSlack = nullptr);
+                      std::unordered_map<std::uint64_t, RiverCover>* riverCover = nullptr);
 
 // Builds a node from its children's coarsest states: `block` (col, row: the node's position in
 // its level's grid) and the node's own coarsest state for its parent. `originals` calls its
