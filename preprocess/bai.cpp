@@ -19,6 +19,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <cmath>
 #include <fstream>
 #include <numbers>
 #include <sstream>
@@ -119,12 +121,15 @@ int BaiTable::findRow(double threshold) const {
     return -1;
 }
 
-double BaiTable::constantFor(int row, double altitude) const {
-    const auto& c = rows.at(static_cast<std::size_t>(row)).c;
+std::size_t BaiTable::classOf(double altitude) const {
     std::size_t cls = 0;
     while (cls + 1 < classLowerBounds.size() && altitude >= classLowerBounds[cls + 1])
         ++cls;
-    return c[cls];
+    return cls;
+}
+
+double BaiTable::constantFor(int row, double altitude) const {
+    return rows.at(static_cast<std::size_t>(row)).c[classOf(altitude)];
 }
 
 std::vector<Bend> computeBends(const std::vector<Point>& points, const Polyline& line,
@@ -204,6 +209,80 @@ std::vector<float> baiFactors(const PointSet& set, const BaiTable& table, int ro
         }
     }
     return factor;
+}
+
+BaiKeys BaiKeys::byThreshold(const PointSet& set, const BaiTable& table) {
+    BaiKeys k;
+    const std::size_t n = set.points.size();
+    for (const BaiTable::Row& r : table.rows) k.thresholds_.push_back(r.threshold);
+    const std::size_t classes = table.rows.empty() ? 0 : table.rows.front().c.size();
+    k.c_.assign(classes, {});
+    for (std::size_t j = 0; j < classes; ++j) {
+        for (const BaiTable::Row& r : table.rows) k.c_[j].push_back(r.c[j]);
+    }
+    // Per point, the largest BAI of its bends in each class (collected, then grouped).
+    std::vector<std::pair<std::uint32_t, Entry>> all;
+    if (classes > 0) {
+        const Quantizer quantizer = Quantizer::forPoints(set.points);
+        for (const Polyline& line : set.rivers) {
+            for (const Bend& bend : computeBends(set.points, line, quantizer, table, -1)) {
+                if (!(bend.bai > 0)) continue;
+                const Entry e{std::uint32_t(table.classOf(bend.meanZ)), bend.bai};
+                for (std::uint32_t i = bend.first; i <= bend.last; ++i) {
+                    if (set.points[line[i]].kind == PointKind::River) all.push_back({line[i], e});
+                }
+            }
+        }
+    }
+    std::sort(all.begin(), all.end(), [](const auto& a, const auto& b) {
+        return a.first != b.first ? a.first < b.first
+               : a.second.cls != b.second.cls ? a.second.cls < b.second.cls
+                                              : a.second.bai > b.second.bai;
+    });
+    k.first_.assign(n + 1, 0);
+    for (std::size_t i = 0; i < all.size(); ++i) {
+        if (i > 0 && all[i].first == all[i - 1].first && all[i].second.cls == all[i - 1].second.cls)
+            continue;  // a smaller BAI of the same class: implied
+        k.entries_.push_back(all[i].second);
+        ++k.first_[all[i].first + 1];
+    }
+    for (std::size_t v = 0; v < n; ++v) k.first_[v + 1] += k.first_[v];
+    return k;
+}
+
+double BaiKeys::thresholdKey(std::uint32_t point, double d) const {
+    // g_e(t) = t - d * (C_e(t) * BAI_e + 1) for each entry e; the key is the smallest t >= 0
+    // where every g_e >= 0. Between two row thresholds each g_e is linear, so the set where all
+    // hold is an interval per piece: scan the pieces in ascending t.
+    const std::uint32_t a = first_[point], b = first_[point + 1];
+    const std::size_t rows = thresholds_.size();
+    auto solve = [&](double t0, double t1, std::size_t r0, std::size_t r1) {
+        // Piece [t0, t1] (t1 may be infinite) with C linear from row r0 at t0 to row r1 at t1
+        // (r0 == r1: constant). Returns the smallest feasible t in it, or NaN.
+        double lo = t0, hi = t1;
+        for (std::uint32_t i = a; i < b; ++i) {
+            const Entry& e = entries_[i];
+            const double c0 = c_[e.cls][r0], c1 = c_[e.cls][r1];
+            const double slopeC = r0 == r1 ? 0.0 : (c1 - c0) / (t1 - t0);
+            // g(t) = t - d - d * BAI * (c0 + slopeC * (t - t0)) = p * t + q
+            const double p = 1.0 - d * e.bai * slopeC;
+            const double q = -d - d * e.bai * (c0 - slopeC * t0);
+            if (p > 0) {
+                lo = std::max(lo, -q / p);
+            } else if (p < 0) {
+                hi = std::min(hi, -q / p);
+            } else if (q < 0) {
+                return std::numeric_limits<double>::quiet_NaN();
+            }
+        }
+        return lo <= hi ? lo : std::numeric_limits<double>::quiet_NaN();
+    };
+    if (rows == 0) return d;
+    double t = solve(0.0, thresholds_.front(), 0, 0);
+    for (std::size_t r = 0; std::isnan(t) && r + 1 < rows; ++r)
+        t = solve(thresholds_[r], thresholds_[r + 1], r, r + 1);
+    if (std::isnan(t)) t = solve(thresholds_.back(), HUGE_VAL, rows - 1, rows - 1);
+    return std::max(t, d);  // a factor >= 1: never below the error itself
 }
 
 }  // namespace unilod

@@ -42,6 +42,8 @@ struct BaiTable {
     int findRow(double threshold) const;
     // C for the given row and mean altitude.
     double constantFor(int row, double altitude) const;
+    // The altitude class of a mean altitude (index into Row::c).
+    std::size_t classOf(double altitude) const;
 };
 
 // Default simplification-threshold row: 500 m (C = 1 / 0.5 / 0.5). The middle of the paper's
@@ -67,5 +69,47 @@ std::vector<Bend> computeBends(const std::vector<Point>& points, const Polyline&
 // Per point factor (C * BAI + 1) of Eq. 2; 1 for points in no bend and for DEM points. A vertex
 // in several bends (a turning point, or a junction of several polylines) takes the largest.
 std::vector<float> baiFactors(const PointSet& set, const BaiTable& table, int row);
+
+// How the greedy order (deletion.h) turns the error d that deleting a point causes into its key.
+//  - none (default constructed): key = d.
+//  - fixed factors (`build --bai-row R`: baiFactors of row R): key = d * factor, Eq. 2 with one C.
+//  - by threshold (the greedy order's default): the paper compares the pseudo distance
+//    d * (C * BAI + 1) with the simplification threshold t, and its Table 1 gives C per
+//    threshold (0.1 / 0.05 at 100-200 m, 1 / 0.5 at 500 m, 2 / 0.75-1 at 1000-1500 m). The key
+//    is the smallest threshold that accepts the deletion:
+//        key = min { t >= 0 : d * (C(t) * BAI + 1) <= t },
+//    C(t) the table's C for the bend's altitude class, linear in t between rows (the first row
+//    below the first threshold, the last above the last). A point in several bends must pass
+//    every bend's test. So a deletion at a running error e is one the paper's own test accepts at
+//    a threshold of e, instead of at the 500 m row's C at every error (which held river bends to
+//    about e / (BAI + 1) at any e). Non-decreasing in d: points with one BAI keep their order.
+class BaiKeys {
+public:
+    BaiKeys() = default;
+    explicit BaiKeys(std::vector<float> factor) : factor_(std::move(factor)) {}
+    static BaiKeys byThreshold(const PointSet& set, const BaiTable& table);
+
+    bool empty() const { return factor_.empty() && first_.empty(); }
+    std::size_t size() const { return factor_.empty() ? (first_.empty() ? 0 : first_.size() - 1)
+                                                       : factor_.size(); }
+    double key(std::uint32_t point, double d) const {
+        if (!factor_.empty()) return d * double(factor_[point]);
+        if (first_.empty() || first_[point] == first_[point + 1]) return d;
+        return thresholdKey(point, d);
+    }
+
+private:
+    double thresholdKey(std::uint32_t point, double d) const;
+    std::vector<float> factor_;
+    // By threshold: per point its bends' (altitude class, BAI), largest BAI per class.
+    std::vector<std::uint32_t> first_;  // size points + 1
+    struct Entry {
+        std::uint32_t cls = 0;
+        double bai = 0;
+    };
+    std::vector<Entry> entries_;
+    std::vector<double> thresholds_;           // the table's row thresholds, ascending
+    std::vector<std::vector<double>> c_;       // per class, C at each threshold
+};
 
 }  // namespace unilod

@@ -65,21 +65,23 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
     if (options.order == DeletionOrderKind::ThreeDdp) {
         if (!runDeletion(set, cdt, importance.order, del, records, error)) return false;
     } else {
-        // The greedy key needs the max metric; its BAI factors are the 3ddp order's (Eq. 2).
+        // The greedy key needs the max metric; its BAI factors: Eq. 2 (bai.h BaiKeys).
         del.maxError = true;
         del.stopTriangles = options.stopTriangles;
         del.stopKey = options.stopKey;
-        std::vector<float> weight;
-        if (options.importance.useBai) {
+        BaiKeys keys;
+        if (options.importance.useBai && options.importance.baiByThreshold) {
+            keys = BaiKeys::byThreshold(set, options.importance.baiTable);
+        } else if (options.importance.useBai) {
             const int baiRow = options.importance.baiTable.findRow(options.importance.baiRow);
             if (baiRow < 0) {
                 error = "the BAI table has no row for threshold " +
                         std::to_string(options.importance.baiRow) + " m";
                 return false;
             }
-            weight = baiFactors(set, options.importance.baiTable, baiRow);
+            keys = BaiKeys(baiFactors(set, options.importance.baiTable, baiRow));
         }
-        if (!runGreedyDeletion(set, cdt, weight, del, records, error)) return false;
+        if (!runGreedyDeletion(set, cdt, keys, del, records, error)) return false;
     }
 
     block = format::Block{};

@@ -59,13 +59,16 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     blockOptions.order = o.order;
     blockOptions.paperError = recordsPaperMetric(o);
     blockOptions.importance.useBai = o.useBai;
-    blockOptions.importance.baiRow = o.baiRow;
+    blockOptions.importance.baiRow = o.baiRow.value_or(kDefaultBaiRow);
+    blockOptions.importance.baiByThreshold = o.order == DeletionOrderKind::Greedy && !o.baiRow;
     if (!o.baiTablePath.empty() &&
         !BaiTable::load(o.baiTablePath, blockOptions.importance.baiTable, error)) {
         return false;
     }
-    if (o.useBai && blockOptions.importance.baiTable.findRow(o.baiRow) < 0) {
-        error = "--bai-row " + jsonText(nlohmann::json(o.baiRow)) + ": the BAI table" +
+    if (o.useBai && !blockOptions.importance.baiByThreshold &&
+        blockOptions.importance.baiTable.findRow(blockOptions.importance.baiRow) < 0) {
+        error = "--bai-row " + jsonText(nlohmann::json(blockOptions.importance.baiRow)) +
+                ": the BAI table" +
                 (o.baiTablePath.empty() ? std::string(" (the paper's Table 1)")
                                         : " '" + o.baiTablePath + "'") +
                 " has no row for this threshold (metres)";
@@ -119,9 +122,13 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
         {"block_size", blockSize},
         {"order", deletionOrderName(o.order)},
         {"bai", o.useBai},
-        {"bai_row", o.baiRow},
+        // "threshold": the greedy order's C by threshold (bai.h BaiKeys).
+        {"bai_row", blockOptions.importance.baiByThreshold
+                        ? nlohmann::json("threshold")
+                        : nlohmann::json(blockOptions.importance.baiRow)},
         {"bai_table", o.baiTablePath},
         {"lod_triangle_ratio", blockOptions.lodRatio},
+        {"node_lod_triangle_ratio", kNodeLodTriangleRatio},
         {"grid_unit_m", format::kGridUnit},
         {"z_quantum_m", header.zQuantum},
         {"encoding", o.rawBlocks ? "raw" : "compact"},
@@ -268,6 +275,7 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
                     std::max(dem.width * std::fabs(dem.cellX), dem.height * std::fabs(dem.cellY)),
                     it.level, o.handoffPixels);
             }
+            if (it.level > 0) itemOptions.lodRatio = kNodeLodTriangleRatio;
             bool ok;
             if (it.level == 0) {
                 const PointSet set = source.points(it.source);

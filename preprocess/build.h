@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 
 #include "blockbuild.h"
@@ -32,7 +33,9 @@ struct BuildOptions : IngestOptions {
     DeletionOrderKind order = DeletionOrderKind::Greedy;  // --order greedy|3ddp
     bool useBai = true;
     std::string baiTablePath;  // empty: the paper's Table 1
-    double baiRow = kDefaultBaiRow;
+    // Unset: the greedy order takes Table 1's C at each key's threshold (bai.h BaiKeys), the
+    // 3ddp order the kDefaultBaiRow row; set (`--bai-row R`): row R for both.
+    std::optional<double> baiRow;
     std::uint32_t defaultMetric = format::kMetricMax;
     // Which metrics the file records: `max` always (the bound the greedy order and the engine
     // use); `paper` (the paper's mean nearest-point error, Eq. 3-6) with the 3ddp order (the

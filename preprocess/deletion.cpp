@@ -111,7 +111,7 @@ public:
     // The given order (3ddp).
     bool run(const std::vector<PointId>& order, std::string& error);
     // The greedy order.
-    bool runGreedy(const std::vector<float>& weight, std::string& error);
+    bool runGreedy(const BaiKeys& keys, std::string& error);
 
 private:
     void start(std::size_t expectedSteps);
@@ -174,7 +174,7 @@ private:
     bool boundaryStep_ = false;  // classify() accepted a ring vertex (a, c: its ring neighbours)
     std::uint32_t domainTriangles_ = 0, riverEdges_ = 0;  // alive, for the records
     // Greedy.
-    const std::vector<float>* weight_ = nullptr;
+    const BaiKeys* keys_ = nullptr;
     KeyHeap heap_;
     bool straightHull_ = false;  // delete straight-hull vertices (greedy)
     bool hullStar_ = false;      // the vertex classify() accepted is such a hull vertex
@@ -678,24 +678,23 @@ void Sequence::evaluate(PointId x) {
                                                cdt_.exterior(tris_.front() / 3)));
         return;
     }
-    const double w =
-        weight_ && !weight_->empty() && !boundaryStep_ ? double((*weight_)[x]) : 1.0;
-    heap_.set(x, trialError(x, a, c) * w);
+    const double e = trialError(x, a, c);
+    heap_.set(x, keys_ != nullptr && !boundaryStep_ ? keys_->key(x, e) : e);
 }
 
-bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
+bool Sequence::runGreedy(const BaiKeys& keys, std::string& error) {
     const std::size_t n = set_.points.size();
     assert(cdt_.vertexTriangle.size() >= n);  // frame vertices after the points
     if (!options_.maxError) {
         error = "the greedy order needs the max metric";
         return false;
     }
-    if (!weight.empty() && weight.size() != n) {
-        error = "greedy order: " + std::to_string(weight.size()) + " weights for " +
+    if (!keys.empty() && keys.size() != n) {
+        error = "greedy order: BAI keys of " + std::to_string(keys.size()) + " points for " +
                 std::to_string(n) + " points";
         return false;
     }
-    weight_ = &weight;
+    keys_ = keys.empty() ? nullptr : &keys;
     straightHull_ = true;
     greedy_ = true;
     start(cdt_.vertexCount);
@@ -742,12 +741,10 @@ bool Sequence::runGreedy(const std::vector<float>& weight, std::string& error) {
             // delete for real on a trial and keep it only when it causes exactly the key.
             cdt_.beginTrial();
             apply(x, a, c);
-            const double w =
-                a != kNil && !boundaryStep_ && !weight.empty() ? double(weight[x]) : 1.0;
+            const double realised = std::max(
+                error_.evaluateMax(cdt_, cdt_.journalRemovedSlots, added_), chainDeviation(x));
             const double now =
-                std::max(error_.evaluateMax(cdt_, cdt_.journalRemovedSlots, added_),
-                         chainDeviation(x)) *
-                w;
+                a != kNil && !boundaryStep_ && keys_ != nullptr ? keys_->key(x, realised) : realised;
             if (now != key) {
                 rollback(x, a, c);
                 local_[x] = cdt_.journalRemovedSlots.size() == tris_.size() ? 1 : 0;
@@ -818,12 +815,12 @@ bool runDeletion(const PointSet& set, Cdt& cdt, const std::vector<PointId>& orde
     return sequence.run(order, error);
 }
 
-bool runGreedyDeletion(const PointSet& set, Cdt& cdt, const std::vector<float>& weight,
+bool runGreedyDeletion(const PointSet& set, Cdt& cdt, const BaiKeys& keys,
                        const DeletionOptions& options, DeletionRecords& records,
                        std::string& error) {
     if (!extraSamplesValid(options, error)) return false;
     Sequence sequence(set, cdt, options, records);
-    return sequence.runGreedy(weight, error);
+    return sequence.runGreedy(keys, error);
 }
 
 namespace {

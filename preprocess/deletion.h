@@ -63,6 +63,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "bai.h"
 #include "cdt.h"
 #include "modelerror.h"
 
@@ -152,9 +153,9 @@ bool runDeletion(const PointSet& set, Cdt& cdt, const std::vector<PointId>& orde
                  const DeletionOptions& options, DeletionRecords& records, std::string& error);
 
 // Runs the greedy deletion sequence (above) on `cdt`: the order is the records' step vertices.
-// `weight`: per point id, the key factor of a river vertex (C * BAI + 1; empty: 1 for all).
+// `keys`: how a river vertex's error becomes its key (bai.h BaiKeys; empty: the error itself).
 // Needs the `max` metric (options.maxError). Returns false with `error` on bad input.
-bool runGreedyDeletion(const PointSet& set, Cdt& cdt, const std::vector<float>& weight,
+bool runGreedyDeletion(const PointSet& set, Cdt& cdt, const BaiKeys& keys,
                        const DeletionOptions& options, DeletionRecords& records,
                        std::string& error);
 

@@ -26,6 +26,9 @@ struct ImportanceOptions {
     bool useBai = true;  // false: plain 3D_DP (--no-bai)
     BaiTable baiTable = BaiTable::paperDefault();
     double baiRow = kDefaultBaiRow;  // simplification-threshold row of Table 1
+    // The greedy order only (blockbuild.h): C of Table 1 at the threshold a key stands for
+    // (bai.h BaiKeys::byThreshold) instead of row `baiRow` at every threshold.
+    bool baiByThreshold = false;
 };
 
 // Where the time went and how the search behaved (for benchmarks and summaries).

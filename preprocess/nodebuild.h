@@ -65,6 +65,14 @@ std::uint32_t nodeHandoffTriangles(int side, std::uint32_t level);
 // about `pixels` pixels at P = 1 draws its parent. The cap: once the whole model fits a
 // 1920-pixel screen at P = 1, one draw of the root shows it (issue 18's far view).
 inline constexpr double kDefaultHandoffPixels = 256;
+
+// Stored levels of a tree node are kNodeLodTriangleRatio apart in triangles (a block's:
+// lodindex.h kLodTriangleRatio, 1.3). A node is drawn alone over an area of many blocks, where
+// the cut's triangles are the drawn level's: the stored level within h_lim is up to this ratio
+// above the exact step (issue 18's 100 m cut of the 16M model: 16 % above it at 1.3). A node's
+// levels cost little: the file stores their steps only (the index data is derived on decoding)
+// and its geometry is small next to the leaves'.
+inline constexpr double kNodeLodTriangleRatio = 1.05;
 inline constexpr double kRootPixels = 1920;
 double nodeHandoffError(double blockExtent, double modelExtent, std::uint32_t level, double pixels);
 

@@ -419,7 +419,8 @@ protected:
 
     // The original river vertices of a leaf drawn through a tree node against the nearest river
     // edge the node draws (3D, projected like a point's segment). The edge that replaced a vertex
-    // is within h_s of it (the node's chain slack: nodebuild.h), so the nearest one is too; this
+    // is within h_s of it (the node measures its river deviation against the original river
+    // points each edge replaced: nodebuild.h, deletion.h RiverCover), so the nearest one is; this
     // is the weaker check of the two, the one that needs no chain through the node's vertices.
     static void nodeRiverDeviation(const Projector& cam, const format::Block& leaf,
                                    const format::Block& node, const format::Level& level,

@@ -231,3 +231,89 @@ TEST(BaiTable, RejectsBadFiles) {
     EXPECT_FALSE(BaiTable::load(testing::TempDir() + "does_not_exist.txt", t, err));
     EXPECT_NE(err.find("cannot open"), std::string::npos);
 }
+
+// The greedy order's keys by threshold (bai.h BaiKeys::byThreshold) against a brute-force
+// oracle: the smallest threshold t on a fine grid at which the paper's test d (C(t) BAI + 1) <= t
+// holds, C(t) interpolated here independently from the table's rows.
+namespace {
+
+double tableC(const BaiTable& t, std::size_t cls, double threshold) {
+    const auto& rows = t.rows;
+    if (threshold <= rows.front().threshold) return rows.front().c[cls];
+    for (std::size_t r = 0; r + 1 < rows.size(); ++r) {
+        const double t0 = rows[r].threshold, t1 = rows[r + 1].threshold;
+        if (threshold <= t1) {
+            const double a = (threshold - t0) / (t1 - t0);
+            return rows[r].c[cls] + a * (rows[r + 1].c[cls] - rows[r].c[cls]);
+        }
+    }
+    return rows.back().c[cls];
+}
+
+// Smallest accepting t on a grid of `step` (the true key lies in (result - step, result]).
+double bruteKey(const BaiTable& t, std::size_t cls, double bai, double d, double step) {
+    for (double x = 0;; x += step) {
+        if (d * (tableC(t, cls, x) * bai + 1) <= x) return x;
+    }
+}
+
+}  // namespace
+
+TEST(BaiKeys, ByThresholdIsTheSmallestAcceptingThreshold) {
+    Line l;
+    addArc(l, 0, 0, 1000, kPi, 0, 32, false);  // z = 700 m: the low mountainous class
+    const BaiTable table = BaiTable::paperDefault();
+    const double b = l.bends().at(0).bai;
+    ASSERT_GT(b, 0.5);
+    const BaiKeys keys = BaiKeys::byThreshold(l.set, table);
+    ASSERT_EQ(keys.size(), l.set.points.size());
+    const std::size_t cls = table.classOf(700);
+    ASSERT_EQ(cls, 1u);
+    // Below the first row (100 m) C = 0.05; above the last (1500 m) C = 1.
+    EXPECT_NEAR(keys.key(5, 10.0), 10.0 * (0.05 * b + 1), 1e-9);
+    EXPECT_NEAR(keys.key(5, 2000.0), 2000.0 * (1.0 * b + 1), 1e-6);
+    double last = 0;
+    for (double d = 0.5; d < 1600; d += 7.25) {
+        const double k = keys.key(5, d);
+        EXPECT_GE(k, last) << "d = " << d;  // non-decreasing in d
+        last = k;
+        const double step = 0.01;
+        const double oracle = bruteKey(table, cls, b, d, step);
+        EXPECT_LE(k, oracle + 1e-9) << "d = " << d;
+        EXPECT_GT(k, oracle - step - 1e-9) << "d = " << d;
+        // The paper's test accepts the key itself.
+        EXPECT_LE(d * (tableC(table, cls, k) * b + 1), k * (1 + 1e-12)) << "d = " << d;
+    }
+    // Every vertex is in the bend; the old fixed row (500 m: C = 0.5) keys d * (0.5 BAI + 1).
+    const BaiKeys fixed(baiFactors(l.set, table, table.findRow(500)));
+    EXPECT_FLOAT_EQ(float(fixed.key(5, 100.0)), float(100.0 * (0.5 * b + 1)));
+    EXPECT_LT(keys.key(5, 50.0), fixed.key(5, 50.0));  // C = 0.05 at 100 m, not 0.5
+}
+
+TEST(BaiKeys, StepsInTheTableAreCrossedWhereTheTestFailsThroughout) {
+    // C jumps from 0 to 100 between 10 m and 200 m: for d = 50 and BAI ~ 0.79 no threshold
+    // below 200 m accepts (the pseudo distance grows faster than t), so the key is past the
+    // last row: d (100 BAI + 1).
+    BaiTable table;
+    table.classLowerBounds = {0};
+    table.rows = {{10, {0}}, {200, {100}}};
+    Line l;
+    addArc(l, 0, 0, 1000, kPi, 0, 32, false);
+    const double b = l.bends(-1).at(0).bai;
+    const BaiKeys keys = BaiKeys::byThreshold(l.set, table);
+    EXPECT_NEAR(keys.key(3, 50.0), 50.0 * (100 * b + 1), 1e-6);
+    EXPECT_NEAR(keys.key(3, 5.0), 5.0, 1e-12);  // C = 0 below the first row: the error itself
+    EXPECT_NEAR(keys.key(3, 50.0), bruteKey(table, 0, b, 50.0, 0.01), 0.01);
+}
+
+TEST(BaiKeys, PointsOutsideBendsAndDemPointsKeyTheirError) {
+    Line l;
+    for (int i = 0; i < 10; ++i)
+        l.add(100.0 * i, 50.0 * i);  // straight: no bend
+    l.set.points.push_back({5, 500, 700, PointKind::Dem, false});
+    const BaiKeys keys = BaiKeys::byThreshold(l.set, BaiTable::paperDefault());
+    for (std::uint32_t v = 0; v < l.set.points.size(); ++v)
+        EXPECT_EQ(keys.key(v, 42.5), 42.5);
+    EXPECT_TRUE(BaiKeys().empty());
+    EXPECT_EQ(BaiKeys().key(0, 3.0), 3.0);
+}

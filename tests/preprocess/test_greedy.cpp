@@ -305,7 +305,7 @@ TEST(GreedyOrder, RiverWeightsDelayRiverVertices) {
         DeletionRecords rec;
         DeletionOptions options;
         options.paperError = false;
-        EXPECT_TRUE(runGreedyDeletion(set, cdt, weight, options, rec, error)) << error;
+        EXPECT_TRUE(runGreedyDeletion(set, cdt, BaiKeys(weight), options, rec, error)) << error;
         for (std::size_t s = 0; s < rec.steps.size(); ++s) {
             if (set.points[rec.steps[s].vertex].kind == PointKind::River) return s;
         }

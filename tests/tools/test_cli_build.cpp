@@ -25,6 +25,8 @@
 #include <sstream>
 
 #include "ingest.h"
+#include "lodindex.h"
+#include "nodebuild.h"
 #include "ulod.h"
 
 namespace fs = std::filesystem;
@@ -538,6 +540,33 @@ TEST(CliBuildOdd, OrderOption) {
                    "", "--order");
 }
 
+TEST(CliBuildOdd, BaiRowRecorded) {
+    // The greedy order takes Table 1's C at each key's threshold unless --bai-row fixes a row;
+    // 3ddp takes the 500 m row (bai.h BaiKeys). (That it reaches the order: CliBuildJacksboro.)
+    struct Want {
+        const char* extra;
+        nlohmann::json row;
+    };
+    int n = 0;
+    for (const Want& w : {Want{"", "threshold"}, Want{"--bai-row 500", 500.0},
+                         Want{"--order 3ddp", 500.0}, Want{"--order 3ddp --bai-row 1000", 1000.0}}) {
+        SCOPED_TRACE(w.extra);
+        Case c(std::string("bairow_") + std::to_string(n++));
+        c.writeGood();
+        const Result r = run(build(c, c.in("dem.tif"), c.in("rivers.geojson"), w.extra));
+        ASSERT_EQ(r.code, 0) << r.err;
+        EXPECT_NE(r.out.find(w.row.is_string() ? "C of Table 1 at each deletion's threshold"
+                                                : "row " + std::to_string(int(w.row.get<double>())) + " m"),
+                  std::string::npos)
+            << r.out;
+        format::Reader reader;
+        std::string error;
+        ASSERT_TRUE(reader.open(c.out(), error)) << error;
+        const nlohmann::json info = nlohmann::json::parse(reader.header().buildInfo);
+        EXPECT_EQ(info.at("bai_row"), w.row);
+    }
+}
+
 TEST(CliBuildOdd, MetricsRecorded) {
     // `max` always; `paper` with 3ddp, as the default metric, or asked for (build.h).
     struct Want {
@@ -903,6 +932,57 @@ protected:
         fs::remove_all(dir, ec);
     }
 };
+
+TEST_F(CliBuildJacksboro, BaiByThresholdIsAnotherOrderThanTheFixedRow) {
+    // The default greedy keys (C by threshold) against `--bai-row 500` (the old default): the
+    // river keys differ, so the deletion order does (vertices are stored in retention order).
+    ASSERT_EQ(built.code, 0) << built.err;
+    const std::string fixed = (dir / "jb_row500.ulod").string();
+    const Result r = run("build -q " + q(kDem) + " " + q(kRivers) + " -o " + q(fixed) +
+                         " --block-size 128 --threads 2 --bai-row 500");
+    ASSERT_EQ(r.code, 0) << r.err;
+    auto firstBlockVertices = [](const std::string& path) {
+        format::Reader reader;
+        std::string error;
+        EXPECT_TRUE(reader.open(path, error)) << error;
+        format::Block block;
+        EXPECT_TRUE(reader.readBlock(0, block, error)) << error;
+        return std::string(reinterpret_cast<const char*>(block.grid.data()),
+                           block.grid.size() * sizeof(block.grid[0]));
+    };
+    const std::string a = firstBlockVertices(model), b = firstBlockVertices(fixed);
+    ASSERT_EQ(a.size(), b.size());  // the same points
+    EXPECT_TRUE(a != b) << "the same order with and without the threshold keys";
+}
+
+TEST_F(CliBuildJacksboro, StoredLevelsBoundTheExactStep) {
+    // lodindex.h: after any step k the finest stored level at or before k draws at most
+    // ratio x T(k) triangles, the ratio kLodTriangleRatio for a leaf and the finer
+    // kNodeLodTriangleRatio for a tree node (drawn alone over many blocks: nodebuild.h).
+    ASSERT_EQ(built.code, 0) << built.err;
+    format::Reader reader;
+    std::string error;
+    ASSERT_TRUE(reader.open(model, error)) << error;
+    std::size_t nodes = 0, nodeLevels = 0;
+    for (std::size_t i = 0; i < reader.blocks().size(); ++i) {
+        format::Block block;
+        ASSERT_TRUE(reader.readBlock(i, block, error)) << error;
+        const double ratio = block.level > 0 ? kNodeLodTriangleRatio : kLodTriangleRatio;
+        nodes += block.level > 0;
+        if (block.level > 0) nodeLevels += block.levels.size();
+        ASSERT_FALSE(block.levels.empty());
+        std::size_t j = 0;
+        for (std::size_t k = 0; k <= block.steps.size(); ++k) {
+            while (j + 1 < block.levels.size() && block.levels[j + 1].step <= k) ++j;
+            const double alive =
+                k == 0 ? block.levels.front().triangleCount : block.steps[k - 1].trianglesAlive;
+            ASSERT_LE(block.levels[j].triangleCount, ratio * alive * (1 + 1e-12))
+                << format::blockName(block.col, block.row, block.level) << " step " << k;
+        }
+    }
+    EXPECT_GT(nodes, 0u);
+    EXPECT_GT(nodeLevels, 10 * nodes);  // the finer spacing gives a node many levels
+}
 
 TEST_F(CliBuildJacksboro, ChecksAndReportsItsGrid) {
     ASSERT_EQ(built.code, 0) << built.err;

@@ -86,7 +86,13 @@ int run(BuildCli& c) {
                 s.fullTriangles, s.coarsestTriangles,
                 s.fullTriangles ? double(s.indexTriangles) / double(s.fullTriangles) : 0.0);
     std::printf("  order            %s\n", deletionOrderName(c.o.order));
-    std::printf("  BAI              %s\n", c.o.useBai ? "on" : "off");
+    if (!c.o.useBai)
+        std::printf("  BAI              off\n");
+    else if (c.o.order == DeletionOrderKind::Greedy && !c.o.baiRow)
+        std::printf("  BAI              on (C of Table 1 at each deletion's threshold)\n");
+    else
+        std::printf("  BAI              on (row %g m of Table 1)\n",
+                    c.o.baiRow.value_or(kDefaultBaiRow));
     std::printf("  metrics          %s (default %s)\n",
                 recordsPaperMetric(c.o) ? "max, paper" : "max", c.metric.c_str());
     std::printf("  output           %s (%s)\n", c.o.outPath.c_str(),
@@ -115,7 +121,9 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
         ->check(CLI::IsMember({"greedy", "3ddp"}));
     sub->add_flag("--no-bai", c->noBai, "no Bending Adjustment Index (3ddp: plain 3D_DP)");
     sub->add_option("--bai-table", c->o.baiTablePath, "BAI constants table file (see README)");
-    sub->add_option("--bai-row", c->o.baiRow, "simplification-threshold row of the BAI table (m)")
+    sub->add_option("--bai-row", c->o.baiRow,
+                    "simplification-threshold row of the BAI table (m); default: greedy takes "
+                    "C at each deletion's threshold (README \"BAI\"), 3ddp the 500 m row")
         ->check(finite());
     sub->add_option("--metric", c->metric, "default error metric recorded in the file")
         ->check(CLI::IsMember({"max", "paper"}));
@@ -128,8 +136,10 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
                   "nodes; --no-tree: the flat block grid");
     sub->add_option("--handoff-pixels", c->o.handoffPixels,
                     "tree hand-over: a block or node stops simplifying before an error of its "
-                    "extent / this (default 1024: the parent takes over once the node spans "
-                    "fewer pixels at P = 1); larger: coarser nodes drawn sooner")
+                    "extent / this (default " +
+                        std::to_string(int(kDefaultHandoffPixels)) +
+                        ": the parent takes over once the node spans fewer pixels at P = 1); "
+                        "larger: coarser nodes drawn sooner")
         ->check(CLI::Range(1.0, 1e6));
     sub->add_option("--encoding", c->encoding,
                     "block encoding: compact (default; about 7 bytes per point) or raw (plain "

@@ -55,16 +55,16 @@ std::vector<XY> simplified(const PointSet& set, const Polyline& line,
 }
 
 // The greedy order (preprocess/deletion.h) of the whole point set as one block, with the given
-// river weights (BAI factors, or none): deletion position per point id as above; a merged
-// duplicate takes its vertex's position, a vertex never deleted the maximum.
-bool greedyPositions(const PointSet& set, const std::vector<float>& weight,
+// river keys (BAI, or none): deletion position per point id as above; a merged duplicate takes
+// its vertex's position, a vertex never deleted the maximum.
+bool greedyPositions(const PointSet& set, const BaiKeys& keys,
                      std::vector<std::size_t>& pos, std::string& error) {
     Cdt cdt;
     if (!buildCdt(set, {}, cdt, error)) return false;
     DeletionOptions options;
     options.paperError = false;
     DeletionRecords records;
-    if (!runGreedyDeletion(set, cdt, weight, options, records, error)) return false;
+    if (!runGreedyDeletion(set, cdt, keys, options, records, error)) return false;
     pos.assign(set.points.size(), std::numeric_limits<std::size_t>::max());
     for (std::size_t i = 0; i < records.steps.size(); ++i)
         pos[records.steps[i].vertex] = i;
@@ -107,17 +107,24 @@ bool compareRivers(const ReportOptions& options, const std::string& buildInfo,
     ImportanceOptions withBai;
     const std::string tablePath = infoValue<std::string>(info, "bai_table", "");
     if (!tablePath.empty() && !BaiTable::load(tablePath, withBai.baiTable, error)) return false;
-    withBai.baiRow = infoValue<double>(info, "bai_row", kDefaultBaiRow);
+    // "threshold": the greedy order's C by threshold (bai.h BaiKeys); else a row.
+    const bool byThreshold = info.is_object() && info.contains("bai_row") &&
+                             info["bai_row"].is_string();
+    withBai.baiRow = byThreshold ? kDefaultBaiRow : infoValue<double>(info, "bai_row", kDefaultBaiRow);
     ImportanceOptions plain = withBai;
     plain.useBai = false;
     std::vector<std::size_t> posBai, posPlain;
-    if (greedy) {
+    if (greedy && byThreshold) {
+        if (!greedyPositions(set, BaiKeys::byThreshold(set, withBai.baiTable), posBai, error) ||
+            !greedyPositions(set, {}, posPlain, error))
+            return false;
+    } else if (greedy) {
         const int row = withBai.baiTable.findRow(withBai.baiRow);
         if (row < 0) {
             error = options.path + ": the BAI table has no row for its build's threshold";
             return false;
         }
-        if (!greedyPositions(set, baiFactors(set, withBai.baiTable, row), posBai, error) ||
+        if (!greedyPositions(set, BaiKeys(baiFactors(set, withBai.baiTable, row)), posBai, error) ||
             !greedyPositions(set, {}, posPlain, error))
             return false;
     } else {
