@@ -282,7 +282,10 @@ double BaiKeys::thresholdKey(std::uint32_t point, double d) const {
     for (std::size_t r = 0; std::isnan(t) && r + 1 < rows; ++r)
         t = solve(thresholds_[r], thresholds_[r + 1], r, r + 1);
     if (std::isnan(t)) t = solve(thresholds_.back(), HUGE_VAL, rows - 1, rows - 1);
-    return std::max(t, d);  // a factor >= 1: never below the error itself
+    // Never below the error itself; a table of extreme constants (finite, but products that
+    // overflow to inf * 0) keys the point last instead of with NaN.
+    if (std::isnan(t)) return HUGE_VAL;
+    return std::max(t, d);
 }
 
 }  // namespace unilod

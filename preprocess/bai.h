@@ -93,6 +93,7 @@ public:
     std::size_t size() const { return factor_.empty() ? (first_.empty() ? 0 : first_.size() - 1)
                                                        : factor_.size(); }
     double key(std::uint32_t point, double d) const {
+        if (!(d > 0)) return d;  // a free deletion stays free, whatever a table's C
         if (!factor_.empty()) return d * double(factor_[point]);
         if (first_.empty() || first_[point] == first_[point + 1]) return d;
         return thresholdKey(point, d);

@@ -317,3 +317,24 @@ TEST(BaiKeys, PointsOutsideBendsAndDemPointsKeyTheirError) {
     EXPECT_TRUE(BaiKeys().empty());
     EXPECT_EQ(BaiKeys().key(0, 3.0), 3.0);
 }
+
+TEST(BaiKeys, ExtremeTableConstantsGiveOrderedKeys) {
+    // Finite but extreme constants (a --bai-table file may hold them): no NaN key, the order in
+    // d kept, a zero error stays zero.
+    BaiTable table;
+    table.classLowerBounds = {0};
+    table.rows = {{0, {-1e308}}, {1, {1e308}}, {1e300, {1e308}}};
+    Line l;
+    addArc(l, 0, 0, 1000, kPi, 0, 32, false);
+    const BaiKeys keys = BaiKeys::byThreshold(l.set, table);
+    double last = 0;
+    for (double d : {0.0, 1e-9, 0.5, 1.0, 10.0, 1e6}) {
+        const double k = keys.key(4, d);
+        EXPECT_FALSE(std::isnan(k)) << d;
+        EXPECT_GE(k, last) << d;
+        last = k;
+    }
+    EXPECT_EQ(keys.key(4, 0.0), 0.0);
+    const BaiKeys fixed(std::vector<float>(l.set.points.size(), HUGE_VALF));
+    EXPECT_EQ(fixed.key(4, 0.0), 0.0);
+}
