@@ -19,9 +19,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
-#include <cmath>
 #include <fstream>
+#include <limits>
 #include <numbers>
 #include <sstream>
 
@@ -214,11 +213,13 @@ std::vector<float> baiFactors(const PointSet& set, const BaiTable& table, int ro
 BaiKeys BaiKeys::byThreshold(const PointSet& set, const BaiTable& table) {
     BaiKeys k;
     const std::size_t n = set.points.size();
-    for (const BaiTable::Row& r : table.rows) k.thresholds_.push_back(r.threshold);
+    for (const BaiTable::Row& r : table.rows)
+        k.thresholds_.push_back(r.threshold);
     const std::size_t classes = table.rows.empty() ? 0 : table.rows.front().c.size();
     k.c_.assign(classes, {});
     for (std::size_t j = 0; j < classes; ++j) {
-        for (const BaiTable::Row& r : table.rows) k.c_[j].push_back(r.c[j]);
+        for (const BaiTable::Row& r : table.rows)
+            k.c_[j].push_back(r.c[j]);
     }
     // Per point, the largest BAI of its bends in each class (collected, then grouped).
     std::vector<std::pair<std::uint32_t, Entry>> all;
@@ -235,7 +236,7 @@ BaiKeys BaiKeys::byThreshold(const PointSet& set, const BaiTable& table) {
         }
     }
     std::sort(all.begin(), all.end(), [](const auto& a, const auto& b) {
-        return a.first != b.first ? a.first < b.first
+        return a.first != b.first             ? a.first < b.first
                : a.second.cls != b.second.cls ? a.second.cls < b.second.cls
                                               : a.second.bai > b.second.bai;
     });
@@ -246,7 +247,8 @@ BaiKeys BaiKeys::byThreshold(const PointSet& set, const BaiTable& table) {
         k.entries_.push_back(all[i].second);
         ++k.first_[all[i].first + 1];
     }
-    for (std::size_t v = 0; v < n; ++v) k.first_[v + 1] += k.first_[v];
+    for (std::size_t v = 0; v < n; ++v)
+        k.first_[v + 1] += k.first_[v];
     return k;
 }
 

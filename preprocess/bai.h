@@ -90,8 +90,9 @@ public:
     static BaiKeys byThreshold(const PointSet& set, const BaiTable& table);
 
     bool empty() const { return factor_.empty() && first_.empty(); }
-    std::size_t size() const { return factor_.empty() ? (first_.empty() ? 0 : first_.size() - 1)
-                                                       : factor_.size(); }
+    std::size_t size() const {
+        return factor_.empty() ? (first_.empty() ? 0 : first_.size() - 1) : factor_.size();
+    }
     double key(std::uint32_t point, double d) const {
         if (!(d > 0)) return d;  // a free deletion stays free, whatever a table's C
         if (!factor_.empty()) return d * double(factor_[point]);
@@ -109,8 +110,8 @@ private:
         double bai = 0;
     };
     std::vector<Entry> entries_;
-    std::vector<double> thresholds_;           // the table's row thresholds, ascending
-    std::vector<std::vector<double>> c_;       // per class, C at each threshold
+    std::vector<double> thresholds_;      // the table's row thresholds, ascending
+    std::vector<std::vector<double>> c_;  // per class, C at each threshold
 };
 
 }  // namespace unilod
