@@ -216,27 +216,135 @@ bool riverError(const format::Block& b, std::uint32_t step, const std::vector<Ri
     return true;
 }
 
+// A level's river edges in a uniform grid of buckets over the node's grid (each edge listed in
+// every bucket its bounding box touches), for the smallest 3D distance of a point to them.
+class SegmentBuckets {
+public:
+    SegmentBuckets(const format::Block& b, const std::vector<RiverEdge>& edges)
+        : b_(b), edges_(edges) {
+        if (edges.empty()) return;
+        const double u = format::kGridUnit;
+        double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
+        for (const format::GridXY& g : b.grid) {
+            x0 = std::min(x0, double(g.x) * u);
+            y0 = std::min(y0, double(g.y) * u);
+            x1 = std::max(x1, double(g.x) * u);
+            y1 = std::max(y1, double(g.y) * u);
+        }
+        x0_ = x0, y0_ = y0;
+        cell_ = std::max(1e-3, std::sqrt((x1 - x0 + u) * (y1 - y0 + u) / double(edges.size())));
+        nx_ = std::int64_t((x1 - x0) / cell_) + 1;
+        ny_ = std::int64_t((y1 - y0) / cell_) + 1;
+        start_.assign(std::size_t(nx_ * ny_) + 1, 0);
+        auto forCells = [&](const RiverEdge& e, auto&& f) {
+            const format::GridXY p = b.grid[e.a], q = b.grid[e.b];
+            const std::int64_t cx0 = column(double(std::min(p.x, q.x)) * u),
+                               cx1 = column(double(std::max(p.x, q.x)) * u);
+            const std::int64_t cy0 = row(double(std::min(p.y, q.y)) * u),
+                               cy1 = row(double(std::max(p.y, q.y)) * u);
+            for (std::int64_t cy = cy0; cy <= cy1; ++cy)
+                for (std::int64_t cx = cx0; cx <= cx1; ++cx)
+                    f(std::size_t(cy * nx_ + cx));
+        };
+        for (const RiverEdge& e : edges)
+            forCells(e, [&](std::size_t c) { ++start_[c + 1]; });
+        for (std::size_t c = 1; c < start_.size(); ++c)
+            start_[c] += start_[c - 1];
+        list_.resize(start_.back());
+        std::vector<std::uint32_t> fill(start_.begin(), start_.end() - 1);
+        for (std::uint32_t i = 0; i < edges.size(); ++i)
+            forCells(edges[i], [&](std::size_t c) { list_[fill[c]++] = i; });
+    }
+
+    // The smallest 3D distance from m (metres: x, y relative to the node origin, z absolute) to
+    // the edges when it exceeds `floor`; otherwise some value <= floor (the search stops at the
+    // first edge within it). Infinity without edges.
+    double nearestAbove(const double m[3], double floor) const {
+        if (edges_.empty()) return INFINITY;
+        double best = INFINITY;
+        // Every edge within distance r of m (3D, hence also in plan) lies in a bucket of the
+        // square of half-side r around m: grow r until it covers the best distance found.
+        for (double r = std::max(floor, 0.5 * cell_);; r *= 2) {
+            const std::int64_t cx0 = column(m[0] - r), cx1 = column(m[0] + r);
+            const std::int64_t cy0 = row(m[1] - r), cy1 = row(m[1] + r);
+            for (std::int64_t cy = cy0; cy <= cy1; ++cy) {
+                for (std::int64_t cx = cx0; cx <= cx1; ++cx) {
+                    const std::size_t c = std::size_t(cy * nx_ + cx);
+                    for (std::uint32_t k = start_[c]; k < start_[c + 1]; ++k) {
+                        best = std::min(best, distance(edges_[list_[k]], m));
+                        if (best <= floor) return best;
+                    }
+                }
+            }
+            const bool whole = cx0 == 0 && cy0 == 0 && cx1 == nx_ - 1 && cy1 == ny_ - 1;
+            if (best <= r || whole) return best;
+        }
+    }
+
+private:
+    std::int64_t column(double x) const {
+        return std::clamp<std::int64_t>(std::int64_t(std::floor((x - x0_) / cell_)), 0, nx_ - 1);
+    }
+    std::int64_t row(double y) const {
+        return std::clamp<std::int64_t>(std::int64_t(std::floor((y - y0_) / cell_)), 0, ny_ - 1);
+    }
+    double distance(const RiverEdge& e, const double m[3]) const {
+        const double u = format::kGridUnit;
+        const double a[3] = {double(b_.grid[e.a].x) * u, double(b_.grid[e.a].y) * u,
+                             double(b_.vertices[e.a].z)};
+        const double c[3] = {double(b_.grid[e.b].x) * u, double(b_.grid[e.b].y) * u,
+                             double(b_.vertices[e.b].z)};
+        return std::sqrt(segmentDistance2(a, c, m));
+    }
+
+    const format::Block& b_;
+    const std::vector<RiverEdge>& edges_;
+    double x0_ = 0, y0_ = 0, cell_ = 1;
+    std::int64_t nx_ = 1, ny_ = 1;
+    std::vector<std::uint32_t> start_, list_;
+};
+
 }  // namespace
 
 struct NodeOriginalError::Impl {
     TriangleBuckets buckets;
+    SegmentBuckets rivers;
 };
 
 NodeOriginalError::NodeOriginalError(const format::Block& node,
-                                     std::vector<std::vector<TriangleTriple>> levels)
-    : node_(node), levels_(std::move(levels)), worst_(levels_.size()),
-      tolerance_(maxErrorTolerance(node)) {
-    for (const std::vector<TriangleTriple>& t : levels_)
-        buckets_.push_back(new Impl{TriangleBuckets(node_, t)});
+                                     std::vector<std::vector<TriangleTriple>> levels,
+                                     std::vector<std::vector<RiverEdge>> riverLevels)
+    : node_(node),
+      levels_(std::move(levels)),
+      riverLevels_(std::move(riverLevels)),
+      worst_(levels_.size()),
+      riverWorst_(levels_.size()),
+      tolerance_(maxErrorTolerance(node)),
+      checkRivers_(!riverLevels_.empty()) {
+    riverLevels_.resize(levels_.size());
+    for (std::size_t l = 0; l < levels_.size(); ++l)
+        buckets_.push_back(
+            new Impl{TriangleBuckets(node_, levels_[l]), SegmentBuckets(node_, riverLevels_[l])});
 }
 
 NodeOriginalError::~NodeOriginalError() {
-    for (Impl* b : buckets_) delete b;
+    for (Impl* b : buckets_)
+        delete b;
 }
 
 void NodeOriginalError::add(const format::Block& leaf) {
     tolerance_ = std::max(tolerance_, maxErrorTolerance(leaf));
     const double u = format::kGridUnit;
+    // The leaf's original river points: the vertices of its full-resolution river edges.
+    std::vector<std::uint8_t> riverPoint(leaf.vertices.size(), 0);
+    if (!leaf.levels.empty()) {
+        const format::Level& l0 = leaf.levels.front();
+        for (std::uint32_t i = 0; i < l0.riverCount; ++i) {
+            const format::Edge& e = leaf.riverIndices[l0.riverFirst + i];
+            if (e.a < riverPoint.size()) riverPoint[e.a] = 1;
+            if (e.b < riverPoint.size()) riverPoint[e.b] = 1;
+        }
+    }
     for (std::uint32_t v = 0; v < leaf.vertices.size() && v < leaf.grid.size(); ++v) {
         const double qx = (leaf.originX + double(leaf.grid[v].x) * u - node_.originX) / u;
         const double qy = (leaf.originY + double(leaf.grid[v].y) * u - node_.originY) / u;
@@ -248,7 +356,15 @@ void NodeOriginalError::add(const format::Block& leaf) {
         const std::int64_t y1 = std::int64_t(std::floor(qy + 1 + 1e-6));
         const std::int64_t rx = std::llround(qx), ry = std::llround(qy);
         const double z = double(leaf.vertices[v].z);
+        const double m[3] = {qx * u, qy * u, z};
         for (std::size_t l = 0; l < levels_.size(); ++l) {
+            if (checkRivers_ && riverPoint[v]) {
+                // Above the level's worst plus the slack: the point raises it.
+                const double d =
+                    buckets_[l]->rivers.nearestAbove(m, riverWorst_[l].value + kNodeRiverSlack);
+                if (d - kNodeRiverSlack > riverWorst_[l].value)
+                    riverWorst_[l] = {d - kNodeRiverSlack, leaf.col, leaf.row, v};
+            }
             const TriangleBuckets& b = buckets_[l]->buckets;
             const std::vector<TriangleTriple>& tris = levels_[l];
             auto error = [&](std::int64_t x, std::int64_t y) {

@@ -60,24 +60,37 @@ bool levelMaxError(const format::Block& block, std::uint32_t step,
 
 // Issue 18: a tree node's `max` error bounds the vertical error of every ORIGINAL point of its
 // area (the vertices of the leaf blocks below it), not only of its own vertices (the build
-// measures them as extra samples: modelerror.h ExtraSample). This recomputes that error per
-// stored level of the node, leaf by leaf.
+// measures them as extra samples: modelerror.h ExtraSample), and the river deviation of every
+// original river point (the build measures it against the points each river edge stands for:
+// deletion.h RiverCover). This recomputes both per stored level of the node, leaf by leaf.
 //
-// A leaf vertex is put on the node's grid from the file: q = (leaf origin + leaf grid * unit -
-// node origin) / unit. The build placed the original point at round((p - node origin) / unit),
-// and the leaf grid is round((p - leaf origin) / unit), so the build's integer position is
+// Vertical. A leaf vertex is put on the node's grid from the file: q = (leaf origin + leaf grid *
+// unit - node origin) / unit. The build placed the original point at round((p - node origin) /
+// unit), and the leaf grid is round((p - leaf origin) / unit), so the build's integer position is
 // within 1 unit of q on each axis (plus rounding of the double sums, far below). The error
 // recomputed for a point is therefore the SMALLEST |z - S| over the integer positions within
 // 1 + 1e-6 units of q on both axes (at most 3 x 3), 0 when one of them lies outside the level's
 // domain (an extra sample outside the domain has no vertical error): a lower bound of what the
 // build counted, exact up to the float tolerance of maxErrorTolerance (taken over the leaf's
-// and the node's heights). Horizontal (outline) and river deviations of original points are
-// not recomputed here: they are bounded through the node's own chains plus its children's
-// final error (nodebuild.h chain slack).
+// and the node's heights).
+//
+// River. The original river points are the vertices of the leaf's full-resolution river edges
+// (level 0). The build measured each one against the river edge standing for it, A-C (3D
+// distance to the segment, deletion.cpp spanDeviation, from the point's exact coordinates).
+// Recomputed here: its SMALLEST 3D distance to any river edge alive at the level, at q (metres),
+// less kNodeRiverSlack for the leaf grid's rounding of the point (half a unit per axis): a lower
+// bound of what the build counted, whichever edge stood for the point. A level with no river
+// edge while the leaves have river points has an infinite river error (rivers cannot vanish:
+// chain ends are never deleted). Horizontal (outline) deviations of original points are not
+// recomputed here.
+inline constexpr double kNodeRiverSlack = 1e-3;  // metres: >= sqrt(2) / 2 grid units
+
 class NodeOriginalError {
 public:
-    // `levels`: the node's triangles at each of its stored levels (vertex indices of `node`).
-    NodeOriginalError(const format::Block& node, std::vector<std::vector<TriangleTriple>> levels);
+    // `levels`: the node's triangles at each of its stored levels (vertex indices of `node`);
+    // `riverLevels`: its river edges at the same levels (empty: rivers are not recomputed).
+    NodeOriginalError(const format::Block& node, std::vector<std::vector<TriangleTriple>> levels,
+                      std::vector<std::vector<RiverEdge>> riverLevels = {});
     ~NodeOriginalError();
     NodeOriginalError(const NodeOriginalError&) = delete;
     NodeOriginalError& operator=(const NodeOriginalError&) = delete;
@@ -89,16 +102,19 @@ public:
         double value = 0;  // the largest recomputed error of an original point (metres)
         std::uint32_t col = 0, row = 0, vertex = 0;  // the leaf block and its vertex
     };
-    const std::vector<Worst>& worst() const { return worst_; }
+    const std::vector<Worst>& worst() const { return worst_; }            // vertical, per level
+    const std::vector<Worst>& riverWorst() const { return riverWorst_; }  // river, per level
     double tolerance() const { return tolerance_; }  // over the node and the leaves added
 
 private:
     struct Impl;
     const format::Block& node_;
     std::vector<std::vector<TriangleTriple>> levels_;
+    std::vector<std::vector<RiverEdge>> riverLevels_;
     std::vector<Impl*> buckets_;
-    std::vector<Worst> worst_;
+    std::vector<Worst> worst_, riverWorst_;
     double tolerance_ = 0;
+    bool checkRivers_ = false;
 };
 
 }  // namespace unilod

@@ -97,9 +97,11 @@ bool checkDomainLevel(const std::vector<std::int32_t>& gx, const std::vector<std
     return true;
 }
 
-// `levelTriangles` (not null): receives every stored level's triangles.
+// `levelTriangles`, `levelRiverEdges` (not null): receive every stored level's triangles and
+// river edges (sorted).
 bool checkBlock(const format::Block& b, const UlodCheckOptions& options, UlodCheckSummary& summary,
-                std::string& error, std::vector<std::vector<TriangleTriple>>* levelTriangles) {
+                std::string& error, std::vector<std::vector<TriangleTriple>>* levelTriangles,
+                std::vector<std::vector<RiverEdge>>* levelRiverEdges) {
     const std::size_t n = b.vertices.size();
     if (b.grid.size() != n) {
         error = "no exact grid coordinates stored: topology cannot be checked exactly";
@@ -133,6 +135,7 @@ bool checkBlock(const format::Block& b, const UlodCheckOptions& options, UlodChe
     std::vector<TriangleTriple> tris = trianglesOf(l0);
     std::vector<RiverEdge> edges = levelEdges(l0);
     if (levelTriangles) levelTriangles->assign(1, tris);
+    if (levelRiverEdges) levelRiverEdges->assign(1, edges);
     Cdt cdt;
     // A domain that is one convex region gets the full checks of checker.h on a ghost-closed
     // mesh; any other (holes, concave or pinched outline) the domain checks above.
@@ -147,7 +150,8 @@ bool checkBlock(const format::Block& b, const UlodCheckOptions& options, UlodChe
         }
     }
     const bool disk =
-        std::int64_t(used.size()) - std::int64_t(undirected.size()) + std::int64_t(tris.size()) == 1;
+        std::int64_t(used.size()) - std::int64_t(undirected.size()) + std::int64_t(tris.size()) ==
+        1;
     const bool convex = disk && cdtFromTriangles(gx, gy, locked, tris, edges, cdt, why) &&
                         boundaryIsConvex(cdt, why);
     CheckReference ref;
@@ -220,6 +224,7 @@ bool checkBlock(const format::Block& b, const UlodCheckOptions& options, UlodChe
         tris = trianglesOf(l);
         edges = levelEdges(l);
         if (levelTriangles) levelTriangles->push_back(tris);
+        if (levelRiverEdges) levelRiverEdges->push_back(edges);
         if (!std::equal(tris.begin(), tris.end(), alive.begin(), alive.end())) {
             error = name + ": stored triangles differ from the replayed records";
             return false;
@@ -235,16 +240,16 @@ bool checkBlock(const format::Block& b, const UlodCheckOptions& options, UlodChe
         levelRef.doubleHullArea = 0;
         for (const TriangleTriple& t : tris) {
             const PointId a = t.v[0], bb = t.v[1], c = t.v[2];
-            levelRef.doubleHullArea += Int128(std::int64_t(gx[bb]) - gx[a]) * (std::int64_t(gy[c]) - gy[a]) -
-                                       Int128(std::int64_t(gy[bb]) - gy[a]) * (std::int64_t(gx[c]) - gx[a]);
+            levelRef.doubleHullArea +=
+                Int128(std::int64_t(gx[bb]) - gx[a]) * (std::int64_t(gy[c]) - gy[a]) -
+                Int128(std::int64_t(gy[bb]) - gy[a]) * (std::int64_t(gx[c]) - gx[a]);
         }
         const bool structure =
             checkDomainLevel(gx, gy, tris, error) &&
             (!convex || (cdtFromTriangles(gx, gy, locked, tris, edges, cdt, error) &&
                          checkCdt(cdt, levelRef, &edges, error)));
-        if (!structure ||
-            (options.errors &&
-             !checkLevelError(b, level, tris, edges, ref.rivers, tolerance, summary, error))) {
+        if (!structure || (options.errors && !checkLevelError(b, level, tris, edges, ref.rivers,
+                                                              tolerance, summary, error))) {
             error = name + ": " + error;
             return false;
         }
@@ -258,12 +263,13 @@ bool checkBlock(const format::Block& b, const UlodCheckOptions& options, UlodChe
 }
 
 // Issue 18: the stored `max` error of every level of tree node `b` (entry `index`) against the
-// original points of its area, the vertices of the leaf blocks below it (errorcheck.h
-// NodeOriginalError), read leaf by leaf.
+// original points of its area, the vertices of the leaf blocks below it, vertical and river
+// (errorcheck.h NodeOriginalError), read leaf by leaf.
 bool checkNodeOriginals(format::Reader& reader, std::size_t index, const format::Block& b,
                         std::vector<std::vector<TriangleTriple>> levels,
-                        UlodCheckSummary& summary, std::string& error) {
-    NodeOriginalError originals(b, std::move(levels));
+                        std::vector<std::vector<RiverEdge>> riverLevels, UlodCheckSummary& summary,
+                        std::string& error) {
+    NodeOriginalError originals(b, std::move(levels), std::move(riverLevels));
     const auto& infos = reader.blocks();
     std::vector<std::size_t> stack{index};
     format::Block leaf;
@@ -272,7 +278,8 @@ bool checkNodeOriginals(format::Reader& reader, std::size_t index, const format:
         const std::size_t at = stack.back();
         stack.pop_back();
         if (info.childCount > 0) {
-            for (std::uint32_t c = 0; c < info.childCount; ++c) stack.push_back(info.firstChild + c);
+            for (std::uint32_t c = 0; c < info.childCount; ++c)
+                stack.push_back(info.firstChild + c);
             continue;
         }
         if (!reader.readBlock(at, leaf, error)) return false;
@@ -281,14 +288,18 @@ bool checkNodeOriginals(format::Reader& reader, std::size_t index, const format:
     const double tolerance = originals.tolerance();
     for (std::size_t level = 0; level < b.levels.size(); ++level) {
         const format::Level& l = b.levels[level];
-        const NodeOriginalError::Worst& w = originals.worst()[level];
+        const NodeOriginalError::Worst& vertical = originals.worst()[level];
+        const NodeOriginalError::Worst& river = originals.riverWorst()[level];
+        const bool isRiver = river.value > vertical.value;
+        const NodeOriginalError::Worst& w = isRiver ? river : vertical;
         const double stored = std::min(double(l.errorMax), double(b.errorMax[l.step]));
         if (stored < w.value - tolerance) {
             error = "level " + std::to_string(level) + " (step " + std::to_string(l.step) +
                     "): max error lies: stored " + metres(stored) + ", recomputed " +
-                    metres(w.value) + " (vertical, at vertex " + std::to_string(w.vertex) +
-                    " of block (" + std::to_string(w.col) + "," + std::to_string(w.row) +
-                    ") below it: an original point), tolerance " + metres(tolerance);
+                    metres(w.value) + (isRiver ? " (river, at vertex " : " (vertical, at vertex ") +
+                    std::to_string(w.vertex) + " of block (" + std::to_string(w.col) + "," +
+                    std::to_string(w.row) + ") below it: an original point), tolerance " +
+                    metres(tolerance);
             return false;
         }
         const double margin = stored - w.value;
@@ -302,6 +313,7 @@ bool checkNodeOriginals(format::Reader& reader, std::size_t index, const format:
             summary.worstTreeLevel = b.level;
             summary.worstLevel = static_cast<std::uint32_t>(level);
         }
+        summary.nodeRiverWorst = std::max(summary.nodeRiverWorst, river.value);
     }
     return true;
 }
@@ -323,8 +335,11 @@ bool checkUlod(const std::string& path, const UlodCheckOptions& options, UlodChe
         if (!reader.readBlock(i, b, error)) return false;
         const bool node = options.errors && b.level > 0;
         std::vector<std::vector<TriangleTriple>> levels;
-        if (!checkBlock(b, options, summary, error, node ? &levels : nullptr) ||
-            (node && !checkNodeOriginals(reader, i, b, std::move(levels), summary, error))) {
+        std::vector<std::vector<RiverEdge>> riverLevels;
+        if (!checkBlock(b, options, summary, error, node ? &levels : nullptr,
+                        node ? &riverLevels : nullptr) ||
+            (node && !checkNodeOriginals(reader, i, b, std::move(levels), std::move(riverLevels),
+                                         summary, error))) {
             error = path + ": " + format::blockName(b.col, b.row, b.level) + ": " + error;
             return false;
         }

@@ -28,6 +28,9 @@ struct UlodCheckSummary {
     double worstRatio = 0, worstStored = 0, worstRecomputed = 0;
     std::uint32_t worstCol = 0, worstRow = 0, worstTreeLevel = 0, worstLevel = 0;
     double smallestMargin = 0;
+    // The largest recomputed river deviation of an original river point at a tree node's level
+    // (errorcheck.h NodeOriginalError; 0 without nodes or rivers).
+    double nodeRiverWorst = 0;
 };
 
 // Returns false with a precise message (file, block, level, the violation) on the first failure.

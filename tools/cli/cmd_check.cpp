@@ -24,7 +24,8 @@ void addCheckCommand(CLI::App& app, int& exitCode) {
     sub->add_flag("--errors", options->errors,
                   "also recompute the true `max` model error at every stored level from the "
                   "file's data; fail when a stored error is below it beyond the tolerance "
-                  "(4 * 2^-24 * max|z| of the block + 1e-6 m); a tree node's against every original point below it");
+                  "(4 * 2^-24 * max|z| of the block + 1e-6 m); a tree node's against every "
+                  "original point below it");
     addQuietFlag(sub, *quiet);
     sub->callback([path, quiet, options, &exitCode] {
         UlodCheckSummary s;
@@ -50,6 +51,9 @@ void addCheckCommand(CLI::App& app, int& exitCode) {
                 s.worstRatio, s.worstRecomputed, s.worstStored,
                 format::blockName(s.worstCol, s.worstRow, s.worstTreeLevel).c_str(), s.worstLevel,
                 s.smallestMargin);
+            if (s.nodeRiverWorst > 0)
+                std::printf("; tree nodes: original river points within %.9g m of their river",
+                            s.nodeRiverWorst);
         }
         std::printf("\n");
         exitCode = 0;
