@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdio>
 #include <numeric>
+#include <thread>
 
 #include "headless.h"
 
@@ -27,8 +28,8 @@ nlohmann::json summary(std::vector<double> v) {
         return i + 1 < v.size() ? v[i] * (1 - f) + v[i + 1] * f : v[i];
     };
     const double mean = std::accumulate(v.begin(), v.end(), 0.0) / double(v.size());
-    return {{"mean", mean}, {"median", pct(0.5)}, {"p95", pct(0.95)}, {"p99", pct(0.99)},
-            {"min", v.front()}, {"max", v.back()}};
+    return {{"mean", mean},     {"median", pct(0.5)}, {"p95", pct(0.95)},
+            {"p99", pct(0.99)}, {"min", v.front()},   {"max", v.back()}};
 }
 
 struct RunData {
@@ -96,8 +97,7 @@ nlohmann::json runJson(const RunData& r, bool perFrame) {
 
 // One run over the path. `bareLists`: replay these instead of selecting (the bare run).
 bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
-         const std::vector<std::vector<DrawBlock>>* bareLists, RunData& data,
-         std::string& error) {
+         const std::vector<std::vector<DrawBlock>>* bareLists, RunData& data, std::string& error) {
     const std::size_t n = o.cameras.size();
     // Warm-up on the first camera (pipelines, caches), not measured.
     for (std::uint32_t i = 0; i < o.warmup; ++i) {
@@ -113,14 +113,23 @@ bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
     data.loaderBytesAtStart = renderer.scene().stats().loaderBytesRead;
     data.loaderSecondsAtStart = renderer.scene().stats().loaderSeconds;
     std::vector<FrameStats> stats;
+    std::vector<FrameTiming> timings;
+    const bool paced = o.paceMs > 0;
+    const auto pace = std::chrono::duration<double, std::milli>(o.paceMs);
     const auto start = Clock::now();
     auto last = start;
     for (std::size_t i = 0; i < n; ++i) {
+        if (paced) {
+            std::this_thread::sleep_until(
+                start + std::chrono::duration_cast<Clock::duration>(pace * double(i)));
+            last = Clock::now();
+        }
         const FrameView view = renderer.view(o.cameras[i]);
         if (bareLists) {
             renderer.renderBareFrame(view, (*bareLists)[i]);
             FrameStats s;
-            for (const DrawBlock& d : (*bareLists)[i]) s.triangles += d.terrainCount / 3;
+            for (const DrawBlock& d : (*bareLists)[i])
+                s.triangles += d.terrainCount / 3;
             s.visibleBlocks = std::uint32_t((*bareLists)[i].size());
             s.loaderBytesRead = renderer.scene().stats().loaderBytesRead;
             s.loaderSeconds = renderer.scene().stats().loaderSeconds;
@@ -130,15 +139,24 @@ bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
             stats.push_back(renderer.scene().stats());
             if (keepLists) data.drawLists.push_back(renderer.scene().drawList());
         }
+        if (paced) {
+            // The frame's own cost: wait for it (the next one starts at its tick anyway).
+            for (FrameTiming& t : renderer.finish())
+                timings.push_back(t);
+        }
         const auto now = Clock::now();
         data.frameMs.push_back(std::chrono::duration<double, std::milli>(now - last).count());
         last = now;
         if (o.progress) o.progress({}, i + 1, n);
     }
-    const std::vector<FrameTiming> timings = renderer.finish();
+    for (FrameTiming& t : renderer.finish())
+        timings.push_back(t);
     data.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-    // The last frames' intervals do not include their GPU work: add the drain to the last one.
-    data.frameMs.back() += std::chrono::duration<double, std::milli>(Clock::now() - last).count();
+    // Unpaced, the last frames' intervals do not include their GPU work: add the drain to the
+    // last one.
+    if (!paced)
+        data.frameMs.back() +=
+            std::chrono::duration<double, std::milli>(Clock::now() - last).count();
     for (const FrameTiming& t : timings) {
         data.cpuMs.push_back(t.cpuMs);
         if (t.gpuMs >= 0) data.gpuMs.push_back(t.gpuMs);
@@ -173,7 +191,8 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
         return true;
     };
     auto closeRenderer = [&](HeadlessRenderer& r) {
-        for (std::string& m : r.close()) messages.push_back(std::move(m));
+        for (std::string& m : r.close())
+            messages.push_back(std::move(m));
     };
     auto say = [&](const char* what) {
         if (o.progress) o.progress(what, 0, o.cameras.size());
@@ -240,6 +259,7 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
         {"size", {o.width, o.height}},
         {"frames", o.cameras.size()},
         {"warmup_frames", o.warmup},
+        {"pace_ms", o.paceMs},
         {"pixels", o.scene.pixels},
         {"metric", o.scene.metric.empty() ? "file default" : o.scene.metric},
         {"distance", o.scene.distance == DistanceMode::Nearest ? "nearest" : "centre"},

@@ -31,6 +31,11 @@ struct BenchOptions {
     std::string spirvDir;
     std::uint32_t warmup = 5;  // frames rendered before each run's measured frames
     bool perFrame = false;     // include every frame's numbers in the JSON
+    // Paced frames (ms; 0: off): frame i starts no earlier than i * paceMs after the run's start,
+    // as in an application held to a display's refresh, so the loader streams between frames
+    // as it would there. Each frame is then waited for, and its frame time is its own cost
+    // (record, submit, GPU done), not the interval between frames.
+    double paceMs = 0;
     std::vector<std::string> runs = {"lod", "resident", "bare", "full"};
     // Progress (may be empty): at the start of each run its description (done 0), after each
     // measured frame an empty description and the run's frames done of total. Called from the

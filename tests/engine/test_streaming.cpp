@@ -42,9 +42,9 @@ protected:
         dir_ = fs::temp_directory_path() / ("unilod_test_streaming_" + std::to_string(getpid()));
         fs::create_directories(dir_);
         file_ = (dir_ / "jacksboro64.ulod").string();
-        const auto r = runCli("build -q --block-size 64 " + q(kAssets + "/jacksboro_dem.tif") +
-                              " " + q(kAssets + "/jacksboro_rivers_grass.geojson") + " -o " +
-                              q(file_));
+        const auto r =
+            runCli("build -q --block-size 64 " + q(kAssets + "/jacksboro_dem.tif") + " " +
+                   q(kAssets + "/jacksboro_rivers_grass.geojson") + " -o " + q(file_));
         ASSERT_EQ(r.code, 0) << r.err;
         std::string error;
         ASSERT_TRUE(reader_.open(file_, error)) << error;
@@ -214,8 +214,8 @@ TEST_F(Streaming, TinyBudgetStillRendersEveryBlock) {
     const nlohmann::json bigJson = nlohmann::json::parse(slurp((big / "frame_0000.json").string()));
     const auto coarse = bigJson["totals"]["coarse_bytes"].get<std::uint64_t>();
     const double tinyMiB = double(coarse) * 1.1 / 1048576.0;
-    r = runCli("capture " + q(file_) + " --validation --size 320x240 " + camera +
-               " --gpu-budget " + std::to_string(tinyMiB) + " --out " + q(tiny.string()));
+    r = runCli("capture " + q(file_) + " --validation --size 320x240 " + camera + " --gpu-budget " +
+               std::to_string(tinyMiB) + " --out " + q(tiny.string()));
     ASSERT_EQ(r.code, 0) << r.err;
     const nlohmann::json tinyJson =
         nlohmann::json::parse(slurp((tiny / "frame_0000.json").string()));
@@ -276,10 +276,11 @@ TEST_F(Streaming, CullingKeepsEveryBlockWithAVertexOnScreen) {
 TEST_F(Streaming, CapturePathWritesEveryFrame) {
     const engine::Camera a = oblique(0.2), b = oblique(0.8);
     const fs::path pathFile = dir_ / "path.json";
-    nlohmann::json path = {{"fov", 50},
-                           {"keyframes",
-                            {{{"eye", {a.eye[0], a.eye[1], a.eye[2]}}, {"yaw", 350}, {"pitch", -20}},
-                             {{"eye", {b.eye[0], b.eye[1], b.eye[2]}}, {"yaw", 30}, {"pitch", -30}}}}};
+    nlohmann::json path = {
+        {"fov", 50},
+        {"keyframes",
+         {{{"eye", {a.eye[0], a.eye[1], a.eye[2]}}, {"yaw", 350}, {"pitch", -20}},
+          {{"eye", {b.eye[0], b.eye[1], b.eye[2]}}, {"yaw", 30}, {"pitch", -30}}}}};
     std::ofstream(pathFile) << path.dump();
     const fs::path out = dir_ / "path";
     auto r = runCli("capture " + q(file_) + " --validation --size 160x120 --path " +
@@ -289,9 +290,11 @@ TEST_F(Streaming, CapturePathWritesEveryFrame) {
         char name[32];
         std::snprintf(name, sizeof name, "frame_%04d", i);
         ASSERT_TRUE(fs::exists(out / (std::string(name) + ".png"))) << name;
-        const nlohmann::json j = nlohmann::json::parse(slurp((out / (std::string(name) + ".json")).string()));
+        const nlohmann::json j =
+            nlohmann::json::parse(slurp((out / (std::string(name) + ".json")).string()));
         const double u = i / 4.0;
-        EXPECT_NEAR(j["camera"]["eye"][0].get<double>(), a.eye[0] + u * (b.eye[0] - a.eye[0]), 1e-6);
+        EXPECT_NEAR(j["camera"]["eye"][0].get<double>(), a.eye[0] + u * (b.eye[0] - a.eye[0]),
+                    1e-6);
         // Yaw goes the short way round: 350 -> 390 (= 30).
         EXPECT_NEAR(j["camera"]["yaw"].get<double>(), 350 + u * 40, 1e-9);
         EXPECT_NEAR(j["camera"]["pitch"].get<double>(), -20 - u * 10, 1e-9);
@@ -315,8 +318,9 @@ TEST_F(Streaming, CapturePathWritesEveryFrame) {
 
 TEST_F(Streaming, BenchEmitsEveryField) {
     const fs::path json = dir_ / "bench.json";
-    const auto r = runCli("bench " + q(file_) + " --validation --frames 10 --warmup 1 --size 320x240 --json " +
-                          q(json.string()));
+    const auto r =
+        runCli("bench " + q(file_) + " --validation --frames 10 --warmup 1 --size 320x240 --json " +
+               q(json.string()));
     ASSERT_EQ(r.code, 0) << r.err;
     const nlohmann::json j = nlohmann::json::parse(slurp(json.string()));
     for (const char* k : {"device", "size", "frames", "pixels", "metric", "distance", "runs",
@@ -326,8 +330,8 @@ TEST_F(Streaming, BenchEmitsEveryField) {
         ASSERT_TRUE(j["runs"].contains(run)) << run;
         const nlohmann::json& x = j["runs"][run];
         EXPECT_EQ(x["frames"].get<int>(), 10) << run;
-        for (const char* k : {"fps", "frame_ms", "cpu_ms", "gpu_ms", "triangles",
-                              "resident_blocks", "bytes_uploaded", "gpu_bytes_used_max"})
+        for (const char* k : {"fps", "frame_ms", "cpu_ms", "gpu_ms", "triangles", "resident_blocks",
+                              "bytes_uploaded", "gpu_bytes_used_max"})
             EXPECT_TRUE(x.contains(k)) << run << " " << k;
         for (const char* k : {"median", "p95", "p99"})
             EXPECT_GT(x["frame_ms"][k].get<double>(), 0.0) << run << " " << k;
@@ -340,7 +344,8 @@ TEST_F(Streaming, BenchEmitsEveryField) {
     // draws at least as many triangles as the LOD.
     const nlohmann::json& lod = j["runs"]["lod"];
     EXPECT_TRUE(lod["bytes_uploaded"].get<std::uint64_t>() +
-                        lod["warmup_bytes_uploaded"].get<std::uint64_t>() > 0 ||
+                        lod["warmup_bytes_uploaded"].get<std::uint64_t>() >
+                    0 ||
                 lod["fallback_blocks"]["max"].get<double>() > 0)
         << lod.dump();
     EXPECT_EQ(j["runs"]["resident"]["bytes_uploaded"].get<std::uint64_t>(), 0u);
@@ -352,13 +357,39 @@ TEST_F(Streaming, BenchEmitsEveryField) {
     EXPECT_GT(j["ratios_of_median_frame_ms"]["full_over_lod"].get<double>(), 0.0);
     // Goals: met exactly when the ratio is on the right side of the stated bound.
     const nlohmann::json& ratios = j["ratios_of_median_frame_ms"];
-    EXPECT_EQ(j["goals_met"]["lod_over_bare_at_most"].get<bool>(),
-              ratios["lod_over_bare"].get<double>() <= j["goals"]["lod_over_bare_at_most"].get<double>());
+    EXPECT_EQ(
+        j["goals_met"]["lod_over_bare_at_most"].get<bool>(),
+        ratios["lod_over_bare"].get<double>() <= j["goals"]["lod_over_bare_at_most"].get<double>());
     EXPECT_EQ(j["goals_met"]["full_over_lod_at_least"].get<bool>(),
-              ratios["full_over_lod"].get<double>() >= j["goals"]["full_over_lod_at_least"].get<double>());
+              ratios["full_over_lod"].get<double>() >=
+                  j["goals"]["full_over_lod_at_least"].get<double>());
     EXPECT_EQ(j["goals"]["full_over_lod_at_least"].get<double>(), 3.0);
     EXPECT_EQ(j["goals"]["lod_over_bare_at_most"].get<double>(), 1.2);
     EXPECT_NE(r.out.find("(goal >= 3.0: "), std::string::npos) << r.out;
+}
+
+// `bench --pace-ms`: frame i starts no earlier than i * pace into the run (so a run of n frames
+// lasts at least (n - 1) * pace), and a frame's time is its own cost, not the interval: with a
+// one-second pace a 160x90 frame's time stays far below it (unpaced it would be the interval).
+TEST_F(Streaming, BenchPacedFramesReportTheirOwnCost) {
+    const fs::path json = dir_ / "bench_paced.json";
+    const auto r = runCli("bench " + q(file_) +
+                          " --validation --frames 3 --warmup 1 --size 160x90 --runs lod "
+                          "--pace-ms 1000 -o " +
+                          q(json.string()));
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.out.find("paced every 1000 ms"), std::string::npos) << r.out;
+    const nlohmann::json j = nlohmann::json::parse(slurp(json.string()));
+    EXPECT_EQ(j["pace_ms"].get<double>(), 1000.0);
+    const nlohmann::json& lod = j["runs"]["lod"];
+    EXPECT_GE(lod["seconds"].get<double>(), 2.0);
+    EXPECT_LT(lod["frame_ms"]["max"].get<double>(), 1000.0) << lod.dump();
+    EXPECT_GT(lod["frame_ms"]["min"].get<double>(), 0.0);
+    // Unpaced (the default), the JSON says so.
+    const auto plain =
+        runCli("bench " + q(file_) + " --frames 1 --warmup 0 --size 160x90 --runs lod --json -");
+    ASSERT_EQ(plain.code, 0) << plain.err;
+    EXPECT_EQ(nlohmann::json::parse(plain.out)["pace_ms"].get<double>(), 0.0);
 }
 
 }  // namespace

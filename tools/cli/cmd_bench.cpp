@@ -58,7 +58,8 @@ int run(BenchCli& c) {
     std::stringstream list(c.runs);
     for (std::string r; std::getline(list, r, ',');) {
         if (r != "lod" && r != "resident" && r != "bare" && r != "full") {
-            std::fprintf(stderr, "unilod bench: error: unknown run '%s' (lod, resident, bare, full)\n",
+            std::fprintf(stderr,
+                         "unilod bench: error: unknown run '%s' (lod, resident, bare, full)\n",
                          r.c_str());
             return 2;
         }
@@ -71,8 +72,8 @@ int run(BenchCli& c) {
         std::fprintf(stderr, "unilod bench: error: give -o FILE or --json FILE, not both\n");
         return 2;
     }
-    std::string jsonFile = c.output.path.empty() && !c.json.toStdout() ? c.json.target
-                                                                       : c.output.path;
+    std::string jsonFile =
+        c.output.path.empty() && !c.json.toStdout() ? c.json.target : c.output.path;
     const bool jsonStdout = c.json.toStdout() || jsonFile == "-";
     if (jsonFile == "-") jsonFile.clear();
     // The JSON file replaces an earlier result only with --overwrite, never the model or the
@@ -111,8 +112,7 @@ int run(BenchCli& c) {
         ok = engine::runBench(c.o, out, error);
     }
     if (!ok) {
-        std::fprintf(stderr, "unilod bench: error: %s\n",
-                     errorForFile(c.o.path, error).c_str());
+        std::fprintf(stderr, "unilod bench: error: %s\n", errorForFile(c.o.path, error).c_str());
         return 1;
     }
     out["path"] = c.cameraPath.empty() ? "default fly-over" : c.cameraPath;
@@ -126,8 +126,8 @@ int run(BenchCli& c) {
         if (!out["runs"].contains(name)) continue;
         const nlohmann::json& r = out["runs"][name];
         auto num = [](const nlohmann::json& j) { return j.is_null() ? -1.0 : j.get<double>(); };
-        std::printf("%-9s %9.1f %9.2f %9.2f %9.2f %9.2f %12.0f %9.1f %12.1f\n", name,
-                    num(r["fps"]), num(r["frame_ms"]["median"]), num(r["frame_ms"]["p95"]),
+        std::printf("%-9s %9.1f %9.2f %9.2f %9.2f %9.2f %12.0f %9.1f %12.1f\n", name, num(r["fps"]),
+                    num(r["frame_ms"]["median"]), num(r["frame_ms"]["p95"]),
                     num(r["frame_ms"]["p99"]),
                     r["gpu_ms"].is_null() ? -1.0 : num(r["gpu_ms"]["median"]),
                     num(r["triangles"]["mean"]), num(r["resident_blocks"]["mean"]),
@@ -139,13 +139,17 @@ int run(BenchCli& c) {
             // "lod_over_bare_at_most" is the goal of the ratio "lod_over_bare".
             if (goal.rfind(k, 0) != 0) continue;
             const bool atMost = goal.find("at_most") != std::string::npos;
-            std::printf(" (goal %s %.1f: %s)", atMost ? "<=" : ">=",
-                        out["goals"][goal].get<double>(), met.get<bool>() ? "met" : "not met");
+            std::printf(" (goal %s %.1f: %s)",
+                        atMost ? "<=" : ">=", out["goals"][goal].get<double>(),
+                        met.get<bool>() ? "met" : "not met");
         }
         std::printf("\n");
     }
-    std::printf("device: %s, %ux%u, %zu frames\n", out["device"].get<std::string>().c_str(),
+    std::printf("device: %s, %ux%u, %zu frames", out["device"].get<std::string>().c_str(),
                 c.o.width, c.o.height, c.o.cameras.size());
+    if (c.o.paceMs > 0)
+        std::printf(", paced every %g ms (frame time: each frame's own)", c.o.paceMs);
+    std::printf("\n");
     if (!jsonFile.empty()) {
         if (!format::writeFileAtomically(jsonFile, jsonText(out, 2) + "\n", output, error)) {
             std::fprintf(stderr, "unilod bench: error: %s\n", error.c_str());
@@ -161,15 +165,22 @@ int run(BenchCli& c) {
 void addBenchCommand(CLI::App& app, int& exitCode) {
     auto c = std::make_shared<BenchCli>();
     CLI::App* sub = app.add_subcommand(
-        "bench", "Frame-time benchmark along a camera path (paper §4.2.3): streamed LOD vs "
-                 "everything resident, a bare pipeline and full resolution; prints a table, or "
-                 "JSON with --json; -o writes the JSON to a file");
+        "bench",
+        "Frame-time benchmark along a camera path (paper §4.2.3): streamed LOD vs "
+        "everything resident, a bare pipeline and full resolution; prints a table, or "
+        "JSON with --json; -o writes the JSON to a file");
     sub->add_option("FILE", c->o.path, ".ulod file")->required();
     sub->add_option("--path", c->cameraPath,
                     "camera path JSON (as for capture; default: a fly-over of the data)");
     sub->add_option("--frames", c->frames, "measured frames per run (default 200)")
         ->check(CLI::Range(1u, 100000u));
     sub->add_option("--warmup", c->o.warmup, "unmeasured frames before each run (default 5)");
+    sub->add_option("--pace-ms", c->o.paceMs,
+                    "start frame i no earlier than i * MS into each run and wait for each frame: "
+                    "the loader streams between frames as under a display's refresh (16.7 for "
+                    "60 Hz), and a frame's time is its own cost (default 0: unpaced, frames back "
+                    "to back)")
+        ->check(CLI::Range(0.0, 10000.0));
     c->engine.add(*sub, "1920x1080");
     sub->add_option("--runs", c->runs,
                     "comma-separated runs: lod, resident, bare, full (default: all four)");
