@@ -15,6 +15,22 @@ namespace {
 
 constexpr std::uint32_t kNotFound = 0xFFFFFFFFu;
 
+// Uniform buckets in compressed rows: bucket c lists list[start[c] .. start[c + 1]), the items
+// i whose forCells(i, f) calls f(c).
+template <typename ForCells>
+void fillBuckets(std::size_t items, std::size_t cells, ForCells&& forCells,
+                 std::vector<std::uint32_t>& start, std::vector<std::uint32_t>& list) {
+    start.assign(cells + 1, 0);
+    for (std::size_t i = 0; i < items; ++i)
+        forCells(i, [&](std::size_t c) { ++start[c + 1]; });
+    for (std::size_t c = 1; c < start.size(); ++c)
+        start[c] += start[c - 1];
+    list.resize(start.back());
+    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+    for (std::size_t i = 0; i < items; ++i)
+        forCells(i, [&](std::size_t c) { list[fill[c]++] = std::uint32_t(i); });
+}
+
 // A level's triangles in a uniform grid of buckets: every triangle is listed in each bucket its
 // bounding box touches (compressed rows). About one triangle per bucket, so a point is located
 // with a handful of exact orientation tests; the triangles' areas sum to the domain's, so the
@@ -36,10 +52,9 @@ public:
         cell_ = std::max<std::int64_t>(1, std::int64_t(std::ceil(std::sqrt(w * h / target))));
         nx_ = (x1 - x0_) / cell_ + 1;
         ny_ = (y1 - y0_) / cell_ + 1;
-        start_.assign(std::size_t(nx_ * ny_) + 1, 0);
-        auto forCells = [&](const TriangleTriple& t, auto&& f) {
+        auto forCells = [&](std::size_t i, auto&& f) {
             std::int64_t lx = INT64_MAX, ly = INT64_MAX, hx = INT64_MIN, hy = INT64_MIN;
-            for (PointId v : t.v) {
+            for (PointId v : triangles[i].v) {
                 lx = std::min<std::int64_t>(lx, b.grid[v].x);
                 ly = std::min<std::int64_t>(ly, b.grid[v].y);
                 hx = std::max<std::int64_t>(hx, b.grid[v].x);
@@ -50,14 +65,7 @@ public:
                     f(std::size_t(cy * nx_ + cx));
             }
         };
-        for (const TriangleTriple& t : triangles)
-            forCells(t, [&](std::size_t c) { ++start_[c + 1]; });
-        for (std::size_t c = 1; c < start_.size(); ++c)
-            start_[c] += start_[c - 1];
-        list_.resize(start_.back());
-        std::vector<std::uint32_t> fill(start_.begin(), start_.end() - 1);
-        for (std::uint32_t i = 0; i < triangles.size(); ++i)
-            forCells(triangles[i], [&](std::size_t c) { list_[fill[c]++] = i; });
+        fillBuckets(triangles.size(), std::size_t(nx_ * ny_), forCells, start_, list_);
     }
 
     // A triangle whose closed interior holds grid point (x, y), or kNotFound.
@@ -235,9 +243,8 @@ public:
         cell_ = std::max(1e-3, std::sqrt((x1 - x0 + u) * (y1 - y0 + u) / double(edges.size())));
         nx_ = std::int64_t((x1 - x0) / cell_) + 1;
         ny_ = std::int64_t((y1 - y0) / cell_) + 1;
-        start_.assign(std::size_t(nx_ * ny_) + 1, 0);
-        auto forCells = [&](const RiverEdge& e, auto&& f) {
-            const format::GridXY p = b.grid[e.a], q = b.grid[e.b];
+        auto forCells = [&](std::size_t i, auto&& f) {
+            const format::GridXY p = b.grid[edges[i].a], q = b.grid[edges[i].b];
             const std::int64_t cx0 = column(double(std::min(p.x, q.x)) * u),
                                cx1 = column(double(std::max(p.x, q.x)) * u);
             const std::int64_t cy0 = row(double(std::min(p.y, q.y)) * u),
@@ -246,14 +253,7 @@ public:
                 for (std::int64_t cx = cx0; cx <= cx1; ++cx)
                     f(std::size_t(cy * nx_ + cx));
         };
-        for (const RiverEdge& e : edges)
-            forCells(e, [&](std::size_t c) { ++start_[c + 1]; });
-        for (std::size_t c = 1; c < start_.size(); ++c)
-            start_[c] += start_[c - 1];
-        list_.resize(start_.back());
-        std::vector<std::uint32_t> fill(start_.begin(), start_.end() - 1);
-        for (std::uint32_t i = 0; i < edges.size(); ++i)
-            forCells(edges[i], [&](std::size_t c) { list_[fill[c]++] = i; });
+        fillBuckets(edges.size(), std::size_t(nx_ * ny_), forCells, start_, list_);
     }
 
     // The smallest 3D distance from m (metres: x, y relative to the node origin, z absolute) to
