@@ -151,6 +151,8 @@ TEST_F(Inputs, OptionValuesOutsideTheirRangeAreUsageErrorsWithShortMessages) {
         {"stats " + q(model), "--pixels", "0"},
         {"stats " + q(model), "--fov", "inf"},
         {"stats " + q(model), "--height", "nan"},
+        {"bench " + q(model) + " -o " + q(out), "--pace-ms", "nan"},
+        {"bench " + q(model) + " -o " + q(out), "--pace-ms", "-1"},
     };
     for (const Case& c : cases) {
         SCOPED_TRACE(c.option + " " + c.value);

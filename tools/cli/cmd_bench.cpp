@@ -16,6 +16,7 @@
 #include "capture.h"
 #include "commands.h"
 #include "engineopts.h"
+#include "numbers.h"
 #include "jsontext.h"
 #include "outputopts.h"
 #include "progress.h"
@@ -180,7 +181,7 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
                     "the loader streams between frames as under a display's refresh (16.7 for "
                     "60 Hz), and a frame's time is its own cost (default 0: unpaced, frames back "
                     "to back)")
-        ->check(CLI::Range(0.0, 10000.0));
+        ->check(numberIn(0, 10000));
     c->engine.add(*sub, "1920x1080");
     sub->add_option("--runs", c->runs,
                     "comma-separated runs: lod, resident, bare, full (default: all four)");
