@@ -8,22 +8,12 @@
 
 #include "annotate.h"
 #include "camera.h"
+#include "campath.h"
 #include "device.h"
 #include "scene.h"
 
 namespace unilod::engine {
 
-// A camera path (PATH.json): {"fov": 60, "keyframes": [{"eye": [x, y, z], "yaw": d,
-// "pitch": d}, ...]}. Frames are sampled at equal steps of the keyframe parameter.
-struct CameraPath {
-    std::vector<Camera> keyframes;
-};
-// False with a message naming the file (unreadable, not JSON, a missing or non-finite field,
-// pitch outside [-90, 90], no keyframe).
-bool loadCameraPath(const std::string& path, CameraPath& out, std::string& error);
-// `frames` cameras along the path: keyframe parameter t = i * (K - 1) / (frames - 1), eye, yaw
-// (the short way round) and pitch interpolated linearly. One keyframe: `frames` copies.
-std::vector<Camera> sampleCameraPath(const CameraPath& path, std::uint32_t frames);
 
 struct CaptureOptions {
     std::string path;                 // the .ulod file
@@ -54,8 +44,6 @@ struct CaptureResult {
     std::string deviceName;
     std::vector<CaptureFrame> frames;
 };
-
-bool validCamera(const Camera& camera);
 
 // The grid mode's half height for a camera: the view covers what a perspective camera at the
 // eye's height above the data's top would see straight down.

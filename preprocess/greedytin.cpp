@@ -190,6 +190,19 @@ bool GreedyTin::placeRivers(const std::vector<Polyline>& rivers, double toleranc
 bool GreedyTin::init(const PointSet& set, const std::vector<Polyline>& rivers,
                      double riverTolerance, std::string& error, const CdtOptions& options) {
     set_ = &set;
+    if (weights_ != nullptr) {
+        if (weights_->size() != set.points.size()) {
+            error = "greedy TIN: " + std::to_string(weights_->size()) + " weights for " +
+                    std::to_string(set.points.size()) + " points";
+            return false;
+        }
+        for (double w : *weights_) {
+            if (!(w >= 0 && std::isfinite(w))) {
+                error = "greedy TIN: point weights must be finite and >= 0";
+                return false;
+            }
+        }
+    }
     if (!buildHullCdt(set, options, cdt_, error)) return false;
     if (!(riverTolerance >= 0 && std::isfinite(riverTolerance))) {
         error = "the river tolerance must be finite and >= 0";
@@ -238,7 +251,8 @@ bool GreedyTin::init(const PointSet& set, const std::vector<Polyline>& rivers,
         Candidate best{-1.0, kNil, t, version_[t]};
         for (std::uint32_t i = 0; i < rangeCount_[t]; ++i) {
             const PoolPoint& p = pool_[rangeStart_[t] + i];
-            const Candidate c{std::max(0.0, errorIn(q, p.gx, p.gy, p.z)), p.id, t, version_[t]};
+            const Candidate c{weighted(p.id, std::max(0.0, errorIn(q, p.gx, p.gy, p.z))), p.id, t,
+                              version_[t]};
             if (best < c) best = c;
         }
         heap_.push(best);
@@ -323,7 +337,7 @@ void GreedyTin::distribute(const std::vector<std::uint32_t>& slots) {
             const double e = errorIn(tris[j], p.gx, p.gy, p.z);
             if (e < 0) continue;
             found = last = j;
-            const Candidate cand{e, p.id, slots[j], best[j].version};
+            const Candidate cand{weighted(p.id, e), p.id, slots[j], best[j].version};
             if (best[j] < cand) best[j] = cand;
             break;
         }

@@ -56,9 +56,17 @@ public:
     // Placed river segments: constraint edges of the triangulation (sub-edges where a segment
     // passes through a vertex count once each).
     std::uint32_t riverEdgeCount() const { return cdt_.constraintEdgeCount; }
-    // Inserts worst points until the largest vertical error is <= `threshold` (metres).
+    // Per-point weights (the view-dependent baseline of bench_order --view): point m's key is
+    // w[m] * |z - S| instead of |z - S|, so refineTo(1) inserts until every point is within
+    // 1 / w[m] of the surface (w = 0: the point never needs inserting). Set before init; one
+    // weight per point of the set, each finite and >= 0; the vector must outlive this object.
+    // Null (the default): every weight 1.
+    void setWeights(const std::vector<double>* weights) { weights_ = weights; }
+    // Inserts worst points until the largest vertical error is <= `threshold` (metres; with
+    // weights, the largest weighted error).
     void refineTo(double threshold);
-    // The largest vertical error over all (representative) points now; 0 when all are vertices.
+    // The largest vertical (with weights: weighted) error over all (representative) points now;
+    // 0 when all are vertices.
     double maxError();
     std::uint32_t triangleCount() const { return cdt_.realTriangleCount; }
     std::uint32_t vertexCount() const { return cdt_.vertexCount; }
@@ -88,7 +96,10 @@ private:
     void growSlots();
     void compact();
 
+    double weighted(PointId id, double e) const { return weights_ ? e * (*weights_)[id] : e; }
+
     const PointSet* set_ = nullptr;
+    const std::vector<double>* weights_ = nullptr;
     Cdt cdt_;
     std::vector<PoolPoint> pool_, pending_;
     std::vector<std::uint32_t> rangeStart_, rangeCount_, version_, destination_, created_;

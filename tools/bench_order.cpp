@@ -42,6 +42,7 @@
 #include <vector>
 
 #include "benchbuild.h"
+#include "campath.h"
 #include "cut.h"
 #include "benchutil.h"
 #include "dem.h"
@@ -154,6 +155,23 @@ unilod::format::Block mergedLeaves(const std::string& path) {
     return out;
 }
 
+// The nodes as the engine sees them: boxes, links and level tables (coarsest level read).
+void readLodNodes(unilod::format::Reader& reader,
+                  std::vector<std::vector<unilod::format::Level>>& levels,
+                  std::vector<unilod::engine::LodNode>& nodes) {
+    const std::size_t count = reader.blocks().size();
+    levels.assign(count, {});
+    nodes.assign(count, {});
+    std::string error;
+    for (std::size_t i = 0; i < count; ++i) {
+        unilod::format::BlockGeometry g;
+        if (!reader.readGeometry(i, int(reader.blocks()[i].levelCount) - 1, g, error)) fail(error);
+        nodes[i] = unilod::engine::lodNode(g);
+        levels[i] = std::move(g.levels);
+        nodes[i].levels = &levels[i];
+    }
+}
+
 // Issue 18's targets on a model with the block hierarchy: the cut for a uniform h_lim (the
 // triangles the engine draws, stats.h computeErrorStats) against a greedy TIN of the whole DEM
 // (every leaf point once) at the same error; the file's bytes against its leaf level's; and the
@@ -192,17 +210,9 @@ json treeBenchmark(const std::string& path, const std::vector<double>& errors) {
     out["file_ratio_vs_leaf_level"] = double(allBytes) / double(leafBytes);
     out["file_target"] = 1.3;
 
-    // The nodes as the engine sees them: boxes, links and level tables (coarsest level read).
-    const std::size_t count = reader.blocks().size();
-    std::vector<std::vector<unilod::format::Level>> levels(count);
-    std::vector<unilod::engine::LodNode> nodes(count);
-    for (std::size_t i = 0; i < count; ++i) {
-        unilod::format::BlockGeometry g;
-        if (!reader.readGeometry(i, int(reader.blocks()[i].levelCount) - 1, g, error)) fail(error);
-        nodes[i] = unilod::engine::lodNode(g);
-        levels[i] = std::move(g.levels);
-        nodes[i].levels = &levels[i];
-    }
+    std::vector<std::vector<unilod::format::Level>> levels;
+    std::vector<unilod::engine::LodNode> nodes;
+    readLodNodes(reader, levels, nodes);
     // What the uniform cuts keep on the hierarchy's locked borders: vertices flagged locked that
     // lie on their node's box outline inside the model (the model's own outer edge excluded), and
     // the drawn triangles that touch one.
@@ -288,16 +298,7 @@ json treeBenchmark(const std::string& path, const std::vector<double>& errors) {
                     {"max_triangles", maxTriangles}};
     };
     std::vector<unilod::engine::Camera> fly, orbit;
-    for (int f = 0; f < 200; ++f) {
-        const double t = 0.1 + 0.8 * f / 199.0;
-        unilod::engine::Camera c;
-        c.eye[0] = h.minX + t * (h.maxX - h.minX);
-        c.eye[1] = h.minY + t * (h.maxY - h.minY);
-        c.eye[2] = h.maxZ + 0.2 * w;
-        c.yawDegrees = 45;
-        c.pitchDegrees = -25;
-        fly.push_back(c);
-    }
+    fly = unilod::engine::sampleCameraPath(unilod::engine::defaultFlyOver(h), 200);
     for (int f = 0; f < 72; ++f) {
         const double a = f * 5.0 * 3.14159265358979323846 / 180;
         unilod::engine::Camera c;
@@ -313,6 +314,174 @@ json treeBenchmark(const std::string& path, const std::vector<double>& errors) {
     out["orbit"] = measure(orbit);
     out["draws_target"] = 64;
     return out;
+}
+
+// `--view FILE`: the engine's cut against the best known method for the same views (issues 15
+// and 18: full/lod on the fly-over). Per sampled frame of a camera path (default: `unilod bench`'s
+// fly-over, 200 frames; 1920 x 1080, P, nearest distance, max metric):
+// - the cut (lod/cut.h selectCut, what `bench` draws): triangles drawn, triangles whose bounding
+//   box meets the view frustum, draws;
+// - a view-dependent greedy-insertion TIN of the whole model's points (every leaf point once,
+//   mergedLeaves; no river constraints): each point p on screen must lie within its own tolerance
+//   h_lim(p) = lod.h blockTolerance for a box that is the point alone (S = |p - eye|, the same
+//   P-pixel bound the cut applies per box: the tightest a per-point method can use), points off
+//   screen need nothing (weight 0; greedytin.h setWeights); its triangles that meet the frustum.
+// The TIN is the Garland-Heckbert method with the engine's own screen-space criterion at point
+// granularity: what a view-dependent simplification of the same DEM needs, rivers aside (run it
+// on a model built without rivers for the like-for-like ratio).
+json viewBenchmark(const std::string& path, const std::string& cameraPath, std::uint32_t frames,
+                   std::uint32_t every, double pixels) {
+    unilod::format::Reader reader;
+    std::string error;
+    if (!reader.open(path, error)) fail(error);
+    std::vector<std::vector<unilod::format::Level>> levels;
+    std::vector<unilod::engine::LodNode> nodes;
+    readLodNodes(reader, levels, nodes);
+    unilod::engine::CameraPath route = unilod::engine::defaultFlyOver(reader.header());
+    if (!cameraPath.empty() && !unilod::engine::loadCameraPath(cameraPath, route, error))
+        fail(error);
+    const std::vector<unilod::engine::Camera> cameras =
+        unilod::engine::sampleCameraPath(route, frames);
+    const unilod::format::Block all = mergedLeaves(path);
+    const unilod::PointSet set = blockPoints(all);
+    const double width = 1920, height = 1080, aspect = width / height;
+    constexpr double kDegree = 3.14159265358979323846 / 180.0;
+    // A triangle meets the view when its bounding box does (conservative, as the cut's culling).
+    const auto inView = [&](const unilod::engine::Camera& c, const double a[3], const double b[3],
+                            const double d[3]) {
+        double lo[3], hi[3];
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::min({a[k], b[k], d[k]});
+            hi[k] = std::max({a[k], b[k], d[k]});
+        }
+        return unilod::engine::boxInFrustum(c, aspect, lo, hi);
+    };
+    json rows = json::array();
+    std::vector<double> ratios;
+    std::uint64_t sumCut = 0, sumCutInView = 0, sumTin = 0, sumBlockTin = 0;
+    double tinSeconds = 0;
+    std::vector<double> weights(set.points.size()), blockWeights(set.points.size());
+    // A greedy TIN of every point to its weight (greedytin.h setWeights); its triangles that
+    // meet the view.
+    const auto weightedTin = [&](const unilod::engine::Camera& c, const std::vector<double>& w,
+                                 std::uint32_t& vertices) {
+        unilod::GreedyTin tin;
+        std::string why;
+        tin.setWeights(&w);
+        if (!tin.init(set, why)) fail(why);
+        tin.refineTo(1.0);
+        vertices = tin.vertexCount();
+        std::uint64_t count = 0;
+        for (const unilod::TriangleTriple& t : unilod::collectTriangles(tin.cdt())) {
+            double p[3][3];
+            for (int k = 0; k < 3; ++k) {
+                const unilod::Point& q = set.points[t.v[k]];
+                p[k][0] = q.x, p[k][1] = q.y, p[k][2] = q.z;
+            }
+            count += inView(c, p[0], p[1], p[2]);
+        }
+        return count;
+    };
+    for (std::uint32_t f = 0; f < cameras.size(); f += every) {
+        const unilod::engine::Camera& c = cameras[f];
+        unilod::engine::ViewSpec v;
+        v.camera = c;
+        v.widthPixels = width;
+        v.heightPixels = height;
+        v.pixels = pixels;
+        std::vector<unilod::engine::NodeChoice> cut;
+        unilod::engine::selectCut(v, nodes, unilod::format::kMetricMax, cut);
+        std::uint64_t drawn = 0, drawnInView = 0;
+        for (const unilod::engine::NodeChoice& n : cut) {
+            drawn += (*nodes[n.block].levels)[n.wanted.level].triangleCount;
+            unilod::format::BlockGeometry g;
+            if (!reader.readGeometry(n.block, int(n.wanted.level), g, error)) fail(error);
+            for (const unilod::format::Triangle& t : g.terrainIndices) {
+                double p[3][3];
+                const std::uint32_t corner[3] = {t.a, t.b, t.c};
+                for (int k = 0; k < 3; ++k) {
+                    const unilod::format::Vertex& q = g.vertices[corner[k]];
+                    p[k][0] = g.originX + q.x;
+                    p[k][1] = g.originY + q.y;
+                    p[k][2] = q.z;
+                }
+                drawnInView += inView(c, p[0], p[1], p[2]);
+            }
+        }
+        // Each point's own tolerance (a box of one point), 0 weight off screen.
+        const unilod::engine::ViewTolerance tolerance{pixels, c.fovDegrees * kDegree, width,
+                                                      height,
+                                                      unilod::engine::DistanceMode::Nearest};
+        std::uint64_t onScreen = 0;
+        for (std::size_t m = 0; m < set.points.size(); ++m) {
+            const double at[3] = {set.points[m].x, set.points[m].y, set.points[m].z};
+            if (!unilod::engine::boxInFrustum(c, aspect, at, at)) {
+                weights[m] = 0;
+                continue;
+            }
+            ++onScreen;
+            const double s = unilod::engine::nearestBoxDistance(c.eye, at, at);
+            const double hLim = unilod::engine::blockTolerance(
+                tolerance, s, unilod::engine::boxView(c, at, at));
+            weights[m] = 1.0 / std::max(hLim, 1e-6);
+        }
+        const auto start = std::chrono::steady_clock::now();
+        std::uint32_t tinVertices = 0;
+        const std::uint64_t tinInView = weightedTin(c, weights, tinVertices);
+        tinSeconds +=
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        // The same TIN with the cut's own tolerances: every point on screen within the h_lim of
+        // the drawn node(s) holding it (a point on a shared border: the smallest). What the
+        // per-node granularity of the tolerance costs, apart from the order, the locked borders
+        // and the stored levels.
+        std::fill(blockWeights.begin(), blockWeights.end(), 0.0);
+        for (const unilod::engine::NodeChoice& n : cut) {
+            const unilod::engine::LodNode& node = nodes[n.block];
+            const double w = 1.0 / std::max(n.hLim, 1e-6);
+            for (std::size_t m = 0; m < set.points.size(); ++m) {
+                const unilod::Point& q = set.points[m];
+                if (weights[m] > 0 && q.x >= node.boxMin[0] - 1e-3 &&
+                    q.x <= node.boxMax[0] + 1e-3 && q.y >= node.boxMin[1] - 1e-3 &&
+                    q.y <= node.boxMax[1] + 1e-3)
+                    blockWeights[m] = std::max(blockWeights[m], w);
+            }
+        }
+        std::uint32_t blockTinVertices = 0;
+        const std::uint64_t blockTinInView = weightedTin(c, blockWeights, blockTinVertices);
+        const double ratio = tinInView > 0 ? double(drawnInView) / double(tinInView) : 0.0;
+        if (tinInView > 0) ratios.push_back(ratio);
+        sumCut += drawn;
+        sumCutInView += drawnInView;
+        sumTin += tinInView;
+        sumBlockTin += blockTinInView;
+        rows.push_back({{"frame", f},
+                        {"cut_draws", cut.size()},
+                        {"cut_triangles", drawn},
+                        {"cut_triangles_in_view", drawnInView},
+                        {"points_on_screen", onScreen},
+                        {"view_tin_vertices", tinVertices},
+                        {"node_tolerance_tin_triangles_in_view", blockTinInView},
+                        {"view_tin_triangles_in_view", tinInView},
+                        {"ratio_in_view", std::round(ratio * 1000.0) / 1000.0}});
+    }
+    std::sort(ratios.begin(), ratios.end());
+    return {{"benchmark", "view_cut_vs_view_dependent_greedy_tin"},
+            {"file", path},
+            {"path", cameraPath.empty() ? "default fly-over" : cameraPath},
+            {"frames", frames},
+            {"every", every},
+            {"pixels", pixels},
+            {"size", {width, height}},
+            {"points", set.points.size()},
+            {"tin_seconds", tinSeconds},
+            {"rows", rows},
+            {"sum_cut_triangles", sumCut},
+            {"sum_cut_triangles_in_view", sumCutInView},
+            {"sum_view_tin_triangles_in_view", sumTin},
+            {"ratio_of_sums_in_view",
+             sumTin > 0 ? double(sumCutInView) / double(sumTin) : 0.0},
+            {"sum_node_tolerance_tin_triangles_in_view", sumBlockTin},
+            {"median_ratio_in_view", ratios.empty() ? 0.0 : ratios[ratios.size() / 2]}};
 }
 
 // Rivers as a baseline needs them: each river chain of the one block (full-resolution river
@@ -627,6 +796,22 @@ int main(int argc, char** argv) {
                    "the tree builds' hand-over (unilod build --handoff-pixels)")
         ->check(CLI::Range(1.0, 1e6));
     bool masked = false;
+    std::string viewFile, viewPath;
+    std::uint32_t viewFrames = 200, viewEvery = 10;
+    double viewPixels = 1.0;
+    app.add_option("--view", viewFile,
+                   "only the view benchmark on this .ulod file: per sampled frame, the engine's cut "
+                   "against a view-dependent greedy TIN with each point's own P-pixel tolerance")
+        ->check(CLI::ExistingFile);
+    app.add_option("--view-path", viewPath,
+                   "camera path JSON for --view (default: unilod bench's fly-over)")
+        ->check(CLI::ExistingFile);
+    app.add_option("--view-frames", viewFrames, "frames along the path for --view (default 200)")
+        ->check(CLI::Range(1u, 100000u));
+    app.add_option("--view-every", viewEvery, "measure every Nth frame for --view (default 10)")
+        ->check(CLI::Range(1u, 100000u));
+    app.add_option("--view-pixels", viewPixels, "screen-space error P for --view (default 1)")
+        ->check(CLI::Range(1e-3, 1e6));
     app.add_flag("--masked", masked,
                  "only the domain benchmark: the bundled DEM masked by a crescent against the "
                  "unmasked DEM (issue 17)");
@@ -638,6 +823,12 @@ int main(int argc, char** argv) {
                      : keep;
     fs::create_directories(work);
 
+    if (!viewFile.empty()) {
+        const json result = unilod::bench::runInChild(
+            [&] { return viewBenchmark(viewFile, viewPath, viewFrames, viewEvery, viewPixels); });
+        std::printf("%s\n", unilod::jsonText(result, 2).c_str());
+        return 0;
+    }
     if (masked) {
         const json result = maskedBenchmark(work, errors, threads);
         if (keep.empty()) fs::remove_all(work);

@@ -144,6 +144,64 @@ TEST(GreedyTin, BadInput) {
     EXPECT_NE(error.find("collinear"), std::string::npos) << error;
 }
 
+// Per-point weights (the view-dependent baseline, bench_order --view): refineTo(1) brings every
+// point within 1 / w of the surface, by brute force, and needs no point of weight 0.
+TEST(GreedyTin, WeightedPointsAreWithinTheirOwnTolerance) {
+    const PointSet set = makeGrid(48, 40, 30.0, 7);
+    // Columns 0-15: 2 m, 16-31: 10 m, 32-47: not needed (weight 0).
+    std::vector<double> weights(set.points.size());
+    for (std::size_t m = 0; m < set.points.size(); ++m) {
+        const std::size_t c = m % 48;
+        weights[m] = c < 16 ? 0.5 : c < 32 ? 0.1 : 0.0;
+    }
+    GreedyTin tin;
+    tin.setWeights(&weights);
+    std::string error;
+    ASSERT_TRUE(tin.init(set, error)) << error;
+    tin.refineTo(1.0);
+    EXPECT_LE(tin.maxError(), 1.0);
+    const Cdt& cdt = tin.cdt();
+    std::vector<ExtraSample> tight, loose;
+    for (PointId m = 0; m < set.points.size(); ++m) {
+        EXPECT_FALSE(weights[m] == 0 && cdt.isVertex(m) && m / 48 > 0 &&
+                     m / 48 < 39)
+            << "point " << m << " of weight 0 inserted";
+        const ExtraSample e{cdt.gx[m], cdt.gy[m], set.points[m].z};
+        if (weights[m] == 0.5) tight.push_back(e);
+        if (weights[m] == 0.1) loose.push_back(e);
+    }
+    EXPECT_LE(bruteForceExtraError(set, cdt, tight), 2.0 + 1e-9);
+    EXPECT_LE(bruteForceExtraError(set, cdt, loose), 10.0 + 1e-9);
+    EXPECT_GT(bruteForceExtraError(set, cdt, loose), 2.0) << "the loose part was not refined to 2 m";
+
+    // Between the uniform TINs of the tightest and the loosest tolerance.
+    std::vector<std::uint64_t> uniform;
+    ASSERT_TRUE(greedyTinTriangles(set, {2.0, 10.0}, uniform, error)) << error;
+    EXPECT_LT(tin.triangleCount(), uniform[0]);
+    EXPECT_GT(tin.triangleCount(), uniform[1] / 2);
+
+    // Weights of 1 are the unweighted TIN.
+    const std::vector<double> ones(set.points.size(), 1.0);
+    GreedyTin one;
+    one.setWeights(&ones);
+    ASSERT_TRUE(one.init(set, error)) << error;
+    one.refineTo(2.0);
+    EXPECT_EQ(one.triangleCount(), uniform[0]);
+}
+
+TEST(GreedyTin, BadWeights) {
+    const PointSet set = makeGrid(6, 5, 10.0, 1);
+    std::string error;
+    for (const std::vector<double>& w :
+         {std::vector<double>(29, 1.0), std::vector<double>(30, -1.0),
+          std::vector<double>(30, NAN), std::vector<double>(30, INFINITY)}) {
+        GreedyTin tin;
+        tin.setWeights(&w);
+        EXPECT_FALSE(tin.init(set, error)) << w.size() << " " << w[0];
+        EXPECT_NE(error.find("weight"), std::string::npos) << error;
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // With rivers as constraints (the baseline of a model that holds its rivers).
 

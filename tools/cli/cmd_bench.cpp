@@ -36,23 +36,6 @@ struct BenchCli {
     bool quiet = false;
 };
 
-// Without --path: a straight oblique fly-over of the data at a fifth of its width above its
-// top, looking ahead and down 25 degrees, from the south-west corner to the north-east one.
-engine::CameraPath defaultPath(const format::Header& h) {
-    const double w = std::max(h.maxX - h.minX, h.maxY - h.minY);
-    engine::CameraPath p;
-    engine::Camera a, b;
-    a.eye[0] = h.minX + 0.1 * (h.maxX - h.minX);
-    a.eye[1] = h.minY + 0.1 * (h.maxY - h.minY);
-    b.eye[0] = h.minX + 0.9 * (h.maxX - h.minX);
-    b.eye[1] = h.minY + 0.9 * (h.maxY - h.minY);
-    a.eye[2] = b.eye[2] = h.maxZ + 0.2 * w;
-    a.yawDegrees = b.yawDegrees = 45;
-    a.pitchDegrees = b.pitchDegrees = -25;
-    p.keyframes = {a, b};
-    return p;
-}
-
 int run(BenchCli& c) {
     if (!c.engine.apply(c.o.scene, c.o.device, c.o.width, c.o.height, "bench")) return 2;
     c.o.runs.clear();
@@ -97,7 +80,7 @@ int run(BenchCli& c) {
             std::fprintf(stderr, "unilod bench: error: %s\n", error.c_str());
             return 1;
         }
-        path = defaultPath(reader.header());
+        path = engine::defaultFlyOver(reader.header());
     }
     c.o.cameras = engine::sampleCameraPath(path, c.frames);
     nlohmann::json out;
