@@ -11,7 +11,11 @@ double dot(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b
 }  // namespace
 
 double boxMinDepth(const Camera& camera, const double boxMin[3], const double boxMax[3]) {
-    const CameraBasis b = cameraBasis(camera);
+    return boxMinDepth(camera, cameraBasis(camera), boxMin, boxMax);
+}
+
+double boxMinDepth(const Camera& camera, const CameraBasis& b, const double boxMin[3],
+                   const double boxMax[3]) {
     // Per axis the corner coordinate that minimises the dot product with the forward vector.
     double depth = 0;
     for (int k = 0; k < 3; ++k)
@@ -20,9 +24,13 @@ double boxMinDepth(const Camera& camera, const double boxMin[3], const double bo
 }
 
 BoxView boxView(const Camera& camera, const double boxMin[3], const double boxMax[3]) {
-    const CameraBasis b = cameraBasis(camera);
+    return boxView(camera, cameraBasis(camera), boxMin, boxMax);
+}
+
+BoxView boxView(const Camera& camera, const CameraBasis& b, const double boxMin[3],
+                const double boxMax[3]) {
     BoxView v;
-    v.minDepth = boxMinDepth(camera, boxMin, boxMax);
+    v.minDepth = boxMinDepth(camera, b, boxMin, boxMax);
     const bool beside = camera.eye[2] >= boxMin[2] && camera.eye[2] <= boxMax[2];
     double axisCos = 1, verticalSin = beside ? 1.0 : 0.0;
     for (int c = 0; c < 8; ++c) {
@@ -80,7 +88,11 @@ shader::mat4 gridViewProjection(double halfHeight, double aspect) {
 
 bool boxInFrustum(const Camera& camera, double aspect, const double boxMin[3],
                   const double boxMax[3]) {
-    const CameraBasis b = cameraBasis(camera);
+    return boxInFrustum(camera, cameraBasis(camera), aspect, boxMin, boxMax);
+}
+
+bool boxInFrustum(const Camera& camera, const CameraBasis& b, double aspect,
+                  const double boxMin[3], const double boxMax[3]) {
     const double ty = std::tan(camera.fovDegrees * kDegree / 2.0), tx = ty * aspect;
     // Inward plane normals through the eye (side planes) and the near plane.
     double planes[4][3];

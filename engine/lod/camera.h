@@ -35,6 +35,9 @@ shader::mat4 gridViewProjection(double halfHeight, double aspect);
 // smallest depth of any point of the box (depth is linear). Negative when part of the box is
 // behind the eye.
 double boxMinDepth(const Camera& camera, const double boxMin[3], const double boxMax[3]);
+// The same with the camera's basis already computed (cameraBasis(camera)): per-frame loops.
+double boxMinDepth(const Camera& camera, const CameraBasis& basis, const double boxMin[3],
+                   const double boxMax[3]);
 
 // How a box lies in the view: what the nearest-distance tolerance needs (lod.h
 // effectiveDistance). Every value is exact for the box (not only its corners): each is an
@@ -59,11 +62,15 @@ struct BoxView {
     bool horizontal = false;
 };
 BoxView boxView(const Camera& camera, const double boxMin[3], const double boxMax[3]);
+BoxView boxView(const Camera& camera, const CameraBasis& basis, const double boxMin[3],
+                const double boxMax[3]);
 
 // False when the axis-aligned box lies entirely outside the perspective frustum (conservative:
 // a box is kept unless one frustum plane has all 8 corners outside).
 bool boxInFrustum(const Camera& camera, double aspect, const double boxMin[3],
                   const double boxMax[3]);
+bool boxInFrustum(const Camera& camera, const CameraBasis& basis, double aspect,
+                  const double boxMin[3], const double boxMax[3]);
 
 // The grid view's culling: false when the box's x/y extent misses the viewport rectangle.
 bool boxInGridView(const Camera& camera, double halfHeight, double aspect, const double boxMin[3],

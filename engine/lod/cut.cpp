@@ -105,7 +105,43 @@ double nodeTolerance(const ViewSpec& view, const LodNode& node, double* distance
     if (box != nullptr) *box = place;
     const ViewTolerance tolerance{view.pixels, view.camera.fovDegrees * kDegree, view.widthPixels,
                                   view.heightPixels, view.distance};
-    return blockTolerance(tolerance, s, place);
+    const double whole = blockTolerance(tolerance, s, place);
+    if (view.distance != DistanceMode::Nearest || !view.direction) return whole;
+    // A node small against its distance gains little (every column's S is within its diagonal
+    // of the box's): the whole box, and no per-column work.
+    const double diagonal = std::hypot(node.boxMax[0] - node.boxMin[0], node.boxMax[1] - node.boxMin[1]);
+    if (diagonal <= kColumnsBelowDistance * s) return whole;
+    // Columns (cut.h kToleranceColumns): the bound per column, for the points on screen.
+    const double aspect = view.widthPixels / view.heightPixels;
+    const double cornerCos = std::sqrt(frustumEdgeFactor(tolerance.fovRadians, aspect));
+    const double focal = view.heightPixels / (2.0 * std::tan(tolerance.fovRadians / 2.0));
+    const CameraBasis basis = cameraBasis(view.camera);
+    double smallest = INFINITY;
+    const double dx = (node.boxMax[0] - node.boxMin[0]) / kToleranceColumns;
+    const double dy = (node.boxMax[1] - node.boxMin[1]) / kToleranceColumns;
+    for (int i = 0; i < kToleranceColumns; ++i) {
+        for (int j = 0; j < kToleranceColumns; ++j) {
+            const double lo[3] = {node.boxMin[0] + i * dx, node.boxMin[1] + j * dy, node.boxMin[2]};
+            const double hi[3] = {i + 1 == kToleranceColumns ? node.boxMax[0] : lo[0] + dx,
+                                  j + 1 == kToleranceColumns ? node.boxMax[1] : lo[1] + dy,
+                                  node.boxMax[2]};
+            if (view.cull && !boxInFrustum(view.camera, basis, aspect, lo, hi)) continue;
+            BoxView column = boxView(view.camera, basis, lo, hi);
+            column.horizontal = node.horizontal;
+            double h = blockTolerance(tolerance, nearestBoxDistance(view.camera.eye, lo, hi),
+                                      column);
+            // A river's drawn point q may lie in another column, up to h from its original
+            // point p: its depth is then only >= p's bound D - h, and f h / ((D - h) c) <= P
+            // holds for h = P c D / (f + P c), the column's bound times f / (f + P c).
+            if (node.horizontal) {
+                const double c = std::max(cornerCos, column.axisCos);
+                h *= focal / (focal + view.pixels * c);
+            }
+            smallest = std::min(smallest, h);
+        }
+    }
+    // No column on screen (the node's box is kept by the conservative cull): the whole box.
+    return smallest == INFINITY ? whole : std::max(whole, smallest);
 }
 
 NodeChoice chooseNode(const ViewSpec& view, const LodNode& node, std::uint32_t index,

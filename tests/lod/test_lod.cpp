@@ -150,6 +150,60 @@ TEST(Cut, RiversTakeNoCreditForASteepView) {
     EXPECT_TRUE(engine::nodeVisible(v, a.boxMin, a.boxMax));
 }
 
+// Columns (cut.h kToleranceColumns): a large node whose nearest edge is below the eye, off
+// screen, gets a larger h_lim than its whole box allows, yet never more than any point of it on screen allows by the
+// same bound taken at the point alone; a node small against its distance keeps the box's bound.
+TEST(Cut, ColumnsBoundEveryPointOnScreen) {
+    const std::vector<format::Level> dry = threeLevels(false), wet = threeLevels(true);
+    engine::ViewSpec v;
+    v.camera.eye[0] = 4000, v.camera.eye[1] = -300, v.camera.eye[2] = 800;
+    v.camera.yawDegrees = 0;  // north, over the node
+    v.camera.pitchDegrees = -20;
+    v.widthPixels = 1920, v.heightPixels = 1080;
+    const double fov = v.camera.fovDegrees * 3.14159265358979323846 / 180;
+    const engine::ViewTolerance alone{v.pixels, fov, v.widthPixels, v.heightPixels,
+                                      engine::DistanceMode::Nearest};
+    for (const auto* levels : {&dry, &wet}) {
+        const engine::LodNode n = nodeAt(0, 0, 8000, *levels);
+        double s = 0;
+        engine::BoxView box;
+        const double h = engine::nodeTolerance(v, n, &s, &box);
+        EXPECT_GE(h, engine::blockTolerance(alone, s, box));
+        if (!n.horizontal) {
+            EXPECT_GT(h, engine::blockTolerance(alone, s, box) * 1.02)
+                << "the columns at the near edge are partly off screen, with better view angles";
+        }
+        std::size_t onScreen = 0;
+        for (int i = 0; i <= 80; ++i) {
+            for (int j = 0; j <= 80; ++j) {
+                for (double z : {0.0, 5.0, 10.0}) {
+                    const double p[3] = {100.0 * i, 100.0 * j, z};
+                    if (!engine::boxInFrustum(v.camera, v.widthPixels / v.heightPixels, p, p))
+                        continue;
+                    ++onScreen;
+                    engine::BoxView at = engine::boxView(v.camera, p, p);
+                    at.horizontal = n.horizontal;
+                    const double own = engine::blockTolerance(
+                        alone, engine::nearestBoxDistance(v.camera.eye, p, p), at);
+                    ASSERT_LE(h, own) << "point " << p[0] << ", " << p[1] << ", " << z;
+                }
+            }
+        }
+        EXPECT_GT(onScreen, 1000u);
+    }
+    // Far away (diagonal under a quarter of S): the whole box's bound.
+    const engine::LodNode far = nodeAt(20000, 20000, 1000, dry);
+    double s = 0;
+    engine::BoxView box;
+    const double h = engine::nodeTolerance(v, far, &s, &box);
+    EXPECT_EQ(h, engine::blockTolerance(alone, s, box));
+    // The paper's centre distance: Eq. 11 at the centre, no columns.
+    v.distance = engine::DistanceMode::Centre;
+    const engine::LodNode n = nodeAt(0, 0, 8000, dry);
+    const double centre = engine::nodeTolerance(v, n, &s);
+    EXPECT_EQ(centre, engine::toleranceFor(1, s, fov, 1080));
+}
+
 TEST(Cut, GridModeCullsTheTopDownRectangle) {
     const std::vector<format::Level> levels = threeLevels(false);
     std::vector<engine::LodNode> nodes;
