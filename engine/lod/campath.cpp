@@ -13,7 +13,9 @@ namespace unilod::engine {
 
 namespace {
 
-bool finiteJson(const nlohmann::json& j) { return j.is_number() && std::isfinite(j.get<double>()); }
+bool finiteJson(const nlohmann::json& j) {
+    return j.is_number() && std::isfinite(j.get<double>());
+}
 
 }  // namespace
 
@@ -61,20 +63,22 @@ bool loadCameraPath(const std::string& path, CameraPath& out, std::string& error
     for (std::size_t i = 0; i < j["keyframes"].size(); ++i) {
         const nlohmann::json& k = j["keyframes"][i];
         const std::string where = path + ": keyframe " + std::to_string(i);
-        if (!k.is_object() || !k.contains("eye") || !k["eye"].is_array() ||
-            k["eye"].size() != 3 || !k.contains("yaw") || !k.contains("pitch")) {
+        if (!k.is_object() || !k.contains("eye") || !k["eye"].is_array() || k["eye"].size() != 3 ||
+            !k.contains("yaw") || !k.contains("pitch")) {
             error = where + ": needs \"eye\": [x, y, z], \"yaw\" and \"pitch\"";
             return false;
         }
         Camera c;
         c.fovDegrees = fov;
         bool finite = finiteJson(k["yaw"]) && finiteJson(k["pitch"]);
-        for (int e = 0; e < 3; ++e) finite = finite && finiteJson(k["eye"][std::size_t(e)]);
+        for (int e = 0; e < 3; ++e)
+            finite = finite && finiteJson(k["eye"][std::size_t(e)]);
         if (!finite) {
             error = where + ": a value is not a finite number";
             return false;
         }
-        for (int e = 0; e < 3; ++e) c.eye[e] = k["eye"][std::size_t(e)].get<double>();
+        for (int e = 0; e < 3; ++e)
+            c.eye[e] = k["eye"][std::size_t(e)].get<double>();
         c.yawDegrees = k["yaw"].get<double>();
         c.pitchDegrees = k["pitch"].get<double>();
         if (!validCamera(c)) {
@@ -100,7 +104,8 @@ std::vector<Camera> sampleCameraPath(const CameraPath& path, std::uint32_t frame
         const Camera& p = path.keyframes[a];
         const Camera& q = path.keyframes[a + 1];
         Camera c = p;
-        for (int e = 0; e < 3; ++e) c.eye[e] = p.eye[e] + u * (q.eye[e] - p.eye[e]);
+        for (int e = 0; e < 3; ++e)
+            c.eye[e] = p.eye[e] + u * (q.eye[e] - p.eye[e]);
         const double dyaw = std::remainder(q.yawDegrees - p.yawDegrees, 360.0);
         c.yawDegrees = p.yawDegrees + u * dyaw;
         c.pitchDegrees = p.pitchDegrees + u * (q.pitchDegrees - p.pitchDegrees);

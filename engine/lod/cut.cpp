@@ -1,6 +1,7 @@
 #include "cut.h"
 
 #include <algorithm>
+#include <array>
 #include <cassert>
 #include <cmath>
 #include <set>
@@ -80,9 +81,15 @@ bool outlineMoves(const format::Block& b) {
                             b.maxY);
 }
 
-LodNode lodNode(const format::BlockGeometry& g) { return nodeOf(g, outlineMoves(g)); }
-LodNode lodNode(const format::Block& b) { return nodeOf(b, outlineMoves(b)); }
-LodNode lodNode(const format::BlockInfo& info) { return placedNode(info); }
+LodNode lodNode(const format::BlockGeometry& g) {
+    return nodeOf(g, outlineMoves(g));
+}
+LodNode lodNode(const format::Block& b) {
+    return nodeOf(b, outlineMoves(b));
+}
+LodNode lodNode(const format::BlockInfo& info) {
+    return placedNode(info);
+}
 
 bool nodeVisible(const ViewSpec& view, const double boxMin[3], const double boxMax[3]) {
     if (view.kind == ViewSpec::Kind::Uniform || !view.cull || !view.direction) return true;
@@ -109,36 +116,55 @@ double nodeTolerance(const ViewSpec& view, const LodNode& node, double* distance
     if (view.distance != DistanceMode::Nearest || !view.direction) return whole;
     // A node small against its distance gains little (every column's S is within its diagonal
     // of the box's): the whole box, and no per-column work.
-    const double diagonal = std::hypot(node.boxMax[0] - node.boxMin[0], node.boxMax[1] - node.boxMin[1]);
+    const double diagonal =
+        std::hypot(node.boxMax[0] - node.boxMin[0], node.boxMax[1] - node.boxMin[1]);
     if (diagonal <= kColumnsBelowDistance * s) return whole;
     // Columns (cut.h kToleranceColumns): the bound per column, for the points on screen.
     const double aspect = view.widthPixels / view.heightPixels;
     const double cornerCos = std::sqrt(frustumEdgeFactor(tolerance.fovRadians, aspect));
     const double focal = view.heightPixels / (2.0 * std::tan(tolerance.fovRadians / 2.0));
     const CameraBasis basis = cameraBasis(view.camera);
-    double smallest = INFINITY;
     const double dx = (node.boxMax[0] - node.boxMin[0]) / kToleranceColumns;
     const double dy = (node.boxMax[1] - node.boxMin[1]) / kToleranceColumns;
+    struct Column {
+        double lo[3], hi[3], s;
+    };
+    std::array<Column, kToleranceColumns * kToleranceColumns> columns;
     for (int i = 0; i < kToleranceColumns; ++i) {
         for (int j = 0; j < kToleranceColumns; ++j) {
-            const double lo[3] = {node.boxMin[0] + i * dx, node.boxMin[1] + j * dy, node.boxMin[2]};
-            const double hi[3] = {i + 1 == kToleranceColumns ? node.boxMax[0] : lo[0] + dx,
-                                  j + 1 == kToleranceColumns ? node.boxMax[1] : lo[1] + dy,
-                                  node.boxMax[2]};
-            if (view.cull && !boxInFrustum(view.camera, basis, aspect, lo, hi)) continue;
-            BoxView column = boxView(view.camera, basis, lo, hi);
-            column.horizontal = node.horizontal;
-            double h = blockTolerance(tolerance, nearestBoxDistance(view.camera.eye, lo, hi),
-                                      column);
-            // A river's drawn point q may lie in another column, up to h from its original
-            // point p: its depth is then only >= p's bound D - h, and f h / ((D - h) c) <= P
-            // holds for h = P c D / (f + P c), the column's bound times f / (f + P c).
-            if (node.horizontal) {
-                const double c = std::max(cornerCos, column.axisCos);
-                h *= focal / (focal + view.pixels * c);
-            }
-            smallest = std::min(smallest, h);
+            Column& k = columns[std::size_t(i * kToleranceColumns + j)];
+            k.lo[0] = node.boxMin[0] + i * dx, k.lo[1] = node.boxMin[1] + j * dy;
+            k.lo[2] = node.boxMin[2];
+            k.hi[0] = i + 1 == kToleranceColumns ? node.boxMax[0] : k.lo[0] + dx;
+            k.hi[1] = j + 1 == kToleranceColumns ? node.boxMax[1] : k.lo[1] + dy;
+            k.hi[2] = node.boxMax[2];
+            k.s = nearestBoxDistance(view.camera.eye, k.lo, k.hi);
         }
+    }
+    // Nearest first; a column's bound is at least P S cos^2(theta_c) / (f + P) (c >= cos
+    // theta_c, depth >= S cos theta_c, sin phi <= 1, the river factor >= f / (f + P)), so once
+    // that exceeds the smallest bound so far no farther column can lower it, and once the
+    // smallest is down to the whole box's the answer is the whole box's.
+    std::stable_sort(columns.begin(), columns.end(),
+                     [](const Column& a, const Column& b) { return a.s < b.s; });
+    double smallest = INFINITY;
+    for (const Column& k : columns) {
+        if (view.pixels * k.s * cornerCos * cornerCos / (focal + view.pixels) * (1 - 1e-12) >=
+            smallest)
+            break;
+        if (view.cull && !boxInFrustum(view.camera, basis, aspect, k.lo, k.hi)) continue;
+        BoxView column = boxView(view.camera, basis, k.lo, k.hi);
+        column.horizontal = node.horizontal;
+        double h = blockTolerance(tolerance, k.s, column);
+        // A river's drawn point q may lie in another column, up to h from its original point
+        // p: its depth is then only >= p's bound D - h, and f h / ((D - h) c) <= P holds for
+        // h = P c D / (f + P c), the column's bound times f / (f + P c).
+        if (node.horizontal) {
+            const double c = std::max(cornerCos, column.axisCos);
+            h *= focal / (focal + view.pixels * c);
+        }
+        smallest = std::min(smallest, h);
+        if (smallest <= whole) return whole;
     }
     // No column on screen (the node's box is kept by the conservative cull): the whole box.
     return smallest == INFINITY ? whole : std::max(whole, smallest);
@@ -165,7 +191,8 @@ void selectCut(const ViewSpec& view, const std::vector<LodNode>& nodes, std::uin
     for (const LodNode& n : nodes) {
         if (n.firstChild == kNoChild) continue;
         assert(std::size_t(n.firstChild) + n.childCount <= nodes.size());
-        for (std::uint32_t c = 0; c < n.childCount; ++c) isChild[n.firstChild + c] = 1;
+        for (std::uint32_t c = 0; c < n.childCount; ++c)
+            isChild[n.firstChild + c] = 1;
     }
     std::vector<std::uint32_t> stack;
     for (std::uint32_t i = std::uint32_t(nodes.size()); i-- > 0;)
@@ -181,7 +208,8 @@ void selectCut(const ViewSpec& view, const std::vector<LodNode>& nodes, std::uin
             const double start =
                 metric == format::kMetricPaper ? finest.errorPaper : finest.errorMax;
             if (view.finest || start > c.hLim) {
-                for (std::uint32_t k = n.childCount; k-- > 0;) stack.push_back(n.firstChild + k);
+                for (std::uint32_t k = n.childCount; k-- > 0;)
+                    stack.push_back(n.firstChild + k);
                 continue;
             }
         }

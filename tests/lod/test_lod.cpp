@@ -57,7 +57,8 @@ std::vector<format::Level> threeLevels(bool rivers) {
     return levels;
 }
 
-engine::LodNode nodeAt(double x0, double y0, double size, const std::vector<format::Level>& levels) {
+engine::LodNode nodeAt(double x0, double y0, double size,
+                       const std::vector<format::Level>& levels) {
     engine::LodNode n;
     n.boxMin[0] = x0, n.boxMin[1] = y0, n.boxMin[2] = 0;
     n.boxMax[0] = x0 + size, n.boxMax[1] = y0 + size, n.boxMax[2] = 10;
@@ -69,7 +70,8 @@ engine::LodNode nodeAt(double x0, double y0, double size, const std::vector<form
 TEST(Cut, UniformToleranceChoosesEveryNodeInOrder) {
     const std::vector<format::Level> levels = threeLevels(false);
     std::vector<engine::LodNode> nodes;
-    for (int i = 0; i < 4; ++i) nodes.push_back(nodeAt(1000.0 * i, 0, 1000, levels));
+    for (int i = 0; i < 4; ++i)
+        nodes.push_back(nodeAt(1000.0 * i, 0, 1000, levels));
     engine::ViewSpec v;
     v.kind = engine::ViewSpec::Kind::Uniform;
     v.hLim = 2.5;
@@ -84,14 +86,16 @@ TEST(Cut, UniformToleranceChoosesEveryNodeInOrder) {
     }
     v.finest = true;
     engine::selectCut(v, nodes, format::kMetricMax, cut);
-    for (const engine::NodeChoice& c : cut) EXPECT_EQ(c.wanted.level, 0u);
+    for (const engine::NodeChoice& c : cut)
+        EXPECT_EQ(c.wanted.level, 0u);
 }
 
 TEST(Cut, CameraCullsAndSortsNearestFirst) {
     const std::vector<format::Level> levels = threeLevels(false);
     // A row of 1 km blocks along x; the eye at x = 500 m, 300 m up, looking east and down.
     std::vector<engine::LodNode> nodes;
-    for (int i = -3; i < 20; ++i) nodes.push_back(nodeAt(1000.0 * i, -500, 1000, levels));
+    for (int i = -3; i < 20; ++i)
+        nodes.push_back(nodeAt(1000.0 * i, -500, 1000, levels));
     engine::ViewSpec v;
     v.camera.eye[0] = 500, v.camera.eye[1] = 0, v.camera.eye[2] = 300;
     v.camera.yawDegrees = 90;
@@ -151,8 +155,9 @@ TEST(Cut, RiversTakeNoCreditForASteepView) {
 }
 
 // Columns (cut.h kToleranceColumns): a large node whose nearest edge is below the eye, off
-// screen, gets a larger h_lim than its whole box allows, yet never more than any point of it on screen allows by the
-// same bound taken at the point alone; a node small against its distance keeps the box's bound.
+// screen, gets a larger h_lim than its whole box allows, yet never more than any point of it on
+// screen allows by the same bound taken at the point alone; a node small against its distance keeps
+// the box's bound.
 TEST(Cut, ColumnsBoundEveryPointOnScreen) {
     const std::vector<format::Level> dry = threeLevels(false), wet = threeLevels(true);
     engine::ViewSpec v;
@@ -207,7 +212,8 @@ TEST(Cut, ColumnsBoundEveryPointOnScreen) {
 TEST(Cut, GridModeCullsTheTopDownRectangle) {
     const std::vector<format::Level> levels = threeLevels(false);
     std::vector<engine::LodNode> nodes;
-    for (int i = 0; i < 10; ++i) nodes.push_back(nodeAt(1000.0 * i, 0, 1000, levels));
+    for (int i = 0; i < 10; ++i)
+        nodes.push_back(nodeAt(1000.0 * i, 0, 1000, levels));
     engine::ViewSpec v;
     v.kind = engine::ViewSpec::Kind::Grid;
     v.camera.eye[0] = 500, v.camera.eye[1] = 500, v.camera.eye[2] = 1000;
@@ -266,7 +272,8 @@ TEST(Cut, TreeDrawsANodeWhenItsStartingErrorFits) {
     v.finest = true;
     engine::selectCut(v, t.nodes, format::kMetricMax, cut);
     ASSERT_EQ(cut.size(), 4u);
-    for (const engine::NodeChoice& c : cut) EXPECT_EQ(c.wanted.level, 0u);
+    for (const engine::NodeChoice& c : cut)
+        EXPECT_EQ(c.wanted.level, 0u);
 }
 
 TEST(Cut, TreeCullsSubtreesAndDescendsNearTheEye) {
@@ -281,7 +288,8 @@ TEST(Cut, TreeCullsSubtreesAndDescendsNearTheEye) {
     std::vector<engine::NodeChoice> cut;
     engine::selectCut(v, t.nodes, format::kMetricMax, cut);
     ASSERT_FALSE(cut.empty());
-    for (const engine::NodeChoice& c : cut) EXPECT_NE(c.block, 0u) << "the root was drawn";
+    for (const engine::NodeChoice& c : cut)
+        EXPECT_NE(c.block, 0u) << "the root was drawn";
     EXPECT_EQ(cut.front().block, 1u);  // the child under the eye, nearest first
     // The same view from 100 km up looking down: the root alone.
     v.camera.eye[2] = 100e3;
@@ -312,12 +320,13 @@ format::Block squareBlock(const std::vector<format::Vertex>& vertices,
 
 TEST(Cut, OutlineMovesUnlessTheCoarsestOutlineIsTheRectangle) {
     // Two triangles covering the square: the outline is the rectangle.
-    const format::Block full =
-        squareBlock({{0, 0, 0, 0}, {10, 0, 0, 0}, {10, 10, 0, 0}, {0, 10, 0, 0}}, {{0, 1, 2}, {0, 2, 3}});
+    const format::Block full = squareBlock(
+        {{0, 0, 0, 0}, {10, 0, 0, 0}, {10, 10, 0, 0}, {0, 10, 0, 0}}, {{0, 1, 2}, {0, 2, 3}});
     EXPECT_FALSE(engine::outlineMoves(full));
     EXPECT_FALSE(engine::lodNode(full).horizontal);
     // One triangle: the diagonal is an outline edge inside the box (nodata beyond it).
-    const format::Block half = squareBlock({{0, 0, 0, 0}, {10, 0, 0, 0}, {10, 10, 0, 0}}, {{0, 1, 2}});
+    const format::Block half =
+        squareBlock({{0, 0, 0, 0}, {10, 0, 0, 0}, {10, 10, 0, 0}}, {{0, 1, 2}});
     EXPECT_TRUE(engine::outlineMoves(half));
     EXPECT_TRUE(engine::lodNode(half).horizontal);
 }
