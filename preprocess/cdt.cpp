@@ -223,7 +223,8 @@ void Cdt::assignSides(const std::vector<std::uint32_t>& slots) {
     for (std::uint32_t t : slots) {
         if (triangleAlive(t)) mark_[t] = member;
     }
-    std::vector<std::uint32_t> queue;
+    std::vector<std::uint32_t>& queue = sideQueue_;
+    queue.clear();
     for (std::uint32_t t : slots) {
         if (mark_[t] != member) continue;
         if (isGhost(t)) {
@@ -260,6 +261,14 @@ void Cdt::assignSides(const std::vector<std::uint32_t>& slots) {
     for (std::uint32_t t : slots) {
         assert(!triangleAlive(t) || mark_[t] == done);
         (void)t;
+    }
+}
+
+void Cdt::setSides(const std::vector<std::uint32_t>& slots, bool outside) {
+    for (std::uint32_t t : slots) {
+        if (!triangleAlive(t)) continue;
+        if (trial_) saveTriangle(t);
+        tc[t] = std::uint8_t(outside ? (tc[t] | kExterior) : (tc[t] & ~kExterior));
     }
 }
 
@@ -356,14 +365,18 @@ void Cdt::planHole(const std::vector<PointId>& poly, std::vector<std::uint32_t>&
             assert(misses <= remaining && "a star-shaped polygon always has an ear");
             continue;
         }
-        triangles.insert(triangles.end(), {p, i, n});
+        triangles.push_back(p);
+        triangles.push_back(i);
+        triangles.push_back(n);
         earNext_[p] = n;
         earPrev_[n] = p;
         --remaining;
         misses = 0;
         i = p;
     }
-    triangles.insert(triangles.end(), {earPrev_[i], i, earNext_[i]});
+    triangles.push_back(earPrev_[i]);
+    triangles.push_back(i);
+    triangles.push_back(earNext_[i]);
     // Lawson flips of the diagonals until none is illegal. Neighbours: planNbr_[3t + e] is the
     // half-edge across edge e of triangle t (opposite its corner e), kNone on the polygon.
     planNbr_.assign(triangles.size(), kNone);

@@ -107,6 +107,10 @@ public:
     // ring edge of the triangle (its direction says the side), else from a neighbour across a
     // non-ring edge that is not in `slots`, else carried across non-ring edges within `slots`.
     void assignSides(const std::vector<std::uint32_t>& slots);
+    // Sets the side bit of the alive triangles in `slots` to `exterior`: what assignSides gives
+    // when every one of them lies on one side, reached from a triangle of that side across
+    // non-ring edges only (the hole of a vertex with no ring edge, and flips from it).
+    void setSides(const std::vector<std::uint32_t>& slots, bool exterior);
     // Boundary rings as built (representatives, split at vertices on their edges).
     std::vector<Polyline> boundaryRings;
 
@@ -271,7 +275,7 @@ private:
     std::uint32_t step_ = 0;
     std::uint32_t lastTriangle_ = 0;
     // Scratch buffers reused across operations.
-    std::vector<std::uint32_t> cavity_, boundary_, legal_, created_, mark_, touched_;
+    std::vector<std::uint32_t> cavity_, boundary_, legal_, created_, mark_, touched_, sideQueue_;
     std::vector<std::pair<PointId, PointId>> queue_;
     std::uint32_t markStamp_ = 0;
     std::vector<PointId> poly_;

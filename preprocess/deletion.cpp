@@ -443,6 +443,10 @@ Outcome Sequence::classify(PointId x, KeptReason& reason, PointId& a, PointId& c
 }
 
 void Sequence::apply(PointId x, PointId a, PointId c) {
+    // x's star lies on one side of the outline unless a ring edge meets x (a ring step) or x is
+    // on the hull: every triangle the step creates is then on that side.
+    const bool oneSide = !boundaryStep_ && !hullStar_;
+    const bool side = oneSide && cdt_.exterior(tris_.front() / 3);
     cdt_.beginJournal(step_ + 1);
     if (hullStar_) {
         cdt_.removeHullVertex(x, link_, tris_);
@@ -462,7 +466,19 @@ void Sequence::apply(PointId x, PointId a, PointId c) {
         sideSlots_.clear();
         for (std::uint32_t t : cdt_.journalCreated)
             if (cdt_.triangleAlive(t) && cdt_.stamp[t] == step_ + 1) sideSlots_.push_back(t);
-        cdt_.assignSides(sideSlots_);
+        if (oneSide) {
+            cdt_.setSides(sideSlots_, side);
+#ifndef NDEBUG
+            std::vector<std::uint8_t> set;
+            for (std::uint32_t t : sideSlots_)
+                set.push_back(cdt_.exterior(t));
+            cdt_.assignSides(sideSlots_);
+            for (std::size_t i = 0; i < sideSlots_.size(); ++i)
+                assert(set[i] == cdt_.exterior(sideSlots_[i]) && "one-sided step");
+#endif
+        } else {
+            cdt_.assignSides(sideSlots_);
+        }
     }
     cdt_.endJournal();
     // Created slots still alive, once each.

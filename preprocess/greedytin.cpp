@@ -364,7 +364,7 @@ void GreedyTin::distribute(const std::vector<std::uint32_t>& slots) {
 }
 
 void GreedyTin::compact() {
-    compactTrianglePool(cdt_, pool_, rangeStart_, rangeCount_, destination_);
+    compactTrianglePool(cdt_, pool_, rangeStart_, rangeCount_, spare_, compactScratch_);
     garbage_ = 0;
 }
 

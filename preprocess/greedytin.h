@@ -103,6 +103,8 @@ private:
     Cdt cdt_;
     std::vector<PoolPoint> pool_, pending_;
     std::vector<std::uint32_t> rangeStart_, rangeCount_, version_, destination_, created_;
+    std::vector<std::uint64_t> compactScratch_;  // compactTrianglePool's
+    std::vector<PoolPoint> spare_;                 // compactTrianglePool's second buffer
     std::size_t garbage_ = 0;
     std::priority_queue<Candidate> heap_;
     std::uint32_t step_ = 0;

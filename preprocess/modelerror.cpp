@@ -211,12 +211,22 @@ void ModelError::loadTriangle(const Cdt& cdt, PointId a, PointId b, PointId c, s
                               bool exterior) {
     // An exterior triangle (cdt.h "Domain") may have frame corners, which have no height.
     auto z = [&](PointId v) { return exterior ? 0.0 : set_->points[v].z; };
-    addedTris_.push_back({{cdt.gx[a], cdt.gx[b], cdt.gx[c]},
-                          {cdt.gy[a], cdt.gy[b], cdt.gy[c]},
-                          {z(a), z(b), z(c)},
-                          double(cdt.orient(a, b, c)),
-                          slot,
-                          exterior});
+    const std::int64_t x[3] = {cdt.gx[a], cdt.gx[b], cdt.gx[c]};
+    const std::int64_t y[3] = {cdt.gy[a], cdt.gy[b], cdt.gy[c]};
+    AddedTri q;
+    for (int e = 0; e < 3; ++e) {
+        // orient2d(u, w, p) = (wx - ux)(py - uy) - (wy - uy)(px - ux) for the edge u -> w
+        // opposite corner e.
+        const int u = (e + 1) % 3, w = (e + 2) % 3;
+        q.a[e] = -(y[w] - y[u]);
+        q.b[e] = x[w] - x[u];
+        q.c[e] = (y[w] - y[u]) * x[u] - (x[w] - x[u]) * y[u];
+    }
+    q.z[0] = z(a), q.z[1] = z(b), q.z[2] = z(c);
+    q.den = double(cdt.orient(a, b, c));
+    q.slot = slot;
+    q.exterior = exterior;
+    addedTris_.push_back(q);
 }
 
 double ModelError::locateError(const PoolPoint& p, std::size_t& last, std::uint32_t& slot) const {
@@ -228,11 +238,12 @@ double ModelError::locateError(const PoolPoint& p, std::size_t& last, std::uint3
     for (std::size_t k = 0; k < count; ++k) {
         const std::size_t j = k == 0 ? last : (k <= last ? k - 1 : k);
         const AddedTri& q = addedTris_[j];
-        const std::int64_t wc = orient2d(q.x[0], q.y[0], q.x[1], q.y[1], p.gx, p.gy);
+        const std::int64_t px = p.gx, py = p.gy;
+        const std::int64_t wc = q.a[2] * px + q.b[2] * py + q.c[2];
         if (wc < 0) continue;
-        const std::int64_t wa = orient2d(q.x[1], q.y[1], q.x[2], q.y[2], p.gx, p.gy);
+        const std::int64_t wa = q.a[0] * px + q.b[0] * py + q.c[0];
         if (wa < 0) continue;
-        const std::int64_t wb = orient2d(q.x[2], q.y[2], q.x[0], q.y[0], p.gx, p.gy);
+        const std::int64_t wb = q.a[1] * px + q.b[1] * py + q.c[1];
         if (wb < 0) continue;
         // A point on the outline lies in the closure of a triangle on either side: it belongs to
         // the domain's. Only a point outside the domain (no domain triangle holds it) goes to an
@@ -337,7 +348,7 @@ double ModelError::updateMax(const Cdt& cdt, const std::vector<std::uint32_t>& r
 }
 
 void ModelError::compact(const Cdt& cdt) {
-    compactTrianglePool(cdt, pool_, rangeStart_, rangeCount_, destination_);
+    compactTrianglePool(cdt, pool_, rangeStart_, rangeCount_, spare_, compactScratch_);
     garbage_ = 0;
 }
 
@@ -431,7 +442,8 @@ void ModelError::removeVertex(PointId v) {
 std::size_t ModelError::memoryBytes() const {
     return samples_.capacity() * sizeof(Sample) + pool_.capacity() * sizeof(PoolPoint) +
            (rangeStart_.capacity() + rangeCount_.capacity() + destination_.capacity()) * 4 +
-           pending_.capacity() * sizeof(PoolPoint) +
+           compactScratch_.capacity() * 8 +
+           (pending_.capacity() + spare_.capacity()) * sizeof(PoolPoint) +
            (nearHead_.capacity() + entryOf_.capacity()) * 4 + entries_.capacity() * sizeof(Entry) +
            cellStart_.capacity() * 4;
 }

@@ -122,9 +122,14 @@ private:
     // max metric: the points covered by triangle t are pool_[rangeStart_[t] + 0 .. count - 1]
     std::vector<PoolPoint> pool_, pending_;
     std::vector<std::uint32_t> rangeStart_, rangeCount_, destination_;
+    std::vector<std::uint64_t> compactScratch_;  // compactTrianglePool's
+    std::vector<PoolPoint> spare_;                 // compactTrianglePool's second buffer
     std::size_t garbage_ = 0;
+    // Edge e (opposite corner e) as an exact linear function of the point: orient2d of the
+    // edge's ends and (px, py) is a[e] px + b[e] py + c[e] (grid coordinates are at most
+    // kMaxGridCoordinate < 2^28 in size: every term and sum stays below 2^60).
     struct AddedTri {
-        std::int64_t x[3], y[3];
+        std::int64_t a[3], b[3], c[3];
         double z[3];
         double den;
         std::uint32_t slot;
