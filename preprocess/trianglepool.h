@@ -20,13 +20,15 @@ inline constexpr std::size_t kCopyCompactPoints = std::size_t(1) << 20;
 // Drops the ranges of destroyed (or empty) triangles from `pool`, keeping each live range's
 // points in their order. A small pool is copied range by range, in slot order, into `spare`
 // (reserved to the pool's capacity), which then becomes the pool; a large one is compacted in
-// place, ranges moved to the front by start. `scratch` is working memory.
+// place, ranges moved to the front by start. `scratch` is working memory; `copyLimit` (tests)
+// the largest pool that is copied.
 template <class PoolPoint>
 void compactTrianglePool(const Cdt& cdt, std::vector<PoolPoint>& pool,
                          std::vector<std::uint32_t>& rangeStart,
                          const std::vector<std::uint32_t>& rangeCount,
-                         std::vector<PoolPoint>& spare, std::vector<std::uint64_t>& scratch) {
-    if (pool.size() <= kCopyCompactPoints) {
+                         std::vector<PoolPoint>& spare, std::vector<std::uint64_t>& scratch,
+                         std::size_t copyLimit = kCopyCompactPoints) {
+    if (pool.size() <= copyLimit) {
         spare.clear();
         spare.reserve(pool.capacity());
         for (std::uint32_t t = 0; t < cdt.triangleSlots(); ++t) {

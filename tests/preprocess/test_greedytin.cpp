@@ -9,6 +9,7 @@
 #include "cdt.h"
 #include "greedytin.h"
 #include "modelerror.h"
+#include "trianglepool.h"
 
 namespace unilod {
 namespace {
@@ -38,6 +39,60 @@ PointSet makeGrid(int w, int h, double cell, std::uint64_t seed) {
 }
 
 const std::vector<double> kErrors = {0.0, 0.5, 1, 2, 5, 10, 20, 50, 200};
+
+// Both ways of compacting a pool (copy for small pools, in place by start for large ones) keep
+// every live triangle's points, in order, and drop the garbage between and after the ranges.
+TEST(TrianglePool, CopyAndInPlaceCompactionKeepEveryLiveRange) {
+    const PointSet set = makeGrid(12, 9, 10.0, 7);
+    Cdt cdt;
+    std::string error;
+    ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+    struct P {
+        std::int32_t gx, gy;
+        double z;
+    };
+    const std::uint32_t slots = cdt.triangleSlots();
+    std::vector<P> pool;
+    std::vector<std::uint32_t> start(slots, 0), count(slots, 0);
+    Lcg rng{11};
+    // Ranges appended in a scrambled slot order, each after some garbage (points no range
+    // covers), as the deletions leave them.
+    std::vector<std::uint32_t> order;
+    for (std::uint32_t t = 0; t < slots; ++t)
+        order.push_back((t * 7919u) % slots);
+    for (std::uint32_t t : order) {
+        for (int g = int(rng.next() * 3); g > 0; --g)
+            pool.push_back({-1, -1, -1.0});
+        start[t] = std::uint32_t(pool.size());
+        count[t] = std::uint32_t(rng.next() * 4);
+        for (std::uint32_t i = 0; i < count[t]; ++i)
+            pool.push_back({std::int32_t(t), std::int32_t(i), rng.next()});
+    }
+    pool.push_back({-1, -1, -1.0});
+    const std::vector<P> before = pool;
+    const std::vector<std::uint32_t> startBefore = start;
+    std::size_t live = 0;
+    for (std::uint32_t t = 0; t < slots; ++t)
+        if (cdt.triangleAlive(t)) live += count[t];
+    ASSERT_GT(live, 0u);
+    for (const std::size_t limit : {std::size_t(0), pool.size()}) {  // in place, copy
+        std::vector<P> p = before, spare;
+        std::vector<std::uint32_t> s = startBefore;
+        std::vector<std::uint64_t> scratch;
+        compactTrianglePool(cdt, p, s, count, spare, scratch, limit);
+        EXPECT_EQ(p.size(), live) << "limit " << limit;
+        for (std::uint32_t t = 0; t < slots; ++t) {
+            if (!cdt.triangleAlive(t) || count[t] == 0) continue;
+            ASSERT_LE(std::size_t(s[t]) + count[t], p.size());
+            for (std::uint32_t i = 0; i < count[t]; ++i) {
+                const P& q = p[s[t] + i];
+                const P& o = before[startBefore[t] + i];
+                EXPECT_TRUE(q.gx == o.gx && q.gy == o.gy && q.z == o.z)
+                    << "limit " << limit << " triangle " << t << " point " << i;
+            }
+        }
+    }
+}
 
 TEST(GreedyTin, BruteForceErrorIsWithinEachThreshold) {
     const PointSet set = makeGrid(33, 27, 30.0, 5);
