@@ -186,9 +186,21 @@ PointSet BlockSource::points(std::size_t b) const {
     const int i0 = r.cellCol0 / s, i1 = r.cellCol1 / s, j0 = r.cellRow0 / s, j1 = r.cellRow1 / s;
     const int w = i1 - i0 + 1, h = j1 - j0 + 1;
     auto local = [&](int i, int j) { return std::size_t(j - j0) * std::size_t(w) + std::size_t(i - i0); };
+    // The block's nodes' validity and its squares' valid corner counts, looked up once each
+    // (nodeValid / validCorners on the DEM, which the loops below would ask many times).
+    std::vector<std::uint8_t> valid(std::size_t(w) * std::size_t(h));
+    for (int j = j0; j <= j1; ++j)
+        for (int i = i0; i <= i1; ++i)
+            valid[local(i, j)] = nodeValid(i, j) ? 1 : 0;
+    auto isValid = [&](int i, int j) { return valid[local(i, j)] != 0; };  // in the block
+    std::vector<std::uint8_t> corners(std::size_t(w) * std::size_t(h), 0);  // per square (i, j)
+    for (int j = j0; j < j1; ++j)
+        for (int i = i0; i < i1; ++i)
+            corners[local(i, j)] = std::uint8_t(valid[local(i, j)] + valid[local(i + 1, j)] +
+                                                valid[local(i + 1, j + 1)] + valid[local(i, j + 1)]);
     // Squares of this block in the domain (>= 3 valid corners).
     auto covered = [&](int i, int j) {
-        return i >= i0 && i < i1 && j >= j0 && j < j1 && validCorners(i, j) >= 3;
+        return i >= i0 && i < i1 && j >= j0 && j < j1 && corners[local(i, j)] >= 3;
     };
     // The outline: directed lattice edges with the block's domain on the left (world
     // orientation: lattice (i, j) -> world (x, y) turns counter-clockwise iff cellX * cellY > 0).
@@ -209,12 +221,12 @@ PointSet BlockSource::points(std::size_t b) const {
     };
     for (int j = j0; j <= j1; ++j) {
         for (int i = i0; i <= i1; ++i) {
-            if (!nodeValid(i, j)) continue;
-            if (i < i1 && nodeValid(i + 1, j)) {  // horizontal edge: squares (i, j-1), (i, j)
+            if (!isValid(i, j)) continue;
+            if (i < i1 && isValid(i + 1, j)) {  // horizontal edge: squares (i, j-1), (i, j)
                 const bool up = covered(i, j - 1), down = covered(i, j);
                 if (up != down) addEdge(i, j, i + 1, j, 2 * i + 1, up ? 2 * j - 1 : 2 * j + 1);
             }
-            if (j < j1 && nodeValid(i, j + 1)) {  // vertical edge: squares (i-1, j), (i, j)
+            if (j < j1 && isValid(i, j + 1)) {  // vertical edge: squares (i-1, j), (i, j)
                 const bool left = covered(i - 1, j), right = covered(i, j);
                 if (left != right) addEdge(i, j, i, j + 1, left ? 2 * i - 1 : 2 * i + 1, 2 * j + 1);
             }
@@ -222,10 +234,10 @@ PointSet BlockSource::points(std::size_t b) const {
     }
     for (int j = j0; j < j1; ++j) {
         for (int i = i0; i < i1; ++i) {
-            if (validCorners(i, j) != 3) continue;
+            if (corners[local(i, j)] != 3) continue;
             const int ci[4] = {i, i + 1, i + 1, i}, cj[4] = {j, j, j + 1, j + 1};
             int missing = 0;
-            while (nodeValid(ci[missing], cj[missing]))
+            while (isValid(ci[missing], cj[missing]))
                 ++missing;
             const int a = (missing + 1) % 4, c = (missing + 3) % 4, o = (missing + 2) % 4;
             addEdge(ci[a], cj[a], ci[c], cj[c], 2 * ci[o], 2 * cj[o]);
@@ -246,7 +258,7 @@ PointSet BlockSource::points(std::size_t b) const {
     const bool outer = options_.lockOuterEdge;
     for (int j = j0; j <= j1; ++j) {
         for (int i = i0; i <= i1; ++i) {
-            if (!nodeValid(i, j)) continue;
+            if (!isValid(i, j)) continue;
             if (!(covered(i - 1, j - 1) || covered(i, j - 1) || covered(i - 1, j) || covered(i, j)))
                 continue;
             const int col = i * s, row = j * s;
