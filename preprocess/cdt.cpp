@@ -340,113 +340,110 @@ void Cdt::legalize(std::vector<std::uint32_t>& stack) {
 void Cdt::planHole(const std::vector<PointId>& poly, std::vector<std::uint32_t>& triangles) {
     const std::uint32_t k = static_cast<std::uint32_t>(poly.size());
     assert(k >= 3);
-    triangles.clear();
-    earPrev_.resize(k);
-    earNext_.resize(k);
-    for (std::uint32_t i = 0; i < k; ++i) {
-        earPrev_[i] = i == 0 ? k - 1 : i - 1;
-        earNext_[i] = i + 1 == k ? 0 : i + 1;
+    // Scratch of at least k entries, grown only (a plan is made several times per deletion).
+    if (earPrev_.size() < k) {
+        earPrev_.resize(k);
+        earNext_.resize(k);
+        across_.resize(k);
+        holeX_.resize(k);
+        holeY_.resize(k);
     }
+    std::uint32_t* const prev = earPrev_.data();
+    std::uint32_t* const next = earNext_.data();
+    std::uint32_t* const across = across_.data();
+    std::int64_t* const x = holeX_.data();
+    std::int64_t* const y = holeY_.data();
+    for (std::uint32_t i = 0; i < k; ++i) {
+        prev[i] = i == 0 ? k - 1 : i - 1;
+        next[i] = i + 1 == k ? 0 : i + 1;
+        across[i] = kNone;
+        x[i] = gx[poly[i]];
+        y[i] = gy[poly[i]];
+    }
+    triangles.resize(3 * (k - 2));
+    planNbr_.resize(triangles.size());
+    std::uint32_t* const tri = triangles.data();
+    std::uint32_t* const nbr = planNbr_.data();
+    std::size_t stackSize = 0;
+    auto push = [&](std::uint32_t h) {
+        if (stackSize == planStack_.size()) planStack_.resize(2 * stackSize + 16);
+        planStack_[stackSize++] = h;
+    };
+    auto orientAt = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+        return orient2d(x[a], y[a], x[b], y[b], x[c], y[c]);
+    };
     auto isEar = [&](std::uint32_t p, std::uint32_t i, std::uint32_t n) {
-        const PointId a = poly[p], b = poly[i], c = poly[n];
-        if (orient(a, b, c) <= 0) return false;
-        for (std::uint32_t m = earNext_[n]; m != p; m = earNext_[m]) {
-            const PointId x = poly[m];
-            if (orient(a, b, x) >= 0 && orient(b, c, x) >= 0 && orient(c, a, x) >= 0) return false;
+        if (orientAt(p, i, n) <= 0) return false;
+        for (std::uint32_t m = next[n]; m != p; m = next[m]) {
+            if (orientAt(p, i, m) >= 0 && orientAt(i, n, m) >= 0 && orientAt(n, p, m) >= 0)
+                return false;
         }
         return true;
     };
-    std::uint32_t remaining = k, i = 0, misses = 0;
+    // Ear clipping. across[j] is the plan half-edge on the far side of the current outline edge
+    // j -> next[j] (kNone on an edge of the polygon), so each triangle is linked to the earlier
+    // ones as it is made: planNbr_[3t + e] is the half-edge across edge e of triangle t
+    // (opposite its corner e), kNone on the polygon. Every diagonal goes on the flip stack once,
+    // as its earlier half-edge, in the order its later half-edge is made.
+    auto link = [&](std::uint32_t h, std::uint32_t g) {
+        nbr[h] = g;
+        if (g == kNone) return;
+        nbr[g] = h;
+        push(g);
+    };
+    std::uint32_t remaining = k, i = 0, misses = 0, made = 0;
     while (remaining > 3) {
-        const std::uint32_t p = earPrev_[i], n = earNext_[i];
+        const std::uint32_t p = prev[i], n = next[i];
         if (!isEar(p, i, n)) {
             i = n;
             ++misses;
             assert(misses <= remaining && "a star-shaped polygon always has an ear");
             continue;
         }
-        triangles.push_back(p);
-        triangles.push_back(i);
-        triangles.push_back(n);
-        earNext_[p] = n;
-        earPrev_[n] = p;
+        const std::uint32_t h = 3 * made;
+        tri[h] = p, tri[h + 1] = i, tri[h + 2] = n;
+        link(h, across[i]);      // i -> n
+        nbr[h + 1] = kNone;      // n -> p, the new diagonal: linked when its far side is made
+        link(h + 2, across[p]);  // p -> i
+        across[p] = h + 1;
+        next[p] = n;
+        prev[n] = p;
         --remaining;
         misses = 0;
         i = p;
+        ++made;
     }
-    triangles.push_back(earPrev_[i]);
-    triangles.push_back(i);
-    triangles.push_back(earNext_[i]);
-    // Lawson flips of the diagonals until none is illegal. Neighbours: planNbr_[3t + e] is the
-    // half-edge across edge e of triangle t (opposite its corner e), kNone on the polygon.
-    planNbr_.assign(triangles.size(), kNone);
-    legal_.clear();
-    if (k == 3) return;
-    // Pair the diagonals' two half-edges: a k x k table of half-edges by (from, to) for small
-    // holes (the common case), a sort for large ones.
-    if (k <= kSmallHole) {
-        for (std::uint32_t h = 0; h < triangles.size(); ++h) {
-            const std::uint32_t t = h / 3, e = h % 3;
-            const std::uint32_t u = triangles[3 * t + nextIndex(e)],
-                                w = triangles[3 * t + prevIndex(e)];
-            if (w == (u + 1) % k) continue;  // a polygon edge
-            const std::uint32_t twin = holeEdge_[w * k + u];
-            if (twin == kNone) {
-                holeEdge_[u * k + w] = h;
-                continue;
-            }
-            holeEdge_[w * k + u] = kNone;
-            planNbr_[h] = twin;
-            planNbr_[twin] = h;
-            legal_.push_back(twin);
-        }
-    } else {
-        diagonals_.clear();
-        for (std::uint32_t h = 0; h < triangles.size(); ++h) {
-            const std::uint32_t t = h / 3, e = h % 3;
-            const std::uint32_t u = triangles[3 * t + nextIndex(e)],
-                                w = triangles[3 * t + prevIndex(e)];
-            if (w == (u + 1) % k) continue;  // a polygon edge
-            diagonals_.push_back({std::min(u, w), std::max(u, w), h});
-        }
-        std::sort(diagonals_.begin(), diagonals_.end(), [](const Diagonal& x, const Diagonal& y) {
-            return x.u != y.u ? x.u < y.u : (x.w != y.w ? x.w < y.w : x.h < y.h);
-        });
-        assert(diagonals_.size() == 2 * (triangles.size() / 3 - 1));
-        for (std::size_t d = 0; d + 1 < diagonals_.size(); d += 2) {
-            planNbr_[diagonals_[d].h] = diagonals_[d + 1].h;
-            planNbr_[diagonals_[d + 1].h] = diagonals_[d].h;
-            legal_.push_back(diagonals_[d].h);
-        }
-    }
+    const std::uint32_t p = prev[i], n = next[i], last = 3 * made;
+    tri[last] = p, tri[last + 1] = i, tri[last + 2] = n;
+    link(last, across[i]);
+    link(last + 1, across[n]);
+    link(last + 2, across[p]);
+    // Lawson flips of the diagonals until none is illegal.
     auto setNbr = [&](std::uint32_t h, std::uint32_t g) {
-        planNbr_[h] = g;
-        if (g != kNone) planNbr_[g] = h;
+        nbr[h] = g;
+        if (g != kNone) nbr[g] = h;
     };
-    while (!legal_.empty()) {
-        const std::uint32_t h = legal_.back();
-        legal_.pop_back();
-        const std::uint32_t g = planNbr_[h];
+    while (stackSize != 0) {
+        const std::uint32_t h = planStack_[--stackSize];
+        const std::uint32_t g = nbr[h];
         if (g == kNone) continue;
         const std::uint32_t t = h / 3, e = h % 3, o = g / 3, f = g % 3;
-        const std::uint32_t a = triangles[3 * t + e], u = triangles[3 * t + nextIndex(e)],
-                            w = triangles[3 * t + prevIndex(e)], d = triangles[3 * o + f];
-        const PointId pa = poly[a], pu = poly[u], pw = poly[w], pd = poly[d];
-        if (incirclePerturbed(gx[pa], gy[pa], gx[pu], gy[pu], gx[pw], gy[pw], gx[pd], gy[pd]) <= 0)
-            continue;
+        const std::uint32_t a = tri[3 * t + e], u = tri[3 * t + nextIndex(e)],
+                            w = tri[3 * t + prevIndex(e)], d = tri[3 * o + f];
+        if (incirclePerturbed(x[a], y[a], x[u], y[u], x[w], y[w], x[d], y[d]) <= 0) continue;
         // Quadrilateral a, u, d, w (counter-clockwise): u-w becomes a-d; t = (a, u, d),
         // o = (a, d, w).
-        const std::uint32_t nWA = planNbr_[3 * t + nextIndex(e)], nAU = planNbr_[3 * t + prevIndex(e)];
-        const std::uint32_t nUD = planNbr_[3 * o + nextIndex(f)], nDW = planNbr_[3 * o + prevIndex(f)];
-        triangles[3 * t] = a, triangles[3 * t + 1] = u, triangles[3 * t + 2] = d;
-        triangles[3 * o] = a, triangles[3 * o + 1] = d, triangles[3 * o + 2] = w;
+        const std::uint32_t nWA = nbr[3 * t + nextIndex(e)], nAU = nbr[3 * t + prevIndex(e)];
+        const std::uint32_t nUD = nbr[3 * o + nextIndex(f)], nDW = nbr[3 * o + prevIndex(f)];
+        tri[3 * t] = a, tri[3 * t + 1] = u, tri[3 * t + 2] = d;
+        tri[3 * o] = a, tri[3 * o + 1] = d, tri[3 * o + 2] = w;
         setNbr(3 * t, nUD);
         setNbr(3 * t + 2, nAU);
         setNbr(3 * o, nDW);
         setNbr(3 * o + 1, nWA);
         setNbr(3 * t + 1, 3 * o + 2);
         for (std::uint32_t q : {3 * t, 3 * t + 2, 3 * o, 3 * o + 1}) {
-            if (planNbr_[q] != kNone) legal_.push_back(q);
+            if (nbr[q] != kNone) push(q);
         }
     }
 }

@@ -281,15 +281,12 @@ private:
     std::vector<PointId> poly_;
     std::vector<std::uint32_t> outer_, starTris_;
     std::vector<std::uint8_t> cons_;
-    std::vector<std::uint32_t> earPrev_, earNext_, plan_, planNbr_;
-    static constexpr std::uint32_t kSmallHole = 16;
-    // planHole's (from, to) -> half-edge table for holes of up to kSmallHole vertices; every
-    // entry is kNone between calls.
-    std::vector<std::uint32_t> holeEdge_ = std::vector<std::uint32_t>(kSmallHole * kSmallHole, kNone);
-    struct Diagonal {
-        std::uint32_t u, w, h;  // polygon indices u -> w, the half-edge taking it
-    };
-    std::vector<Diagonal> diagonals_;
+    std::vector<std::uint32_t> plan_, planNbr_;
+    // planHole's scratch: the outline's links, the plan half-edge across each outline edge and
+    // the polygon's grid coordinates, indexed by polygon position; the flip stack (its size is
+    // its capacity).
+    std::vector<std::uint32_t> earPrev_, earNext_, across_, planStack_;
+    std::vector<std::int64_t> holeX_, holeY_;
     Trace trace_;
     struct FanEdge {  // Bowyer-Watson cavity boundary edge (u, w)
         PointId u, w;
