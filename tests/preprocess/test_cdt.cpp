@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdlib>
 
 #include "cdt.h"
@@ -94,6 +95,67 @@ TEST(Cdt, GridTriangulationIgnoresPointOrder) {
     EXPECT_EQ(forward.size(), 2u * 14 * 11);
     EXPECT_EQ(trianglesByPosition(reversed), forward);
     EXPECT_EQ(trianglesByPosition(shuffled), forward);
+}
+
+// Removing a vertex of high degree (holes beyond planHole's first ears, exactly cocircular rims)
+// gives the constrained Delaunay triangulation of the remaining points: the same triangles as
+// triangulating them from scratch (unique under the symbolic perturbation).
+TEST(Cdt, RemovingAHighDegreeVertexGivesTheTriangulationWithoutIt) {
+    auto trianglesByPosition = [](const PointSet& s, const Cdt& cdt) {
+        std::vector<std::array<std::pair<double, double>, 3>> out;
+        for (const TriangleTriple& t : collectTriangles(cdt)) {
+            std::array<std::pair<double, double>, 3> c;
+            for (int k = 0; k < 3; ++k) c[k] = {s.points[t.v[k]].x, s.points[t.v[k]].y};
+            std::sort(c.begin(), c.end());
+            out.push_back(c);
+        }
+        std::sort(out.begin(), out.end());
+        return out;
+    };
+    // Rims round the centre (0, 0): 20 points exactly on a circle of radius 100 (integer
+    // Pythagorean positions: every quadruple cocircular, the perturbation decides), and 40 points
+    // on it up to the grid's rounding (many flips after the ear clipping). A frame keeps the
+    // centre inside.
+    std::vector<std::vector<std::pair<double, double>>> rims(2);
+    for (const auto& [a, b] : std::vector<std::pair<double, double>>{{100, 0}, {60, 80}, {80, 60}, {28, 96}, {96, 28}}) {
+        for (const auto& [sx, sy] : std::vector<std::pair<double, double>>{{1, 1}, {-1, 1}, {1, -1}, {-1, -1}}) {
+            if ((a == 100 && sy < 0) || (a == 100 && sx < 0)) continue;
+            rims[0].push_back({sx * a, sy * b});
+            if (a == 100) rims[0].push_back({sy * b, sx * a});
+        }
+    }
+    rims[0].push_back({-100, 0});
+    rims[0].push_back({0, -100});
+    for (int i = 0; i < 40; ++i) {
+        const double angle = 2 * 3.14159265358979 * i / 40, r = 100.0;
+        rims[1].push_back({r * std::cos(angle), r * std::sin(angle)});
+    }
+    for (const auto& rim : rims) {
+        PointSet with, without;
+        with.points.push_back(Point{0, 0, 0});
+        for (const auto& [x, y] : rim) {
+            with.points.push_back(Point{x, y, 0});
+            without.points.push_back(Point{x, y, 0});
+        }
+        for (const auto& [x, y] : std::vector<std::pair<double, double>>{
+                 {-300, -300}, {0, -300}, {300, -300}, {300, 0}, {300, 300}, {0, 300}, {-300, 300}, {-300, 0}}) {
+            with.points.push_back(Point{x, y, 0});
+            without.points.push_back(Point{x, y, 0});
+        }
+        Cdt cdt, expected;
+        std::string error;
+        ASSERT_TRUE(buildCdt(with, {}, cdt, error)) << error;
+        ASSERT_TRUE(buildCdt(without, {}, expected, error)) << error;
+        std::vector<PointId> link;
+        std::vector<std::uint32_t> tris;
+        ASSERT_TRUE(cdt.star(0, link, tris));
+        ASSERT_EQ(link.size(), rim.size()) << "the centre is joined to every rim point";
+        cdt.removeVertex(0);
+        std::string message;
+        EXPECT_TRUE(checkCdt(cdt, captureCheckReference(cdt), nullptr, message)) << message;
+        EXPECT_EQ(trianglesByPosition(with, cdt), trianglesByPosition(without, expected))
+            << rim.size() << "-point rim";
+    }
 }
 
 TEST(Cdt, RandomBlockIsValid) {
