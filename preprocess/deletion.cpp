@@ -680,9 +680,14 @@ void Sequence::evaluate(PointId x) {
         // is then exactly the realised error.
         const std::size_t count = plan_.size() / 3, k = starSlots_.size();
         planOrder_.resize(count);
-        for (std::size_t j = 0; j < count; ++j)
-            planOrder_[j] = {starSlots_[k - 1 - j], std::uint32_t(j)};
-        std::sort(planOrder_.begin(), planOrder_.end());
+        for (std::size_t j = 0; j < count; ++j) {
+            // Insertion by slot (a handful of triangles; the slots are distinct).
+            const std::pair<std::uint32_t, std::uint32_t> entry{starSlots_[k - 1 - j], std::uint32_t(j)};
+            std::size_t at = j;
+            for (; at > 0 && planOrder_[at - 1].first > entry.first; --at)
+                planOrder_[at] = planOrder_[at - 1];
+            planOrder_[at] = entry;
+        }
         corners_.clear();
         for (const auto& [slot, j] : planOrder_) {
             for (int i = 0; i < 3; ++i)
