@@ -68,50 +68,45 @@ TEST(Predicates, PerturbedIncircleBreaksTiesConsistently) {
 
 // A regular grid is all ties; the triangulation must not depend on the order of the points (a
 // tree node rebuilt from its children's points must get their triangles back, nodebuild.h).
+// A triangulation's triangles as sorted corner positions, sorted: comparable across point orders.
+std::vector<std::array<std::pair<double, double>, 3>> trianglesByPosition(const PointSet& set,
+                                                                         const Cdt& cdt) {
+    std::vector<std::array<std::pair<double, double>, 3>> out;
+    for (const TriangleTriple& t : collectTriangles(cdt)) {
+        std::array<std::pair<double, double>, 3> c;
+        for (int k = 0; k < 3; ++k) c[k] = {set.points[t.v[k]].x, set.points[t.v[k]].y};
+        std::sort(c.begin(), c.end());
+        out.push_back(c);
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
 TEST(Cdt, GridTriangulationIgnoresPointOrder) {
     PointSet set;
     for (int j = 0; j < 12; ++j)
         for (int i = 0; i < 15; ++i) set.points.push_back(Point{30.0 * i, 30.0 * j, double((i * 7 + j * 3) % 5)});
-    auto trianglesByPosition = [](const PointSet& s) {
+    auto triangulated = [](const PointSet& s) {
         Cdt cdt;
         std::string error;
         EXPECT_TRUE(buildCdt(s, {}, cdt, error)) << error;
-        std::vector<std::array<std::pair<double, double>, 3>> out;
-        for (const TriangleTriple& t : collectTriangles(cdt)) {
-            std::array<std::pair<double, double>, 3> c;
-            for (int k = 0; k < 3; ++k) c[k] = {s.points[t.v[k]].x, s.points[t.v[k]].y};
-            std::sort(c.begin(), c.end());
-            out.push_back(c);
-        }
-        std::sort(out.begin(), out.end());
-        return out;
+        return trianglesByPosition(s, cdt);
     };
-    const auto forward = trianglesByPosition(set);
+    const auto forward = triangulated(set);
     PointSet reversed = set;
     std::reverse(reversed.points.begin(), reversed.points.end());
     PointSet shuffled = set;
     for (std::size_t i = 0; i < shuffled.points.size(); ++i)
         std::swap(shuffled.points[i], shuffled.points[(i * 97 + 13) % shuffled.points.size()]);
     EXPECT_EQ(forward.size(), 2u * 14 * 11);
-    EXPECT_EQ(trianglesByPosition(reversed), forward);
-    EXPECT_EQ(trianglesByPosition(shuffled), forward);
+    EXPECT_EQ(triangulated(reversed), forward);
+    EXPECT_EQ(triangulated(shuffled), forward);
 }
 
 // Removing a vertex of high degree (holes beyond planHole's first ears, exactly cocircular rims)
 // gives the constrained Delaunay triangulation of the remaining points: the same triangles as
 // triangulating them from scratch (unique under the symbolic perturbation).
 TEST(Cdt, RemovingAHighDegreeVertexGivesTheTriangulationWithoutIt) {
-    auto trianglesByPosition = [](const PointSet& s, const Cdt& cdt) {
-        std::vector<std::array<std::pair<double, double>, 3>> out;
-        for (const TriangleTriple& t : collectTriangles(cdt)) {
-            std::array<std::pair<double, double>, 3> c;
-            for (int k = 0; k < 3; ++k) c[k] = {s.points[t.v[k]].x, s.points[t.v[k]].y};
-            std::sort(c.begin(), c.end());
-            out.push_back(c);
-        }
-        std::sort(out.begin(), out.end());
-        return out;
-    };
     // Rims round the centre (0, 0): 20 points exactly on a circle of radius 100 (integer
     // Pythagorean positions: every quadruple cocircular, the perturbation decides), and 40 points
     // on it up to the grid's rounding (many flips after the ear clipping). A frame keeps the
