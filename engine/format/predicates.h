@@ -43,19 +43,9 @@ inline int incircle(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int6
     return det > 0 ? 1 : (det < 0 ? -1 : 0);
 }
 
-// incircle with ties broken by a symbolic perturbation, so that the Delaunay triangulation of
-// any point set (with given constraints) is unique: each point's lifted height x^2 + y^2 is
-// raised by an infinitesimal e_q, with e_q >> e_r whenever q precedes r in (x, y) lexicographic
-// order (the idea of Devillers & Teillaud, "Perturbations and vertex removal in a 3D Delaunay
-// triangulation", SODA 2003). A cocircular (a, b, c, d) then gets the sign of the first non-zero
-// derivative of the determinant along that order: raising a, b or c adds orient2d of the other
-// two with d (d, b, c / d, c, a / d, a, b), raising d subtracts orient2d(a, b, c). The order is
-// translation invariant, so a block and a tree node break ties alike: the triangulation a node
-// starts from is exactly the union of its children's (nodebuild.h). 0 only when all four points
-// are collinear.
-// The tie-break of incirclePerturbed: the sign of the coefficient of the (x, y)-smallest point
-// whose coefficient is not zero. Out of line: about a third of the calls on grid data (cocircular
-// cell corners) but longer than the determinant it follows.
+// The tie-break of incirclePerturbed (below): the sign of the coefficient of the (x, y)-smallest
+// point whose coefficient is not zero. Out of line: about a third of the calls on grid data
+// (cocircular cell corners), but longer than the determinant it follows.
 [[gnu::noinline]] inline int incircleTieBreak(std::int64_t ax, std::int64_t ay, std::int64_t bx,
                                               std::int64_t by, std::int64_t cx, std::int64_t cy,
                                               std::int64_t dx, std::int64_t dy) {
@@ -72,6 +62,16 @@ inline int incircle(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int6
     return first < 0 ? 0 : (coefficient[first] > 0 ? 1 : -1);
 }
 
+// incircle with ties broken by a symbolic perturbation, so that the Delaunay triangulation of
+// any point set (with given constraints) is unique: each point's lifted height x^2 + y^2 is
+// raised by an infinitesimal e_q, with e_q >> e_r whenever q precedes r in (x, y) lexicographic
+// order (the idea of Devillers & Teillaud, "Perturbations and vertex removal in a 3D Delaunay
+// triangulation", SODA 2003). A cocircular (a, b, c, d) then gets the sign of the first non-zero
+// derivative of the determinant along that order: raising a, b or c adds orient2d of the other
+// two with d (d, b, c / d, c, a / d, a, b), raising d subtracts orient2d(a, b, c). The order is
+// translation invariant, so a block and a tree node break ties alike: the triangulation a node
+// starts from is exactly the union of its children's (nodebuild.h). 0 only when all four points
+// are collinear.
 inline int incirclePerturbed(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by,
                              std::int64_t cx, std::int64_t cy, std::int64_t dx, std::int64_t dy) {
     const int s = incircle(ax, ay, bx, by, cx, cy, dx, dy);
