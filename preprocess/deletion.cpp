@@ -669,7 +669,13 @@ void Sequence::evaluate(PointId x) {
     state_[x] = State::Pending;
     if (a == kNil) {
         // No river edge: the change is the hole of x's star, planned without touching the mesh
-        // (the same plan removeVertex then carries out).
+        // (the same plan removeVertex then carries out). The ring's heights and the star's
+        // point ranges are fetched while the plan is made (the model error reads them next; on
+        // a large block they are cache misses).
+        for (const PointId v : link_)
+            __builtin_prefetch(&set_.points[v].z);
+        for (const std::uint32_t h : tris_)
+            error_.prefetchRange(h / 3);
         cdt_.planHole(link_, plan_);
         starSlots_.clear();
         for (std::uint32_t h : tris_)
