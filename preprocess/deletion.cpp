@@ -672,8 +672,9 @@ void Sequence::evaluate(PointId x) {
         // (the same plan removeVertex then carries out). The ring's heights and the star's
         // point ranges are fetched while the plan is made (the model error reads them next; on
         // a large block they are cache misses).
-        for (const PointId v : link_)
-            __builtin_prefetch(&set_.points[v].z);
+        for (const PointId v : link_) {
+            if (v < set_.points.size()) __builtin_prefetch(&set_.points[v].z);  // not a frame vertex
+        }
         for (const std::uint32_t h : tris_)
             error_.prefetchRange(h / 3);
         cdt_.planHole(link_, plan_);
