@@ -38,6 +38,8 @@ struct RunData {
     std::vector<std::vector<DrawBlock>> drawLists;  // "resident" keeps them for "bare"
     double seconds = 0;
     std::uint64_t warmupBytesUploaded = 0;  // streamed during the unmeasured warm-up frames
+    std::uint32_t warmupFrames = 0;         // warm-up frames rendered
+    double warmupSeconds = 0;               // their wall time, the GPU's work included
     std::uint64_t loaderBytesAtStart = 0;   // the loader's totals when the measured frames began
     double loaderSecondsAtStart = 0;
 };
@@ -69,6 +71,8 @@ nlohmann::json runJson(const RunData& r, bool perFrame) {
         {"fallback_blocks", summary(fallback)},
         {"bytes_uploaded", uploaded},
         {"warmup_bytes_uploaded", r.warmupBytesUploaded},
+        {"warmup_frames", r.warmupFrames},
+        {"warmup_seconds", r.warmupSeconds},
         {"gpu_bytes_used_max", gpuUsed},
         {"gpu_budget", r.stats.empty() ? 0 : r.stats.back().gpuBudget},
         {"evictions", evictions},
@@ -99,8 +103,14 @@ nlohmann::json runJson(const RunData& r, bool perFrame) {
 bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
          const std::vector<std::vector<DrawBlock>>* bareLists, RunData& data, std::string& error) {
     const std::size_t n = o.cameras.size();
-    // Warm-up on the first camera (pipelines, caches), not measured.
-    for (std::uint32_t i = 0; i < o.warmup; ++i) {
+    // Warm-up on the first camera (pipelines, caches, the GPU's clock), not measured: at least
+    // o.warmup frames and o.warmupMs of wall time.
+    const auto warmStart = Clock::now();
+    auto warmElapsedMs = [&] {
+        return std::chrono::duration<double, std::milli>(Clock::now() - warmStart).count();
+    };
+    for (std::uint32_t i = 0; i < o.warmup || warmElapsedMs() < o.warmupMs; ++i) {
+        ++data.warmupFrames;
         const FrameView view = renderer.view(o.cameras.front());
         if (bareLists)
             renderer.renderBareFrame(view, (*bareLists)[0]);
@@ -110,6 +120,7 @@ bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
             data.warmupBytesUploaded += renderer.scene().stats().bytesUploaded;
     }
     renderer.finish();
+    data.warmupSeconds = warmElapsedMs() / 1000.0;
     data.loaderBytesAtStart = renderer.scene().stats().loaderBytesRead;
     data.loaderSecondsAtStart = renderer.scene().stats().loaderSeconds;
     std::vector<FrameStats> stats;
@@ -259,6 +270,7 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
         {"size", {o.width, o.height}},
         {"frames", o.cameras.size()},
         {"warmup_frames", o.warmup},
+        {"warmup_ms", o.warmupMs},
         {"pace_ms", o.paceMs},
         {"pixels", o.scene.pixels},
         {"metric", o.scene.metric.empty() ? "file default" : o.scene.metric},

@@ -29,7 +29,13 @@ struct BenchOptions {
     SceneOptions scene;
     DeviceOptions device;
     std::string spirvDir;
-    std::uint32_t warmup = 5;  // frames rendered before each run's measured frames
+    std::uint32_t warmup = 5;  // frames rendered before each run's measured frames, at least
+    // Warm-up wall time (ms), at least: back-to-back frames on the first camera until both this
+    // time and `warmup` frames have passed. A GPU idle before a run (the resident run's preload)
+    // runs its first frames at its idle clock: measured on an NVIDIA H200, 345 MHz for about
+    // 0.1 s after a 55 s preload, then 1980 MHz, so a 200-frame run of sub-ms frames measured
+    // the clock ramp (README "On a real GPU").
+    double warmupMs = 500;
     bool perFrame = false;     // include every frame's numbers in the JSON
     // Paced frames (ms; 0: off): frame i starts no earlier than i * paceMs after the run's start,
     // as in an application held to a display's refresh, so the loader streams between frames

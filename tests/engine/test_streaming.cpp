@@ -392,4 +392,26 @@ TEST_F(Streaming, BenchPacedFramesReportTheirOwnCost) {
     EXPECT_EQ(nlohmann::json::parse(plain.out)["pace_ms"].get<double>(), 0.0);
 }
 
+// `bench --warmup N --warmup-ms MS`: each run warms up for at least N frames AND at least MS of
+// wall time (a GPU idle during the preload runs its first frames at its idle clock), and the
+// JSON says how many frames and how long.
+TEST_F(Streaming, BenchWarmsUpForItsFramesAndItsTime) {
+    const std::string base =
+        "bench " + q(file_) + " --frames 1 --size 160x90 --runs resident,bare --json - ";
+    const auto frames = runCli(base + "--warmup 3 --warmup-ms 0");
+    ASSERT_EQ(frames.code, 0) << frames.err;
+    const nlohmann::json f = nlohmann::json::parse(frames.out);
+    EXPECT_EQ(f["warmup_ms"].get<double>(), 0.0);
+    for (const char* run : {"resident", "bare"})
+        EXPECT_EQ(f["runs"][run]["warmup_frames"].get<int>(), 3) << run;
+    const auto timed = runCli(base + "--warmup 1 --warmup-ms 400");
+    ASSERT_EQ(timed.code, 0) << timed.err;
+    const nlohmann::json t = nlohmann::json::parse(timed.out);
+    EXPECT_EQ(t["warmup_ms"].get<double>(), 400.0);
+    for (const char* run : {"resident", "bare"}) {
+        EXPECT_GE(t["runs"][run]["warmup_seconds"].get<double>(), 0.4) << run;
+        EXPECT_GE(t["runs"][run]["warmup_frames"].get<int>(), 1) << run;
+    }
+}
+
 }  // namespace

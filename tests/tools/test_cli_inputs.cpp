@@ -153,6 +153,8 @@ TEST_F(Inputs, OptionValuesOutsideTheirRangeAreUsageErrorsWithShortMessages) {
         {"stats " + q(model), "--height", "nan"},
         {"bench " + q(model) + " -o " + q(out), "--pace-ms", "nan"},
         {"bench " + q(model) + " -o " + q(out), "--pace-ms", "-1"},
+        {"bench " + q(model) + " -o " + q(out), "--warmup-ms", "nan"},
+        {"bench " + q(model) + " -o " + q(out), "--warmup-ms", "-1"},
     };
     for (const Case& c : cases) {
         SCOPED_TRACE(c.option + " " + c.value);

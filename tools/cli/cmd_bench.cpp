@@ -158,7 +158,12 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
                     "camera path JSON (as for capture; default: a fly-over of the data)");
     sub->add_option("--frames", c->frames, "measured frames per run (default 200)")
         ->check(CLI::Range(1u, 100000u));
-    sub->add_option("--warmup", c->o.warmup, "unmeasured frames before each run (default 5)");
+    sub->add_option("--warmup", c->o.warmup,
+                    "unmeasured frames on the first camera before each run, at least (default 5)");
+    sub->add_option("--warmup-ms", c->o.warmupMs,
+                    "and at least this wall time of warm-up frames, so that a GPU idle before "
+                    "the run (a preload) reaches its working clock (default 500)")
+        ->check(numberIn(0, 60000));
     sub->add_option("--pace-ms", c->o.paceMs,
                     "start frame i no earlier than i * MS into each run and wait for each frame: "
                     "the loader streams between frames as under a display's refresh (16.7 for "
