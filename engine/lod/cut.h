@@ -102,8 +102,8 @@ bool nodeVisible(const ViewSpec& view, const double boxMin[3], const double boxM
 // corner where that corner is off screen (bench_order --view measured the per-node tolerance at
 // 1.85x the triangles of a per-point one on the bundled fly-over).
 // A node whose x/y diagonal is at most kColumnsBelowDistance times its S keeps the whole box's
-// bound (columns would gain little there and cost 16 box tests).
-inline constexpr int kToleranceColumns = 4;
+// bound (columns would gain little there and cost up to kToleranceColumns^2 box tests).
+inline constexpr int kToleranceColumns = 8;
 inline constexpr double kColumnsBelowDistance = 0.25;
 // S and h_lim of a node for the view.
 double nodeTolerance(const ViewSpec& view, const LodNode& node, double* distance = nullptr,
