@@ -4,6 +4,7 @@
 #include "scene.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cassert>
 #include <chrono>
 #include <cmath>
@@ -107,6 +108,24 @@ void pack(const format::BlockGeometry& g, std::uint64_t terrainTriangles, std::u
     if (out.terrainBytes) std::memcpy(p + out.vertexBytes, g.terrainIndices.data(), out.terrainBytes);
     if (riverBytes)
         std::memcpy(p + out.vertexBytes + out.terrainBytes, g.riverIndices.data(), riverBytes);
+}
+
+// Calls fn(i) for every i in [0, n) once, on up to hardware_concurrency() threads (at most 16;
+// the calling thread is one of them). fn must be safe to call concurrently for different i. The
+// open and the preload read and validate every block of the file this way (Reader is pread-based
+// and thread-safe): one thread took 22 s to open a 16M-point model and 20 s more to preload it.
+template <class Fn>
+void forEachIndexInParallel(std::size_t n, Fn&& fn) {
+    const std::size_t threads =
+        std::min<std::size_t>({n, 16, std::max(1u, std::thread::hardware_concurrency())});
+    std::atomic<std::size_t> next{0};
+    auto work = [&] {
+        for (std::size_t i = next++; i < n; i = next++) fn(i);
+    };
+    std::vector<std::thread> pool;
+    for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work);
+    work();
+    for (std::thread& t : pool) t.join();
 }
 
 struct BlockState {
@@ -303,10 +322,22 @@ bool StreamingScene::open(const Device& device, const std::string& path,
         for (std::uint32_t c = 0; c < info.childCount; ++c)
             parent[info.firstChild + c] = std::uint32_t(i);  // links checked by the reader
     }
-    for (std::size_t i = 0; i < s.reader.blocks().size(); ++i) {
-        format::BlockGeometry g;
+    // Read and validated in parallel; the first failing block in file order is reported.
+    const std::size_t blockCount = s.reader.blocks().size();
+    std::vector<format::BlockGeometry> coarsest(blockCount);
+    std::vector<std::string> errors(blockCount);
+    std::vector<char> failed(blockCount, 0);
+    forEachIndexInParallel(blockCount, [&](std::size_t i) {
         const int last = int(s.reader.blocks()[i].levelCount) - 1;
-        if (!s.reader.readGeometry(i, last, g, error)) return false;
+        failed[i] = !s.reader.readGeometry(i, last, coarsest[i], errors[i]);
+    });
+    for (std::size_t i = 0; i < blockCount; ++i)
+        if (failed[i]) {
+            error = std::move(errors[i]);
+            return false;
+        }
+    for (std::size_t i = 0; i < blockCount; ++i) {
+        format::BlockGeometry g = std::move(coarsest[i]);
         BlockState b;
         b.info = s.reader.blocks()[i];
         b.parent = parent[i];
@@ -427,36 +458,46 @@ bool StreamingScene::open(const Device& device, const std::string& path,
         recordUploadBarrier(cmd);
     });
     if (options.preloadAll) {
-        // Block by block through the first staging buffer (it holds the largest block).
-        for (std::uint32_t i = 0; i < s.blocks.size(); ++i) {
-            BlockState& b = s.blocks[i];
-            if (b.parent == kNoParent && b.levels.size() < 2)
-                continue;  // a root whose coarse level is all there is
-            format::BlockGeometry g;
-            if (!s.reader.readGeometry(i, format::kAllLevels, g, error)) {
-                close();
-                return false;
-            }
-            Packed p;
-            pack(g, b.terrainTriangles, b.riverEdges, p);
-            std::uint64_t offset = 0;
-            const bool fits = s.allocator.allocate(p.bytes.size(), offset);
-            assert(fits);
-            (void)fits;
-            b.full = {offset, p.bytes.size(), p.vertexBytes, p.terrainBytes, true};
-            std::memcpy(s.staging[0].buffer.mapped, p.bytes.data(), p.bytes.size());
-            submitAndWait(device, [&](VkCommandBuffer cmd) {
-                const VkBufferCopy copy{0, offset, p.bytes.size()};
-                vkCmdCopyBuffer(cmd, s.staging[0].buffer.buffer, s.arena.buffer, 1, &copy);
-                VkMemoryBarrier barrier{};
-                barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-                barrier.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-                barrier.dstAccessMask =
-                    VK_ACCESS_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_INDEX_READ_BIT;
-                vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                                     VK_PIPELINE_STAGE_VERTEX_INPUT_BIT, 0, 1, &barrier, 0,
-                                     nullptr, 0, nullptr);
+        // Read, validated and packed in parallel, a batch of blocks at a time (bounded host
+        // memory); uploaded block by block, in file order, through the first staging buffer (it
+        // holds the largest block).
+        std::vector<std::uint32_t> todo;
+        for (std::uint32_t i = 0; i < s.blocks.size(); ++i)
+            if (!(s.blocks[i].parent == kNoParent && s.blocks[i].levels.size() < 2))
+                todo.push_back(i);  // not a root whose coarse level is all there is
+        constexpr std::size_t kBatch = 32;
+        std::vector<Packed> packed(kBatch);
+        std::vector<std::string> batchErrors(kBatch);
+        std::vector<char> batchFailed(kBatch);
+        for (std::size_t from = 0; from < todo.size(); from += kBatch) {
+            const std::size_t count = std::min(kBatch, todo.size() - from);
+            forEachIndexInParallel(count, [&](std::size_t k) {
+                const std::uint32_t i = todo[from + k];
+                format::BlockGeometry g;
+                batchFailed[k] = !s.reader.readGeometry(i, format::kAllLevels, g, batchErrors[k]);
+                if (!batchFailed[k])
+                    pack(g, s.blocks[i].terrainTriangles, s.blocks[i].riverEdges, packed[k]);
             });
+            for (std::size_t k = 0; k < count; ++k) {
+                if (batchFailed[k]) {
+                    error = std::move(batchErrors[k]);
+                    close();
+                    return false;
+                }
+                BlockState& b = s.blocks[todo[from + k]];
+                const Packed p = std::move(packed[k]);
+                std::uint64_t offset = 0;
+                const bool fits = s.allocator.allocate(p.bytes.size(), offset);
+                assert(fits);
+                (void)fits;
+                b.full = {offset, p.bytes.size(), p.vertexBytes, p.terrainBytes, true};
+                std::memcpy(s.staging[0].buffer.mapped, p.bytes.data(), p.bytes.size());
+                submitAndWait(device, [&](VkCommandBuffer cmd) {
+                    const VkBufferCopy copy{0, offset, p.bytes.size()};
+                    vkCmdCopyBuffer(cmd, s.staging[0].buffer.buffer, s.arena.buffer, 1, &copy);
+                    recordUploadBarrier(cmd);
+                });
+            }
         }
     }
     s.stats.blocks = std::uint32_t(s.blocks.size());

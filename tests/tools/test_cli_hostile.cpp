@@ -188,4 +188,27 @@ TEST_F(Hostile, ChangedBlockByte) {
     expectRejected("crc", f, blockName(f, block()), "checksum mismatch");
 }
 
+// Two damaged blocks: the engine reads and validates the blocks on several threads at open, and
+// still names the first damaged block in file order, every time.
+TEST_F(Hostile, TwoDamagedBlocksTheFirstInFileOrderIsNamed) {
+    UlodBytes f = pristine;
+    const std::size_t first = 1, last = f.blockCount() - 1;
+    for (std::size_t i : {first, last}) {
+        const std::uint64_t z = f.arrayAt(i, UlodBytes::kVertices) + 8;
+        f.set<float>(z, f.get<float>(z) + 0.5f);
+    }
+    const std::string path = dir->file("two.ulod");
+    ASSERT_TRUE(f.save(path));
+    ASSERT_NE(blockName(f, first), blockName(f, last));
+    for (int run = 0; run < 3; ++run) {
+        const std::string frames = dir->file("two_frames" + std::to_string(run));
+        const auto r = runCli("capture " + q(path) + " --camera " + camera +
+                              " --size 64x48 --out " + q(frames));
+        EXPECT_EQ(r.code, 1) << r.err;
+        EXPECT_NE(r.err.find(blockName(f, first) + ":"), std::string::npos) << r.err;
+        EXPECT_EQ(r.err.find(blockName(f, last) + ":"), std::string::npos) << r.err;
+        EXPECT_FALSE(fs::exists(fs::path(frames) / "frame_0000.png"));
+    }
+}
+
 }  // namespace
