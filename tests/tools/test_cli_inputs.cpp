@@ -155,6 +155,7 @@ TEST_F(Inputs, OptionValuesOutsideTheirRangeAreUsageErrorsWithShortMessages) {
         {"bench " + q(model) + " -o " + q(out), "--pace-ms", "-1"},
         {"bench " + q(model) + " -o " + q(out), "--warmup-ms", "nan"},
         {"bench " + q(model) + " -o " + q(out), "--warmup-ms", "-1"},
+        {"bench " + q(model) + " -o " + q(out), "--warmup", "100001"},
     };
     for (const Case& c : cases) {
         SCOPED_TRACE(c.option + " " + c.value);

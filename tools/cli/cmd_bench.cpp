@@ -159,7 +159,8 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
     sub->add_option("--frames", c->frames, "measured frames per run (default 200)")
         ->check(CLI::Range(1u, 100000u));
     sub->add_option("--warmup", c->o.warmup,
-                    "unmeasured frames on the first camera before each run, at least (default 5)");
+                    "unmeasured frames on the first camera before each run, at least (default 5)")
+        ->check(CLI::Range(0u, 100000u));
     sub->add_option("--warmup-ms", c->o.warmupMs,
                     "and at least this wall time of warm-up frames, so that a GPU idle before "
                     "the run (a preload) reaches its working clock (default 500)")
