@@ -49,6 +49,7 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
         }
         del.paperError = false;
         del.errorFloor = del.chainSlack = node->errorFloor;
+        del.riverFloor = node->riverFloor;
         del.riverCover = &node->riverCover;
         if (node->originals) {
             extra.reserve(node->originalCount);  // a root's: every original point of the model
@@ -156,6 +157,8 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
         }
         coarse->errorMax =
             records.errorMax.empty() ? records.initialErrorMax : records.errorMax.back();
+        coarse->errorRiver =
+            records.errorRiver.empty() ? records.initialErrorRiver : records.errorRiver.back();
     }
 
     stats.vertices = block.vertices.size();

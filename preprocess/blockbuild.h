@@ -59,6 +59,7 @@ struct CoarseState {
     // Per river edge: the original river points it stands for (DeletionRecords::riverCover).
     std::vector<RiverCover> riverCover;
     double errorMax = 0;
+    double errorRiver = 0;  // its river part (DeletionRecords::errorRiver)
 };
 
 // How a tree node's build differs from a leaf block's (nodebuild.h): its error is measured
@@ -68,6 +69,7 @@ struct NodeErrorInput {
     std::function<void(const std::function<void(const Point&)>&)> originals;
     std::size_t originalCount = 0;  // how many points `originals` gives (a capacity hint)
     double errorFloor = 0;
+    double riverFloor = 0;  // the same for the river part (DeletionOptions::riverFloor)
     // What each river edge of the node's point set stands for (DeletionOptions::riverCover).
     std::unordered_map<std::uint64_t, RiverCover> riverCover;
 };

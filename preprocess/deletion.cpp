@@ -144,7 +144,7 @@ private:
     const DeletionOptions& options_;
     DeletionRecords& rec_;
     ModelError error_;
-    double runningMax_ = 0;
+    double runningMax_ = 0, runningRiver_ = 0;
     std::vector<State> state_;
     std::vector<std::uint32_t> orderPos_;
     std::vector<std::uint32_t> waitHead_;
@@ -212,8 +212,12 @@ void Sequence::start(std::size_t expectedSteps) {
             options_.maxError ? std::max(error_.runningMax(), options_.errorFloor) : 0.0;
         rec_.initialErrorPaper = error_.runningPaper();
         runningMax_ = rec_.initialErrorMax;
+        rec_.initialErrorRiver =
+            options_.maxError ? std::min(options_.riverFloor, rec_.initialErrorMax) : 0.0;
+        runningRiver_ = rec_.initialErrorRiver;
         if (options_.maxError) {
             rec_.errorMax.reserve(expectedSteps);
+            rec_.errorRiver.reserve(expectedSteps);
             rec_.stepErrorMax.reserve(expectedSteps);
         }
         if (options_.paperError) rec_.errorPaper.reserve(expectedSteps);
@@ -620,10 +624,13 @@ void Sequence::record(PointId x, PointId a, PointId c) {
     rec_.addedEdgeOffset.push_back(std::uint32_t(rec_.addedEdges.size()));
     if (options_.maxError) {
         const double vertical = error_.updateMax(cdt_, cdt_.journalRemovedSlots, added_);
-        const double stepError = std::max(vertical, chainDeviation(x));
+        const double river = chainDeviation(x);
+        const double stepError = std::max(vertical, river);
         runningMax_ = std::max(runningMax_, stepError);
+        runningRiver_ = std::max(runningRiver_, river);
         rec_.stepErrorMax.push_back(stepError);
         rec_.errorMax.push_back(runningMax_);
+        rec_.errorRiver.push_back(runningRiver_);
     }
     if (options_.paperError) {
         error_.removeVertex(x);
@@ -823,7 +830,9 @@ std::size_t DeletionRecords::memoryBytes() const {
                4 +
            (removedTriangles.capacity() + addedTriangles.capacity()) * sizeof(TriangleTriple) +
            (removedEdges.capacity() + addedEdges.capacity()) * sizeof(RiverEdge) +
-           (errorMax.capacity() + errorPaper.capacity()) * 8 + kept.capacity() * sizeof(KeptVertex);
+           (errorMax.capacity() + errorPaper.capacity() + errorRiver.capacity() +
+            stepErrorMax.capacity()) * 8 +
+           kept.capacity() * sizeof(KeptVertex);
 }
 
 namespace {

@@ -99,10 +99,14 @@ struct DeletionRecords {
     std::vector<RiverEdge> removedEdges, addedEdges;
     // Model error after each step, running maxima (non-decreasing). Empty when not computed.
     std::vector<double> errorMax, errorPaper;
+    // The river part of errorMax: the running maximum of the river deviations alone (with the
+    // `max` metric; format::Block::errorRiver). errorMax = max(running vertical maximum, this).
+    std::vector<double> errorRiver;
     // The `max` error each step causes itself (before the running maximum): for the greedy order
     // the deleted vertex's key without the BAI factor. Empty when `max` is not computed.
     std::vector<double> stepErrorMax;
     double initialErrorMax = 0, initialErrorPaper = 0;  // before the first step
+    double initialErrorRiver = 0;
     std::vector<KeptVertex> kept;        // refused or never-deletable vertices of the order
     std::uint32_t deferrals = 0;         // deferred attempts (a vertex may be deferred often)
     std::uint32_t deferredVertices = 0;  // distinct vertices deferred at least once
@@ -143,7 +147,8 @@ struct DeletionOptions {
     // lists them, and a river deviation is measured against them as a block's is against its
     // own deleted river vertices; an edge without one (outline edges, river edges the
     // triangulation split) gets `chainSlack` added instead (the original chain lies within it).
-    double errorFloor = 0, chainSlack = 0;
+    // `riverFloor`: the same for the river part (the children's largest final river part).
+    double errorFloor = 0, chainSlack = 0, riverFloor = 0;
     const std::unordered_map<std::uint64_t, RiverCover>* riverCover = nullptr;
 };
 

@@ -96,17 +96,23 @@ bool buildLodIndex(const LodIndexInput& in, format::Block& block, std::string& e
     sortPerStep(block.removedTriangleOffset, block.removedTriangles);
     sortPerStep(block.addedTriangleOffset, block.addedTriangles);
     sortPerStep(block.removedEdgeOffset, block.removedEdges);
-    if ((in.maxError && rec.errorMax.size() != steps) ||
+    if ((in.maxError && (rec.errorMax.size() != steps || rec.errorRiver.size() != steps)) ||
         (in.paperError && rec.errorPaper.size() != steps)) {
         error = "error tables do not match the deletion steps";
         return false;
     }
     block.errorMax.clear();
     block.errorPaper.clear();
+    block.errorRiver.clear();
     if (in.maxError) {
         block.errorMax.push_back(format::quantizeError(rec.initialErrorMax + in.zQuantum, in.zQuantum));
         for (double e : rec.errorMax)
             block.errorMax.push_back(format::quantizeError(e + in.zQuantum, in.zQuantum));
+        // Never above errorMax (rec's river part is <= its errorMax; quantizeError is monotone).
+        block.errorRiver.push_back(
+            format::quantizeError(rec.initialErrorRiver + in.zQuantum, in.zQuantum));
+        for (double e : rec.errorRiver)
+            block.errorRiver.push_back(format::quantizeError(e + in.zQuantum, in.zQuantum));
     }
     if (in.paperError) {
         block.errorPaper.push_back(format::quantizeError(rec.initialErrorPaper + in.zQuantum, in.zQuantum));
@@ -114,7 +120,7 @@ bool buildLodIndex(const LodIndexInput& in, format::Block& block, std::string& e
             block.errorPaper.push_back(format::quantizeError(e + in.zQuantum, in.zQuantum));
     }
     // Rounding must not break monotonicity.
-    for (auto* e : {&block.errorMax, &block.errorPaper}) {
+    for (auto* e : {&block.errorMax, &block.errorPaper, &block.errorRiver}) {
         for (std::size_t i = 1; i < e->size(); ++i)
             (*e)[i] = std::max((*e)[i], (*e)[i - 1]);
     }
@@ -148,6 +154,7 @@ bool buildLodIndex(const LodIndexInput& in, format::Block& block, std::string& e
         l.vertexCount = vertexCount - k;
         l.errorMax = block.errorMax.empty() ? 0.0f : block.errorMax[k];
         l.errorPaper = block.errorPaper.empty() ? 0.0f : block.errorPaper[k];
+        l.errorRiver = block.errorRiver.empty() ? 0.0f : block.errorRiver[k];
         if (l.triangleCount != trianglesAt(k)) {
             error = "level " + std::to_string(j) + " has " + std::to_string(l.triangleCount) +
                     " triangles, the records say " + std::to_string(trianglesAt(k));

@@ -179,8 +179,10 @@ bool buildNode(const std::vector<const CoarseState*>& children, const NodeBorder
     NodeErrorInput input;
     input.originals = originals;
     input.originalCount = originalCount;
-    for (const CoarseState* child : children)
+    for (const CoarseState* child : children) {
         input.errorFloor = std::max(input.errorFloor, child->errorMax);
+        input.riverFloor = std::max(input.riverFloor, child->errorRiver);
+    }
     const PointSet set = nodePointSet(children, border, &input.riverCover);
     return buildBlock(set, col, row, options, block, stats, error, &input, &coarse);
 }

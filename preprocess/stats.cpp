@@ -73,6 +73,7 @@ std::size_t findBlock(const std::vector<format::BlockInfo>& blocks, std::uint32_
 struct BlockSummary {
     engine::LodNode node;  // its box (the cut's S and h_lim)
     std::vector<float> error;  // chosen metric, steps + 1 entries
+    std::vector<float> river;  // the `max` metric's river part (empty for `paper`)
     std::uint32_t vertexCount = 0;
     std::vector<std::uint32_t> triangles, riverEdges;  // per step k = 0..steps
     std::vector<format::Level> levels;                 // the stored levels
@@ -102,6 +103,7 @@ bool loadSummaries(const std::string& path, std::uint32_t requestedMetric, forma
         BlockSummary& s = blocks[i];
         s.node = engine::lodNode(b);
         s.error = metric == format::kMetricPaper ? b.errorPaper : b.errorMax;
+        if (metric != format::kMetricPaper) s.river = b.errorRiver;
         s.vertexCount = std::uint32_t(b.vertices.size());
         if (b.levels.empty() || s.error.size() != b.steps.size() + 1) {
             error = "'" + path + "': block (" + std::to_string(b.col) + "," +
@@ -137,7 +139,7 @@ CutCounts countCut(const engine::ViewSpec& view, const std::vector<BlockSummary>
     c.nodes = cut.size();
     for (const engine::NodeChoice& choice : cut) {
         const BlockSummary& bs = blocks[choice.block];
-        const std::size_t k = engine::exactStep(bs.error, choice.hLim);
+        const std::size_t k = engine::exactStep(bs.error, choice.hLim, bs.river, choice.hLimRiver);
         c.points += bs.vertexCount - k;
         c.riverEdges += bs.riverEdges[k];
         c.triangles += bs.triangles[k];

@@ -46,6 +46,15 @@ bool checkLevelError(const format::Block& b, std::size_t level,
                 " at vertex " + std::to_string(e.riverVertex) + "), tolerance " + metres(tolerance);
         return false;
     }
+    // The river part (format version 4) bounds the river and outline deviations on its own.
+    const double storedRiver = std::min(double(l.errorRiver), double(b.errorRiver[l.step]));
+    if (storedRiver < e.river - tolerance) {
+        error = "max error's river part lies: stored " + metres(storedRiver) + " (errorRiver[" +
+                std::to_string(l.step) + "]), recomputed river " + metres(e.river) +
+                " at vertex " + std::to_string(e.riverVertex) + ", tolerance " + metres(tolerance);
+        return false;
+    }
+    summary.riverMargin = std::min(summary.riverMargin, storedRiver - e.river);
     const double margin = stored - recomputed;
     if (!summary.errorsChecked || margin < summary.smallestMargin) summary.smallestMargin = margin;
     summary.errorsChecked = true;
@@ -302,6 +311,18 @@ bool checkNodeOriginals(format::Reader& reader, std::size_t index, const format:
                     metres(tolerance);
             return false;
         }
+        const double storedRiver = std::min(double(l.errorRiver), double(b.errorRiver[l.step]));
+        if (storedRiver < river.value - tolerance) {
+            error = "level " + std::to_string(level) + " (step " + std::to_string(l.step) +
+                    "): max error's river part lies: stored " + metres(storedRiver) +
+                    ", recomputed " + metres(river.value) + " (at vertex " +
+                    std::to_string(river.vertex) + " of block (" + std::to_string(river.col) +
+                    "," + std::to_string(river.row) + ") below it: an original river point), " +
+                    "tolerance " + metres(tolerance);
+            return false;
+        }
+        if (std::isfinite(river.value))
+            summary.riverMargin = std::min(summary.riverMargin, storedRiver - river.value);
         const double margin = stored - w.value;
         if (margin < summary.smallestMargin) summary.smallestMargin = margin;
         if (stored > 0 && w.value / stored > summary.worstRatio) {

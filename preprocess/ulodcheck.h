@@ -8,6 +8,7 @@
 // it beyond the documented tolerance is a failure.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -31,6 +32,9 @@ struct UlodCheckSummary {
     // The largest recomputed river deviation of an original river point at a tree node's level
     // (errorcheck.h NodeOriginalError; 0 without nodes or rivers).
     double nodeRiverWorst = 0;
+    // The smallest stored river part (format::Level::errorRiver) minus the recomputed river
+    // deviation over the levels checked (metres; infinity when none has a river or outline).
+    double riverMargin = INFINITY;
 };
 
 // Returns false with a precise message (file, block, level, the violation) on the first failure.

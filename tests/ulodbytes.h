@@ -19,10 +19,10 @@
 namespace unilod::test {
 
 struct UlodBytes {
-    // README.md: file header 144 bytes, directory entries 104, trailer 8, block header 144. The
+    // README.md: file header 144 bytes, directory entries 104, trailer 8, block header 152. The
     // array accessors describe raw blocks (`build --encoding raw`); a compact block's payload
     // starts at kBlockHeaderSize and is kPayloadSize bytes long.
-    static constexpr std::size_t kHeaderSize = 144, kEntrySize = 104, kBlockHeaderSize = 144;
+    static constexpr std::size_t kHeaderSize = 144, kEntrySize = 104, kBlockHeaderSize = 152;
     // Header fields.
     static constexpr std::size_t kOriginX = 24, kMinX = 40, kMinY = 48, kMinZ = 56, kMaxX = 64,
                                  kMaxY = 72, kMaxZ = 80, kBlockWidth = 88, kBlockHeight = 96,
@@ -31,9 +31,9 @@ struct UlodBytes {
     // Directory entry fields.
     static constexpr std::size_t kEntryOffset = 56, kEntrySizeField = 64, kEntryChecksum = 72,
                                  kEntryEncoding = 100;
-    // Block header fields; the 16 array counts start at kCounts, in array order.
+    // Block header fields; the 17 array counts start at kCounts, in array order.
     static constexpr std::size_t kBlockOriginX = 8, kBlockMinX = 24, kCounts = 72,
-                                 kEncoding = 136, kPayloadSize = 140;
+                                 kEncoding = 140, kPayloadSize = 144;
     // The arrays of a block in file order and their element sizes.
     enum Array {
         kVertices,
@@ -48,14 +48,15 @@ struct UlodBytes {
         kAddedEdges,
         kErrorMax,
         kErrorPaper,
+        kErrorRiver,
         kLevels,
         kTerrainIndices,
         kRiverIndices,
         kGrid,
         kArrayCount
     };
-    static constexpr std::size_t kElementSize[kArrayCount] = {16, 12, 4, 4, 4,  4,  12, 12,
-                                                              8,  8,  4, 4, 32, 12, 8,  8};
+    static constexpr std::size_t kElementSize[kArrayCount] = {16, 12, 4, 4, 4,  4, 12, 12, 8,
+                                                              8,  4,  4, 4, 36, 12, 8, 8};
 
     std::vector<char> bytes;
 

@@ -8,7 +8,7 @@
 
 namespace unilod::format {
 
-inline constexpr int kArrayCount = 16;
+inline constexpr int kArrayCount = 17;
 
 // f(vector, i) for the arrays i = 0 .. kArrayCount - 1 in file order.
 template <typename B, typename F>
@@ -25,10 +25,11 @@ void forEachArray(B& b, F&& f) {
     f(b.addedEdges, 9);
     f(b.errorMax, 10);
     f(b.errorPaper, 11);
-    f(b.levels, 12);
-    f(b.terrainIndices, 13);
-    f(b.riverIndices, 14);
-    f(b.grid, 15);
+    f(b.errorRiver, 12);
+    f(b.levels, 13);
+    f(b.terrainIndices, 14);
+    f(b.riverIndices, 15);
+    f(b.grid, 16);
 }
 
 }  // namespace unilod::format

@@ -27,7 +27,7 @@ enum Stream {
     kStepCounts,   // per step: extra removals, additions (triangles, then edges)
     kStepRefs,     // per step: the vertex references of those records
     kStepApexes,   // per step in polygon mode: the apex codes of its triangulation
-    kErrors,       // both metrics' error bit patterns, delta coded
+    kErrors,       // the error arrays' bit patterns (max, paper, river), delta coded
     kLevelSteps,   // level steps, delta coded
     kStreamCount
 };
@@ -432,6 +432,7 @@ BlockCounts countsOf(const Block& b) {
     c.riverEdges = std::uint32_t(b.riverIndices.size());
     c.errorMax = !b.errorMax.empty();
     c.errorPaper = !b.errorPaper.empty();
+    c.errorRiver = !b.errorRiver.empty();
     return c;
 }
 
@@ -460,7 +461,8 @@ bool sameArrays(const Block& a, const Block& b) {
            sameBytes(a.addedTriangles, b.addedTriangles) &&
            sameBytes(a.removedEdges, b.removedEdges) && sameBytes(a.addedEdges, b.addedEdges) &&
            sameBytes(a.errorMax, b.errorMax) && sameBytes(a.errorPaper, b.errorPaper) &&
-           sameBytes(a.levels, b.levels) && sameBytes(a.terrainIndices, b.terrainIndices) &&
+           sameBytes(a.errorRiver, b.errorRiver) && sameBytes(a.levels, b.levels) &&
+           sameBytes(a.terrainIndices, b.terrainIndices) &&
            sameBytes(a.riverIndices, b.riverIndices) && sameBytes(a.grid, b.grid);
 }
 
@@ -625,7 +627,7 @@ bool encodeCompact(const Block& b, double q, std::vector<unsigned char>& out, st
             return why = "the levels' index data is not the paired layout of the records", false;
     }
 
-    for (const std::vector<float>* e : {&b.errorMax, &b.errorPaper}) {
+    for (const std::vector<float>* e : {&b.errorMax, &b.errorPaper, &b.errorRiver}) {
         std::int64_t last = 0;
         for (float f : *e) {
             const double k = std::round(double(f) / q);
@@ -892,7 +894,8 @@ bool decodeCompact(const unsigned char* data, std::size_t size, const BlockCount
     // Errors and levels.
     {
         In errors = in(kErrors);
-        for (auto [present, e] : {std::pair{c.errorMax, &d.errorMax}, {c.errorPaper, &d.errorPaper}}) {
+        for (auto [present, e] : {std::pair{c.errorMax, &d.errorMax}, {c.errorPaper, &d.errorPaper},
+                                  {c.errorRiver, &d.errorRiver}}) {
             if (!present) continue;
             e->resize(std::size_t(c.steps) + 1);
             std::uint64_t k = 0;
@@ -920,6 +923,7 @@ bool decodeCompact(const unsigned char* data, std::size_t size, const BlockCount
             l.vertexCount = n - l.step;
             l.errorMax = d.errorMax.empty() ? 0.0f : d.errorMax[l.step];
             l.errorPaper = d.errorPaper.empty() ? 0.0f : d.errorPaper[l.step];
+            l.errorRiver = d.errorRiver.empty() ? 0.0f : d.errorRiver[l.step];
         }
         if (lv.p != lv.end) return fail("the level stream is damaged");
     }

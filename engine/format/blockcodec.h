@@ -46,7 +46,7 @@ struct BlockCounts {
     std::uint32_t vertices = 0, steps = 0, levels = 0;
     std::uint32_t removedTriangles = 0, addedTriangles = 0, removedEdges = 0, addedEdges = 0;
     std::uint32_t terrainTriangles = 0, riverEdges = 0;
-    bool errorMax = false, errorPaper = false;
+    bool errorMax = false, errorPaper = false, errorRiver = false;
 };
 BlockCounts countsOf(const Block& block);
 

@@ -95,16 +95,18 @@ struct BlockHeader {
     std::uint32_t removedTriangleCount, addedTriangleCount;
     std::uint32_t removedEdgeCount, addedEdgeCount;
     std::uint32_t errorMaxCount, errorPaperCount;
+    std::uint32_t errorRiverCount;
     std::uint32_t levelCount;
     std::uint32_t terrainTriangleCount;
     std::uint32_t riverEdgeCount;
     std::uint32_t gridCount;
     std::uint32_t encoding;     // BlockEncoding
     std::uint32_t payloadSize;  // compact: the encoded bytes after this header; raw: 0
+    std::uint32_t reserved;     // 0
 };
-static_assert(sizeof(BlockHeader) == 144);
+static_assert(sizeof(BlockHeader) == 152);
 static_assert(offsetof(BlockHeader, vertexCount) == 72);
-static_assert(offsetof(BlockHeader, gridCount) == 132);
+static_assert(offsetof(BlockHeader, gridCount) == 136);
 
 constexpr std::uint64_t alignUp(std::uint64_t n) {
     return (n + kAlign - 1) / kAlign * kAlign;
@@ -185,7 +187,7 @@ std::uint32_t countOf(const BlockHeader& h, int i) {
     return (&h.vertexCount)[i];
 }
 
-// Byte size of a raw block from its header's counts; 64-bit, cannot overflow (16 arrays of at
+// Byte size of a raw block from its header's counts; 64-bit, cannot overflow (17 arrays of at
 // most 2^32 - 1 elements of at most 32 bytes each).
 std::uint64_t blockByteSize(const BlockHeader& h) {
     static const Block kShape;  // only the element types are used
@@ -210,6 +212,7 @@ BlockCounts compactCounts(const BlockHeader& h) {
     c.riverEdges = h.riverEdgeCount;
     c.errorMax = h.errorMaxCount > 0;
     c.errorPaper = h.errorPaperCount > 0;
+    c.errorRiver = h.errorRiverCount > 0;
     return c;
 }
 
@@ -748,6 +751,7 @@ bool Reader::readBlock(std::size_t index, Block& block, std::string& error) cons
         return fail("block header says " + blockName(h.col, h.row, info.level));
     }
     if (h.encoding != info.encoding) return fail("encoding differs from the directory");
+    if (h.reserved != 0) return fail("reserved block header field not 0");
     if (h.encoding == std::uint32_t(BlockEncoding::kRaw) ? h.payloadSize != 0
                                                           : alignUp(sizeof(BlockHeader) +
                                                                     std::uint64_t(h.payloadSize)) !=

@@ -3,6 +3,7 @@
 // this file. Little-endian; every on-disk struct has a fixed size (static_assert below).
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -15,7 +16,10 @@ namespace unilod::format {
 inline constexpr char kMagic[8] = {'U', 'L', 'O', 'D', '\r', '\n', '\x1a', '\n'};
 // Version 2 (issue 18): the directory holds the block hierarchy's tree links. Version 3 (issue
 // 19): blocks are stored compactly (blockcodec.h) or raw, the header states the z quantum.
-inline constexpr std::uint32_t kVersion = 3;
+// Version 4 (issue 15): the `max` error's river part is stored beside it (Block::errorRiver,
+// Level::errorRiver), so the engine bounds vertical errors with the sin(phi) factor and river
+// displacements without it.
+inline constexpr std::uint32_t kVersion = 4;
 
 // The height quantum of built models (Header::zQuantum): 1/128 m. A binary fraction, so k / 128
 // is exact in a double and, for |z| < 131 km, in the float a vertex stores.
@@ -75,8 +79,9 @@ struct Level {
     std::uint32_t triangleFirst, triangleCount;
     std::uint32_t riverFirst, riverCount;
     float errorMax, errorPaper;  // model error at this level (metres)
+    float errorRiver;            // the river part of errorMax (Block::errorRiver)
 };
-static_assert(sizeof(Level) == 32);
+static_assert(sizeof(Level) == 36);
 
 struct Block {
     std::uint32_t col = 0, row = 0;  // position in its tree level's grid
@@ -103,6 +108,13 @@ struct Block {
     // Model error after each step, index 0 = full resolution (steps.size() + 1 entries each),
     // non-decreasing. A metric not present in the file has an empty array.
     std::vector<float> errorMax, errorPaper;
+    // The river part of errorMax (present with it, same size, each entry <= errorMax's,
+    // non-decreasing): the running maximum of the river deviations alone (preprocess/deletion.h:
+    // the 3D distance from original river vertices to the drawn river edge, and the planimetric
+    // deviation of the domain's outline). errorMax = max(vertical part, errorRiver), so a
+    // vertical error is bounded by errorMax and a horizontal displacement by errorRiver: the
+    // engine scales only the first by sin(phi) (engine/lod/lod.h).
+    std::vector<float> errorRiver;
 
     // LOD index data: levels ascending in step, levels[0].step == 0 (full resolution).
     std::vector<Level> levels;
@@ -173,11 +185,15 @@ bool validateBlock(const Block& block, std::uint32_t metrics, std::string& error
 bool validateLevelGeometry(const Block& block, std::size_t level, std::string& error);
 
 // The stored level drawn for a model-error tolerance hLim (paper Eq. 11's h_lim): the level with
-// the largest step whose own stored error (errorMax / errorPaper by `metric`) is <= hLim, or
-// level 0 (full resolution) when none is. Stored errors are non-decreasing with the step, so
-// this is the coarsest qualifying level. The one place this rule lives: the engine
-// (engine/lod/lod.h chooseStoredLevel) and `unilod stats --error` both call it. `levels` non-empty.
-std::size_t storedLevelFor(const std::vector<Level>& levels, std::uint32_t metric, double hLim);
+// the largest step whose own stored error (errorMax / errorPaper by `metric`) is <= hLim and,
+// for the `max` metric, whose river part errorRiver is <= hRiver (the tolerance of horizontal
+// displacements; infinity: errorMax alone, which bounds both parts), or level 0 (full
+// resolution) when none is. Stored errors are non-decreasing with the step, so this is the
+// coarsest qualifying level. The one place this rule lives: the engine (engine/lod/lod.h
+// chooseStoredLevel) and `unilod stats --error` both call it. `levels` non-empty.
+bool levelFits(const Level& level, std::uint32_t metric, double hLim, double hRiver);
+std::size_t storedLevelFor(const std::vector<Level>& levels, std::uint32_t metric, double hLim,
+                           double hRiver = INFINITY);
 
 // Writes header + blocks to `path` atomically (AtomicFile: temporary file in the same folder,
 // fsync, rename), replacing an existing file. Blocks are written in the given order. Returns false

@@ -355,8 +355,17 @@ bool validateBlockImpl(const Block& b, std::uint32_t metrics, std::string& error
     }
 
     if (!checkErrors(b.errorMax, (metrics & kMetricMax) != 0, stepCount, "errorMax", error) ||
-        !checkErrors(b.errorPaper, (metrics & kMetricPaper) != 0, stepCount, "errorPaper", error)) {
+        !checkErrors(b.errorPaper, (metrics & kMetricPaper) != 0, stepCount, "errorPaper", error) ||
+        !checkErrors(b.errorRiver, (metrics & kMetricMax) != 0, stepCount, "errorRiver", error)) {
         return false;
+    }
+    // The river part of the `max` error is part of it.
+    for (std::size_t s = 0; s < b.errorRiver.size(); ++s) {
+        if (b.errorRiver[s] > b.errorMax[s]) {
+            error = "errorRiver[" + std::to_string(s) + "] exceeds errorMax[" + std::to_string(s) +
+                    "]";
+            return false;
+        }
     }
 
     if (b.levels.empty()) {
@@ -436,7 +445,10 @@ bool validateBlockImpl(const Block& b, std::uint32_t metrics, std::string& error
         }
         if (!validateLevelGeometryImpl(b, l, error)) return false;
         // The level's errors are the error table's at its step (what the engine's h_s is).
-        const bool maxOk = (metrics & kMetricMax) == 0 || level.errorMax == b.errorMax[level.step];
+        const bool maxOk = (metrics & kMetricMax) == 0
+                               ? level.errorRiver == 0
+                               : level.errorMax == b.errorMax[level.step] &&
+                                     level.errorRiver == b.errorRiver[level.step];
         const bool paperOk =
             (metrics & kMetricPaper) == 0 || level.errorPaper == b.errorPaper[level.step];
         if (!maxOk || !paperOk) {
@@ -462,13 +474,17 @@ bool validateLevelGeometry(const Block& block, std::size_t level, std::string& e
     return validateLevelGeometryImpl(block, level, error);
 }
 
-std::size_t storedLevelFor(const std::vector<Level>& levels, std::uint32_t metric, double hLim) {
+bool levelFits(const Level& level, std::uint32_t metric, double hLim, double hRiver) {
+    if (metric == kMetricPaper) return double(level.errorPaper) <= hLim;
+    return double(level.errorMax) <= hLim && double(level.errorRiver) <= hRiver;
+}
+
+std::size_t storedLevelFor(const std::vector<Level>& levels, std::uint32_t metric, double hLim,
+                           double hRiver) {
     assert(!levels.empty());
     std::size_t chosen = 0;
-    for (std::size_t i = 0; i < levels.size(); ++i) {
-        const double e = metric == kMetricPaper ? levels[i].errorPaper : levels[i].errorMax;
-        if (e <= hLim) chosen = i;  // errors are non-decreasing with the step
-    }
+    for (std::size_t i = 0; i < levels.size(); ++i)
+        if (levelFits(levels[i], metric, hLim, hRiver)) chosen = i;  // errors non-decreasing
     return chosen;
 }
 

@@ -99,10 +99,11 @@ bool nodeVisible(const ViewSpec& view, const double boxMin[3], const double boxM
                : boxInFrustum(view.camera, aspect, boxMin, boxMax);
 }
 
-double nodeTolerance(const ViewSpec& view, const LodNode& node, double* distance, BoxView* box) {
+NodeTolerance nodeTolerances(const ViewSpec& view, const LodNode& node, double* distance,
+                             BoxView* box) {
     if (distance != nullptr) *distance = 0;
     if (box != nullptr) *box = BoxView{};
-    if (view.kind == ViewSpec::Kind::Uniform) return view.hLim;
+    if (view.kind == ViewSpec::Kind::Uniform) return {view.hLim, INFINITY};
     // The grid mode shows, top-down, the levels the perspective view from the same eye selects
     // (the paper's 2D grid diagrams at a view distance).
     const double s = blockDistance(view.distance, view.camera.eye, node.boxMin, node.boxMax);
@@ -112,14 +113,25 @@ double nodeTolerance(const ViewSpec& view, const LodNode& node, double* distance
     if (box != nullptr) *box = place;
     const ViewTolerance tolerance{view.pixels, view.camera.fovDegrees * kDegree, view.widthPixels,
                                   view.heightPixels, view.distance};
-    const double whole = blockTolerance(tolerance, s, place);
+    // The bound of a box for vertical errors (sin(phi)) and for horizontal displacements (none).
+    auto bounds = [&](double at, BoxView b) {
+        NodeTolerance t;
+        b.horizontal = false;
+        t.vertical = blockTolerance(tolerance, at, b);
+        if (node.horizontal) {
+            b.horizontal = true;
+            t.river = blockTolerance(tolerance, at, b);
+        }
+        return t;
+    };
+    const NodeTolerance whole = bounds(s, place);
     if (view.distance != DistanceMode::Nearest || !view.direction) return whole;
     // A node small against its distance gains little (every column's S is within its diagonal
     // of the box's): the whole box, and no per-column work.
     const double diagonal =
         std::hypot(node.boxMax[0] - node.boxMin[0], node.boxMax[1] - node.boxMin[1]);
     if (diagonal <= kColumnsBelowDistance * s) return whole;
-    // Columns (cut.h kToleranceColumns): the bound per column, for the points on screen.
+    // Columns (cut.h kToleranceColumns): the bounds per column, for the points on screen.
     const double aspect = view.widthPixels / view.heightPixels;
     const double cornerCos = std::sqrt(frustumEdgeFactor(tolerance.fovRadians, aspect));
     const double focal = view.heightPixels / (2.0 * std::tan(tolerance.fovRadians / 2.0));
@@ -141,33 +153,46 @@ double nodeTolerance(const ViewSpec& view, const LodNode& node, double* distance
             k.s = nearestBoxDistance(view.camera.eye, k.lo, k.hi);
         }
     }
-    // Nearest first; a column's bound is at least P S cos^2(theta_c) / (f + P) (c >= cos
+    // Nearest first; a column's bounds are at least P S cos^2(theta_c) / (f + P) (c >= cos
     // theta_c, depth >= S cos theta_c, sin phi <= 1, the river factor >= f / (f + P)), so once
-    // that exceeds the smallest bound so far no farther column can lower it, and once the
-    // smallest is down to the whole box's the answer is the whole box's.
+    // that exceeds the smallest bounds so far no farther column can lower them, and once the
+    // smallest are down to the whole box's the answer is the whole box's.
     std::stable_sort(columns.begin(), columns.end(),
                      [](const Column& a, const Column& b) { return a.s < b.s; });
-    double smallest = INFINITY;
+    NodeTolerance smallest{INFINITY, INFINITY};
+    auto atWhole = [&] {
+        return smallest.vertical <= whole.vertical &&
+               (!node.horizontal || smallest.river <= whole.river);
+    };
     for (const Column& k : columns) {
+        const double reach = node.horizontal ? std::max(smallest.vertical, smallest.river)
+                                             : smallest.vertical;
         if (view.pixels * k.s * cornerCos * cornerCos / (focal + view.pixels) * (1 - 1e-12) >=
-            smallest)
+            reach)
             break;
         if (view.cull && !boxInFrustum(view.camera, basis, aspect, k.lo, k.hi)) continue;
-        BoxView column = boxView(view.camera, basis, k.lo, k.hi);
-        column.horizontal = node.horizontal;
-        double h = blockTolerance(tolerance, k.s, column);
+        const BoxView column = boxView(view.camera, basis, k.lo, k.hi);
+        NodeTolerance h = bounds(k.s, column);
         // A river's drawn point q may lie in another column, up to h from its original point
         // p: its depth is then only >= p's bound D - h, and f h / ((D - h) c) <= P holds for
         // h = P c D / (f + P c), the column's bound times f / (f + P c).
         if (node.horizontal) {
             const double c = std::max(cornerCos, column.axisCos);
-            h *= focal / (focal + view.pixels * c);
+            h.river *= focal / (focal + view.pixels * c);
         }
-        smallest = std::min(smallest, h);
-        if (smallest <= whole) return whole;
+        smallest.vertical = std::min(smallest.vertical, h.vertical);
+        smallest.river = std::min(smallest.river, h.river);
+        if (atWhole()) return whole;
     }
     // No column on screen (the node's box is kept by the conservative cull): the whole box.
-    return smallest == INFINITY ? whole : std::max(whole, smallest);
+    if (smallest.vertical == INFINITY) return whole;
+    return {std::max(whole.vertical, smallest.vertical),
+            node.horizontal ? std::max(whole.river, smallest.river) : INFINITY};
+}
+
+double nodeTolerance(const ViewSpec& view, const LodNode& node, double* distance, BoxView* box) {
+    const NodeTolerance t = nodeTolerances(view, node, distance, box);
+    return node.horizontal && view.kind != ViewSpec::Kind::Uniform ? t.river : t.vertical;
 }
 
 NodeChoice chooseNode(const ViewSpec& view, const LodNode& node, std::uint32_t index,
@@ -178,8 +203,15 @@ NodeChoice chooseNode(const ViewSpec& view, const LodNode& node, std::uint32_t i
     c.col = node.col;
     c.treeLevel = node.level;
     c.row = node.row;
-    c.hLim = nodeTolerance(view, node, &c.distance, &c.box);
-    c.wanted = chooseStoredLevel(*node.levels, metric, view.finest ? -1.0 : c.hLim);
+    const NodeTolerance t = nodeTolerances(view, node, &c.distance, &c.box);
+    if (metric == format::kMetricPaper || view.kind == ViewSpec::Kind::Uniform) {
+        c.hLim = node.horizontal && view.kind != ViewSpec::Kind::Uniform ? t.river : t.vertical;
+    } else {
+        c.hLim = t.vertical;
+        c.hLimRiver = t.river;
+    }
+    c.wanted = view.finest ? chooseStoredLevel(*node.levels, metric, -1.0, -1.0)
+                           : chooseStoredLevel(*node.levels, metric, c.hLim, c.hLimRiver);
     return c;
 }
 
@@ -204,10 +236,7 @@ void selectCut(const ViewSpec& view, const std::vector<LodNode>& nodes, std::uin
         if (!nodeVisible(view, n.boxMin, n.boxMax)) continue;
         NodeChoice c = chooseNode(view, n, i, metric);
         if (n.firstChild != kNoChild && n.childCount > 0) {
-            const format::Level& finest = n.levels->front();
-            const double start =
-                metric == format::kMetricPaper ? finest.errorPaper : finest.errorMax;
-            if (view.finest || start > c.hLim) {
+            if (view.finest || !format::levelFits(n.levels->front(), metric, c.hLim, c.hLimRiver)) {
                 for (std::uint32_t k = n.childCount; k-- > 0;)
                     stack.push_back(n.firstChild + k);
                 continue;

@@ -8,6 +8,7 @@
 // picks for its h_lim.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -78,6 +79,9 @@ struct NodeChoice {
     std::uint32_t col = 0, row = 0;
     std::uint32_t treeLevel = 0;    // tree level (0: a leaf block)
     double distance = 0, hLim = 0;  // S of the view's mode (0 for Uniform), h_lim
+    // The `max` metric's tolerance of the river part (NodeTolerance::river); infinity where no
+    // river part is bounded apart (no rivers and a fixed outline, the `paper` metric, Uniform).
+    double hLimRiver = INFINITY;
     BoxView box;                    // how the box lies in the view (Camera/Grid with a direction)
     LevelChoice wanted;             // the level h_lim asks for
 };
@@ -105,7 +109,22 @@ bool nodeVisible(const ViewSpec& view, const double boxMin[3], const double boxM
 // bound (columns would gain little there and cost up to kToleranceColumns^2 box tests).
 inline constexpr int kToleranceColumns = 8;
 inline constexpr double kColumnsBelowDistance = 0.25;
-// S and h_lim of a node for the view.
+//
+// Two tolerances (format version 4 stores the river part of the `max` error apart,
+// format::Level::errorRiver): `vertical` bounds vertical errors, with the sin(phi) factor and no
+// river factor (a vertical error's surface point is in the point's own column); `river` bounds
+// horizontal displacements (river edges, a moving outline): no sin(phi) factor, the river factor
+// above. A node without rivers whose outline stays (LodNode::horizontal false) has no horizontal
+// displacement: `river` is infinity. The `max` metric draws a level when errorMax <= vertical
+// and errorRiver <= river (errorMax = max(vertical part, river part) and river <= vertical, so
+// both parts are bounded); the `paper` metric, which has no river part, keeps the single
+// tolerance nodeTolerance returns: `river` for a horizontal node, `vertical` otherwise.
+struct NodeTolerance {
+    double vertical = 0, river = INFINITY;
+};
+NodeTolerance nodeTolerances(const ViewSpec& view, const LodNode& node, double* distance = nullptr,
+                             BoxView* box = nullptr);
+// The single tolerance (above): S and h_lim of a node for the view.
 double nodeTolerance(const ViewSpec& view, const LodNode& node, double* distance = nullptr,
                      BoxView* box = nullptr);
 
@@ -117,7 +136,7 @@ NodeChoice chooseNode(const ViewSpec& view, const LodNode& node, std::uint32_t i
 
 // The cut for the view, nearest first (ties in node order), under `metric` (format::kMetricMax /
 // kMetricPaper). From every root: a node outside the view is skipped with its subtree; a node
-// with children whose starting (finest) error exceeds its h_lim — or any node with children in
+// with children whose starting (finest) level does not fit its tolerances (format::levelFits) — or any node with children in
 // `finest` mode — gives way to its children; every other visible node is drawn at its wanted
 // level. Children lie inside their parent and meet it without cracks (its own outer border stays
 // locked), so any such cut covers the visible model once. `out` is cleared first.

@@ -61,6 +61,12 @@ std::size_t exactStep(const std::vector<float>& errors, double hLim) {
     return qualifying == errors.begin() ? 0 : std::size_t(qualifying - errors.begin()) - 1;
 }
 
+std::size_t exactStep(const std::vector<float>& errors, double hLim,
+                      const std::vector<float>& riverErrors, double hRiver) {
+    const std::size_t k = exactStep(errors, hLim);
+    return riverErrors.empty() ? k : std::min(k, exactStep(riverErrors, hRiver));
+}
+
 LevelChoice chooseLevel(const std::vector<format::Level>& levels, const std::vector<float>& errors,
                         double hLim) {
     assert(!levels.empty() && !errors.empty());
@@ -75,15 +81,16 @@ LevelChoice chooseLevel(const std::vector<format::Level>& levels, const std::vec
 }
 
 LevelChoice chooseStoredLevel(const std::vector<format::Level>& levels, std::uint32_t metric,
-                              double hLim) {
+                              double hLim, double hRiver) {
     assert(!levels.empty());
     auto error = [metric](const format::Level& l) {
         return double(metric == format::kMetricPaper ? l.errorPaper : l.errorMax);
     };
     LevelChoice c;
-    c.level = format::storedLevelFor(levels, metric, hLim);
+    c.level = format::storedLevelFor(levels, metric, hLim, hRiver);
     c.step = levels[c.level].step;
     c.error = error(levels[c.level]);
+    if (metric != format::kMetricPaper) c.riverError = levels[c.level].errorRiver;
     if (c.level + 1 < levels.size()) c.nextError = error(levels[c.level + 1]);
     return c;
 }

@@ -2,6 +2,7 @@
 // Vulkan: the capture, the renderer and the tests share it.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -48,10 +49,13 @@ double frustumEdgeFactor(double fovRadians, double aspect);
 //   q_z         >= max(zMin, S cos(theta_c))         (zMin: q is in the box; S cos(theta_c):
 //                                                     q on screen too, at distance >= S)
 // so S' = c max(zMin, S cos(theta_c)) / verticalSin bounds the error by P pixels. In a block with
-// rivers (BoxView::horizontal) the `max` error also bounds the 3D distance from every original
-// river vertex to the drawn river edge (preprocess/deletion.h); a displacement d in any
-// direction projects to at most f |d| / (q_z cos(theta_p)) (|d x p| <= |d| |p|), so there
-// verticalSin is replaced by 1 and the drawn rivers are within P pixels of the original ones too. With no
+// rivers or a moving outline (BoxView::horizontal) the `max` error also bounds the 3D distance
+// from every original river vertex to the drawn river edge (preprocess/deletion.h); a
+// displacement d in any direction projects to at most f |d| / (q_z cos(theta_p)) (|d x p| <=
+// |d| |p|), so for it verticalSin is replaced by 1 (BoxView::horizontal true). Since format
+// version 4 that river part is stored on its own (format::Level::errorRiver): the cut holds the
+// `max` error to the tolerance with sin(phi) and the river part to the one without (cut.h
+// NodeTolerance), and the drawn rivers are within P pixels of the original ones too. With no
 // box information (BoxView{}: zMin 0, axisCos 0, verticalSin 1) S' = S cos^2(theta_c) <= S.
 // The box terms only make S' larger where the bound allows it: blocks near the view axis (c up
 // to 1 instead of cos(theta_c), about 0.65 at 60 degrees and 16:9) and blocks seen steeply from
@@ -70,6 +74,7 @@ struct LevelChoice {
     std::size_t level = 0;  // index into Block::levels
     std::uint32_t step = 0;
     double error = 0;       // h_s: the model error at that step
+    double riverError = 0;  // its river part (`max` metric, stored levels; else 0)
     double nextError = -1;  // error of the next coarser stored level; -1 for the coarsest
 };
 
@@ -77,6 +82,11 @@ struct LevelChoice {
 // the tolerance are a prefix); 0 when even errors[0] exceeds it (nothing finer exists). The
 // exact state the paper's Tables 2 and 3 count (`stats`).
 std::size_t exactStep(const std::vector<float>& errors, double hLim);
+// The same with the `max` metric's river part (format::Block::errorRiver) held to hRiver too:
+// both tables are non-decreasing, so the steps within both bounds are the shorter prefix.
+// `riverErrors` empty: the river part is not bounded apart.
+std::size_t exactStep(const std::vector<float>& errors, double hLim,
+                      const std::vector<float>& riverErrors, double hRiver);
 
 // k* = the largest step with error[k] <= hLim (errors are non-decreasing, so a prefix
 // qualifies); the chosen level is the stored level with the largest step <= k*. If even
@@ -86,9 +96,10 @@ LevelChoice chooseLevel(const std::vector<format::Level>& levels, const std::vec
 
 // The same choice from the stored levels' own errors (format::Level::errorMax / errorPaper,
 // equal to the error table at their steps): the level with the largest step whose error is
-// <= hLim, or level 0 (full resolution) when none is. This is all the streaming engine keeps
-// in memory per block.
+// <= hLim and, for the `max` metric, whose river part (Level::errorRiver) is <= hRiver
+// (format::storedLevelFor), or level 0 (full resolution) when none is. This is all the
+// streaming engine keeps in memory per block.
 LevelChoice chooseStoredLevel(const std::vector<format::Level>& levels, std::uint32_t metric,
-                              double hLim);
+                              double hLim, double hRiver = INFINITY);
 
 }  // namespace unilod::engine

@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "cut.h"
 #include "dem.h"
 #include "shared.h"
 #include "synthetic.h"
@@ -110,13 +111,21 @@ TEST_F(Capture, NearAndFarViews) {
             ASSERT_TRUE(reader.readBlock(index, block, error)) << error;
             const auto level = b["level"].get<std::size_t>();
             ASSERT_LT(level, block.levels.size());
+            // Format version 4: the `max` error is held to h_lim (with sin phi) and its river
+            // part to h_lim_river (without; null: no river part bounded apart).
             const double hLim = b["h_lim"];
+            const double hLimRiver =
+                b["h_lim_river"].is_null() ? INFINITY : b["h_lim_river"].get<double>();
             const double hs = block.errorMax[block.levels[level].step];
+            const double hsRiver = block.errorRiver[block.levels[level].step];
             EXPECT_EQ(b["step"].get<std::uint32_t>(), block.levels[level].step);
             EXPECT_DOUBLE_EQ(b["h_s"].get<double>(), hs);
-            EXPECT_TRUE(hs <= hLim || level == 0) << "block " << b.dump();
+            EXPECT_DOUBLE_EQ(b["h_s_river"].get<double>(), hsRiver);
+            EXPECT_TRUE((hs <= hLim && hsRiver <= hLimRiver) || level == 0) << "block " << b.dump();
             if (level + 1 < block.levels.size()) {
-                EXPECT_GT(block.errorMax[block.levels[level + 1].step], hLim) << b.dump();
+                const std::uint32_t next = block.levels[level + 1].step;
+                EXPECT_TRUE(block.errorMax[next] > hLim || block.errorRiver[next] > hLimRiver)
+                    << b.dump();
             }
             EXPECT_EQ(b["triangles"].get<std::uint32_t>(), block.levels[level].triangleCount);
             // h_lim by Eq. 11 with P = 1, 60 degrees, 480 px and S' = c max(zMin, S cos) / sin
@@ -157,17 +166,34 @@ TEST_F(Capture, NearAndFarViews) {
             EXPECT_NEAR(b["vertical_sin"].get<double>(), verticalSin, 1e-9);
             const double s = b["S"].get<double>();
             const double c = std::max(std::sqrt(edge), axisCos);
-            // A block with rivers drops the sin factor (its error bounds the rivers' 3D
-            // deviation too); the file says which blocks have river edges.
+            // h_lim has the sin factor; a block with rivers has h_lim_river without it (the
+            // river part bounds the rivers' 3D deviation); the file says which blocks have river
+            // edges.
             format::BlockGeometry levels;
             std::string why;
             ASSERT_TRUE(reader.readGeometry(index, format::kLevelsOnly, levels, why)) << why;
             const bool rivers = levels.levels.front().riverCount > 0;
             EXPECT_EQ(b["rivers"].get<bool>(), rivers);
-            const double sEff =
-                c * std::max(zMin, s * std::sqrt(edge)) / (rivers ? 1.0 : verticalSin);
+            const double sEff = c * std::max(zMin, s * std::sqrt(edge)) / verticalSin;
             EXPECT_GE(sEff, s * edge);  // never finer than the box-free bound
-            EXPECT_NEAR(hLim, 2.0 * sEff * t / 480, 1e-6 * (1 + hLim));
+            // The whole box's bound, exactly where the box is small against S (cut.h: no
+            // tolerance columns there); never below it elsewhere (columns can only raise it).
+            const bool whole = std::hypot(hi[0] - lo[0], hi[1] - lo[1]) <=
+                               engine::kColumnsBelowDistance * s;
+            auto expectBound = [&](double h, double bound) {
+                if (whole)
+                    EXPECT_NEAR(h, bound, 1e-6 * (1 + h)) << b.dump();
+                else
+                    EXPECT_GE(h, bound * (1 - 1e-9)) << b.dump();
+            };
+            expectBound(hLim, 2.0 * sEff * t / 480);
+            if (rivers) {
+                const double sRiver = c * std::max(zMin, s * std::sqrt(edge));
+                expectBound(hLimRiver, 2.0 * sRiver * t / 480);
+                EXPECT_LE(hLimRiver, hLim);
+            } else {
+                EXPECT_TRUE(b["h_lim_river"].is_null()) << b.dump();
+            }
         }
     }
 

@@ -326,6 +326,7 @@ protected:
             const format::Block& drawn = (*blocks_)[at];
             const format::Level& level = drawn.levels[d.level[at]];
             const double hs = drawn.errorMax[level.step];
+            const double hsRiver = drawn.errorRiver[level.step];  // the outline's part
             for (std::size_t k = 0; k < leaf.vertices.size(); ++k) {
                 const format::Vertex& v = leaf.vertices[k];
                 ++out.total;
@@ -340,11 +341,11 @@ protected:
                     // Outside the level's domain (its outline moved, cdt.h "Domain"): the
                     // segment to the nearest point of the level's outline in 3D, projected.
                     const double p[2] = {wx, wy};
-                    if (!outlineDeviation(cam, drawn, level, p, v.z, hs, pixels, out) &&
+                    if (!outlineDeviation(cam, drawn, level, p, v.z, hsRiver, pixels, out) &&
                         ++out.unlocated <= 5)
                         ADD_FAILURE() << "point (" << v.x << ", " << v.y << ") of block "
                                       << leaf.col << "," << leaf.row
-                                      << " is farther than h_s from the outline of the drawn "
+                                      << " is farther than h_s's river part from the outline of the drawn "
                                       << "block (" << drawn.col << "," << drawn.row
                                       << ") of tree level " << drawn.level;
                     continue;

@@ -165,8 +165,8 @@ TEST(BlockCodecUnit, NonCanonicalBlockIsStoredRaw) {
     b.maxX = b.maxY = 1;
     b.minZ = b.maxZ = 1;
     b.removedTriangleOffset = b.addedTriangleOffset = b.removedEdgeOffset = b.addedEdgeOffset = {0};
-    b.errorMax = {0};
-    b.levels = {{0, 3, 0, 1, 0, 0, 0, 0}};
+    b.errorMax = b.errorRiver = {0};
+    b.levels = {{0, 3, 0, 1, 0, 0, 0, 0, 0}};
     b.terrainIndices = {{0, 1, 2}};
     std::vector<unsigned char> bytes;
     std::string why;

@@ -25,7 +25,7 @@ namespace {
 // Layout constants from README.md (the test pins the documented layout).
 constexpr std::size_t kFileHeaderSize = 144;
 constexpr std::size_t kDirEntrySize = 104;
-constexpr std::size_t kBlockHeaderSize = 144;
+constexpr std::size_t kBlockHeaderSize = 152;
 
 std::size_t align8(std::size_t n) {
     return (n + 7) / 8 * 8;
@@ -76,6 +76,7 @@ Block makeBlock(std::uint32_t col, std::uint32_t row, std::uint32_t metrics, boo
 
     const float scale = 1.0f + 0.5f * col + 0.25f * row;
     b.errorMax = {0.0f, 0.5f * scale, 1.5f * scale};
+    b.errorRiver = {0.0f, 0.25f * scale, 0.75f * scale};
     if (metrics & kMetricPaper) b.errorPaper = {0.0f, 0.3f * scale, 1.0f * scale};
     auto paper = [&](std::uint32_t s) { return b.errorPaper.empty() ? 0.0f : b.errorPaper[s]; };
 
@@ -89,6 +90,7 @@ Block makeBlock(std::uint32_t col, std::uint32_t row, std::uint32_t metrics, boo
         l.riverFirst = static_cast<std::uint32_t>(b.riverIndices.size());
         l.riverCount = static_cast<std::uint32_t>(edges.size());
         l.errorMax = b.errorMax[step];
+        l.errorRiver = b.errorRiver[step];
         l.errorPaper = paper(step);
         b.terrainIndices.insert(b.terrainIndices.end(), tris.begin(), tris.end());
         b.riverIndices.insert(b.riverIndices.end(), edges.begin(), edges.end());
@@ -442,7 +444,7 @@ TEST_F(UlodTest, BadMagicRejected) {
 
 TEST_F(UlodTest, WrongVersionRejectedWithTheVersion) {
     std::vector<char> bytes = readBytes(writeStandard());
-    for (std::uint32_t version : {0u, 1u, 77u}) {
+    for (std::uint32_t version : {0u, 1u, 3u, 77u}) {
         store<std::uint32_t>(bytes, 8, version);
         const std::string path = file("version.ulod");
         writeBytes(path, bytes.data(), bytes.size());
@@ -450,7 +452,7 @@ TEST_F(UlodTest, WrongVersionRejectedWithTheVersion) {
         std::string error;
         EXPECT_FALSE(reader.open(path, error));
         EXPECT_NE(error.find("unsupported .ulod version " + std::to_string(version) +
-                             " (this build reads 3)"),
+                             " (this build reads 4)"),
                   std::string::npos)
             << error;
     }

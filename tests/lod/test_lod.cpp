@@ -113,10 +113,12 @@ TEST(Cut, CameraCullsAndSortsNearestFirst) {
         if (i > 0) {
             EXPECT_LE(cut[i - 1].distance, cut[i].distance);
         }
-        // The cut's h_lim is nodeTolerance's, its level chooseStoredLevel's.
-        EXPECT_EQ(cut[i].hLim, engine::nodeTolerance(v, n));
+        // The cut's tolerances are nodeTolerances', its level chooseStoredLevel's.
+        const engine::NodeTolerance t = engine::nodeTolerances(v, n);
+        EXPECT_EQ(cut[i].hLim, t.vertical);
+        EXPECT_EQ(cut[i].hLimRiver, t.river);
         EXPECT_EQ(cut[i].wanted.level,
-                  engine::chooseStoredLevel(levels, format::kMetricMax, cut[i].hLim).level);
+                  engine::chooseStoredLevel(levels, format::kMetricMax, t.vertical, t.river).level);
     }
     // Farther blocks get larger tolerances and never finer levels.
     EXPECT_LT(cut.front().hLim, cut.back().hLim);
@@ -207,6 +209,71 @@ TEST(Cut, ColumnsBoundEveryPointOnScreen) {
     const engine::LodNode n = nodeAt(0, 0, 8000, dry);
     const double centre = engine::nodeTolerance(v, n, &s);
     EXPECT_EQ(centre, engine::toleranceFor(1, s, fov, 1080));
+}
+
+// Format version 4: the `max` error is held to the tolerance with sin(phi) and its river part
+// (Level::errorRiver) to the tolerance without it. Seen steeply from above, the two differ by
+// about 1 / sin(phi); a level whose river part exceeds the river tolerance is not drawn, one
+// whose combined error exceeds the river tolerance but whose river part does not is.
+TEST(Cut, RiverPartHasItsOwnTolerance) {
+    engine::ViewSpec v;
+    v.camera.eye[0] = 4000, v.camera.eye[1] = 4000, v.camera.eye[2] = 20000;
+    v.camera.yawDegrees = 0;
+    v.camera.pitchDegrees = -89;
+    v.widthPixels = 1920, v.heightPixels = 1080;
+    std::vector<format::Level> wet = threeLevels(true);
+    const std::vector<format::Level> dry = threeLevels(false);
+    const engine::LodNode nodeDry = nodeAt(0, 0, 8000, dry);
+    const engine::NodeTolerance tDry = engine::nodeTolerances(v, nodeDry);
+    EXPECT_EQ(tDry.river, INFINITY);  // no river, fixed outline: nothing moves sideways
+    EXPECT_EQ(engine::nodeTolerance(v, nodeDry), tDry.vertical);
+    engine::LodNode nodeWet = nodeAt(0, 0, 8000, wet);
+    const engine::NodeTolerance t = engine::nodeTolerances(v, nodeWet);
+    EXPECT_EQ(t.vertical, tDry.vertical);
+    ASSERT_GT(t.vertical, 2.5 * t.river) << "steep view: sin(phi) about 0.3";
+    EXPECT_EQ(engine::nodeTolerance(v, nodeWet), t.river);  // the single (paper) tolerance
+
+    // Level 2: combined error above the river tolerance, river part 1 % above it: not drawn.
+    const float errorMax[3] = {0, float(0.5 * t.river), float(0.99 * t.vertical)};
+    const float river[3] = {0, float(0.5 * t.river), float(1.01 * t.river)};
+    for (int i = 0; i < 3; ++i)
+        wet[std::size_t(i)].errorMax = errorMax[i], wet[std::size_t(i)].errorRiver = river[i];
+    engine::NodeChoice c = engine::chooseNode(v, nodeWet, 0, format::kMetricMax);
+    EXPECT_EQ(c.hLim, t.vertical);
+    EXPECT_EQ(c.hLimRiver, t.river);
+    EXPECT_EQ(c.wanted.level, 1u);
+    EXPECT_FALSE(format::levelFits(wet[2], format::kMetricMax, t.vertical, t.river));
+    // River part 1 % below it: drawn, though its combined error is 2.5 times the river
+    // tolerance (the version 3 rule, one number without sin(phi), would draw level 1).
+    wet[2].errorRiver = float(0.99 * t.river);
+    c = engine::chooseNode(v, nodeWet, 0, format::kMetricMax);
+    EXPECT_EQ(c.wanted.level, 2u);
+    EXPECT_DOUBLE_EQ(c.wanted.riverError, double(wet[2].errorRiver));
+    EXPECT_EQ(format::storedLevelFor(wet, format::kMetricMax, t.river), 1u);  // errorMax alone
+    // The paper metric has no river part: its error is held to the single tolerance.
+    c = engine::chooseNode(v, nodeWet, 0, format::kMetricPaper);
+    EXPECT_EQ(c.hLim, t.river);
+    EXPECT_EQ(c.hLimRiver, INFINITY);
+    EXPECT_EQ(c.wanted.level, 2u);  // errorPaper 6 from threeLevels, far below t.river here
+    ASSERT_LT(6.0, t.river);
+
+    // A node with children gives way to them when its finest level's river part does not fit.
+    std::vector<format::Level> parentLevels = wet;
+    parentLevels[0].errorRiver = parentLevels[0].errorMax = float(1.5 * t.river);
+    std::vector<engine::LodNode> nodes = {nodeAt(0, 0, 4000, dry), nodeAt(4000, 0, 4000, dry),
+                                          nodeAt(0, 4000, 4000, dry),
+                                          nodeAt(4000, 4000, 4000, dry),
+                                          nodeAt(0, 0, 8000, parentLevels)};
+    nodes[4].firstChild = 0, nodes[4].childCount = 4, nodes[4].level = 1;
+    std::vector<engine::NodeChoice> cut;
+    engine::selectCut(v, nodes, format::kMetricMax, cut);
+    EXPECT_EQ(cut.size(), 4u);
+    for (const engine::NodeChoice& k : cut)
+        EXPECT_LT(k.block, 4u);
+    parentLevels[0].errorRiver = float(0.5 * t.river);
+    engine::selectCut(v, nodes, format::kMetricMax, cut);
+    ASSERT_EQ(cut.size(), 1u);
+    EXPECT_EQ(cut[0].block, 4u);
 }
 
 TEST(Cut, GridModeCullsTheTopDownRectangle) {

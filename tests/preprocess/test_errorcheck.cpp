@@ -122,7 +122,7 @@ format::Block riverLeaf(double ox, double oy,
         }
     }
     leaf.levels.push_back({0, std::uint32_t(leaf.vertices.size()), 0, 0, 0,
-                           std::uint32_t(leaf.riverIndices.size()), 0.0f, 0.0f});
+                           std::uint32_t(leaf.riverIndices.size()), 0.0f, 0.0f, 0.0f});
     return leaf;
 }
 

@@ -205,6 +205,27 @@ TEST(GreedyOrder, InvariantsAndErrorsWithRivers) {
     EXPECT_GT(riverSteps, 20u);
     EXPECT_EQ(rec.stepErrorMax.size(), rec.steps.size());
     EXPECT_EQ(rec.errorPaper.size(), rec.steps.size());
+    // The river part (format version 4): a running maximum of its own, raised only by steps that
+    // replace river edges (a DEM vertex's deletion moves no river), never above errorMax.
+    ASSERT_EQ(rec.errorRiver.size(), rec.steps.size());
+    std::uint32_t raised = 0;
+    for (std::size_t k = 0; k < rec.steps.size(); ++k) {
+        const double before = k == 0 ? rec.initialErrorRiver : rec.errorRiver[k - 1];
+        EXPECT_GE(rec.errorRiver[k], before);
+        EXPECT_LE(rec.errorRiver[k], rec.errorMax[k]);
+        if (rec.errorRiver[k] > before) {
+            ++raised;
+            EXPECT_GT(rec.addedEdgeOffset[k + 1], rec.addedEdgeOffset[k]) << "step " << k;
+            EXPECT_LE(rec.errorRiver[k], rec.stepErrorMax[k]) << "step " << k;
+        }
+    }
+    EXPECT_GT(raised, 5u);
+    // The parts differ (the vertical one leads at many steps): the river part is a bound of
+    // its own, not a copy of errorMax.
+    std::size_t below = 0;
+    for (std::size_t k = 0; k < rec.steps.size(); ++k)
+        below += rec.errorRiver[k] < rec.errorMax[k];
+    EXPECT_GT(below, rec.steps.size() / 10);
     // Everything deletable went: what is left is locked, on the hull or refused.
     std::uint32_t unlocked = 0;
     for (PointId v = 0; v < set.points.size(); ++v)

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <string>
 
@@ -103,6 +104,9 @@ TEST_F(CheckErrors, StoredBoundsHoldOnEveryModel) {
         EXPECT_GT(s.worstRatio, 0.99);
         // Recomputed above stored only by the float rounding of z (errorcheck.h: < 0.5 mm here).
         EXPECT_GT(s.smallestMargin, -5e-4);
+        // The river part (format version 4) is checked on its own, and holds.
+        ASSERT_TRUE(std::isfinite(s.riverMargin));
+        EXPECT_GT(s.riverMargin, -5e-4);
 
         const test::CliResult r = test::runCli("check -q --errors " + q(m.path));
         EXPECT_EQ(r.code, 0) << r.err;
@@ -141,10 +145,13 @@ TEST_F(CheckErrors, LoweredBoundFails) {
         std::printf("[ tampered  ] %s: %s, level %u lowered from %.3f to %.3f m\n", m.name.c_str(),
                     format::blockName(b->col, b->row, b->level).c_str(), s.worstLevel,
                     double(level.errorMax), double(lowered));
-        for (std::uint32_t k = 0; k <= level.step; ++k)
+        const std::uint32_t step = level.step;
+        for (std::uint32_t k = 0; k <= step; ++k)
             b->errorMax[k] = std::min(b->errorMax[k], lowered);
+        for (std::uint32_t k = 0; k <= step; ++k)
+            b->errorRiver[k] = std::min(b->errorRiver[k], b->errorMax[k]);  // part of it
         for (format::Level& l : b->levels)
-            l.errorMax = b->errorMax[l.step];
+            l.errorMax = b->errorMax[l.step], l.errorRiver = b->errorRiver[l.step];
         const std::string tampered = (dir / (m.name + "_tampered.ulod")).string();
         ASSERT_TRUE(format::writeUlod(tampered, model.header, model.blocks, error)) << error;
 
@@ -186,8 +193,10 @@ TEST_F(CheckErrors, MillimetreLieFails) {
         const float lowered = float(s.worstStored - 3 * model.header.zQuantum - 1e-3);
         for (std::uint32_t k = 0; k <= step; ++k)
             b->errorMax[k] = std::min(b->errorMax[k], lowered);
+        for (std::uint32_t k = 0; k <= step; ++k)
+            b->errorRiver[k] = std::min(b->errorRiver[k], b->errorMax[k]);  // part of it
         for (format::Level& l : b->levels)
-            l.errorMax = b->errorMax[l.step];
+            l.errorMax = b->errorMax[l.step], l.errorRiver = b->errorRiver[l.step];
         const std::string tampered = (dir / (m.name + "_mm.ulod")).string();
         ASSERT_TRUE(format::writeUlod(tampered, model.header, model.blocks, error)) << error;
 
@@ -197,6 +206,48 @@ TEST_F(CheckErrors, MillimetreLieFails) {
             format::blockName(s.worstCol, s.worstRow, s.worstTreeLevel) + ": level ";
         EXPECT_NE(r.err.find(where), std::string::npos) << r.err;
         EXPECT_NE(r.err.find("max error lies"), std::string::npos) << r.err;
+    }
+}
+
+// The river part of the `max` error (format version 4, Level::errorRiver) is a bound of its own:
+// in the leaf block and in the tree node with the largest final river part, the river part is
+// set to 0 at every step (errorMax untouched, so the combined bound still holds): `check` passes
+// (structure), `check --errors` fails and names the entry and the river part.
+TEST_F(CheckErrors, LoweredRiverPartFails) {
+    ASSERT_EQ(models.size(), 4u);
+    for (const Built& m : models) {
+        for (const bool node : {false, true}) {
+            SCOPED_TRACE(m.name + (node ? " (tree node)" : " (leaf)"));
+            test::Model model;
+            std::string error;
+            ASSERT_TRUE(test::readModel(m.path, model, error)) << error;
+            format::Block* b = nullptr;
+            for (format::Block& candidate : model.blocks) {
+                if ((candidate.level > 0) != node) continue;
+                if (b == nullptr || candidate.errorRiver.back() > b->errorRiver.back())
+                    b = &candidate;
+            }
+            if (node && m.name.find("3ddp") != std::string::npos) {
+                EXPECT_EQ(b, nullptr);  // 3ddp builds have no tree
+                continue;
+            }
+            ASSERT_NE(b, nullptr);
+            ASSERT_GT(b->errorRiver.back(), 0.1f) << "no river part above 10 cm";
+            std::fill(b->errorRiver.begin(), b->errorRiver.end(), 0.0f);
+            for (format::Level& l : b->levels)
+                l.errorRiver = 0;
+            const std::string tampered =
+                (dir / (m.name + (node ? "_node" : "_leaf") + "_river.ulod")).string();
+            ASSERT_TRUE(format::writeUlod(tampered, model.header, model.blocks, error)) << error;
+            const test::CliResult plain = test::runCli("check -q " + q(tampered));
+            EXPECT_EQ(plain.code, 0) << plain.err;
+            const test::CliResult r = test::runCli("check -q --errors " + q(tampered));
+            EXPECT_EQ(r.code, 1) << r.out;
+            EXPECT_NE(r.err.find(format::blockName(b->col, b->row, b->level) + ": "),
+                      std::string::npos)
+                << r.err;
+            EXPECT_NE(r.err.find("river part lies"), std::string::npos) << r.err;
+        }
     }
 }
 

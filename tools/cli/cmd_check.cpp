@@ -2,6 +2,7 @@
 // every block, and with --errors the `max` model error recomputed at every stored level
 // (preprocess/ulodcheck.h, errorcheck.h). Exit 0 when everything holds, 1 with a precise message
 // on the first failure.
+#include <cmath>
 #include <cstdio>
 #include <string>
 
@@ -51,6 +52,10 @@ void addCheckCommand(CLI::App& app, int& exitCode) {
                 s.worstRatio, s.worstRecomputed, s.worstStored,
                 format::blockName(s.worstCol, s.worstRow, s.worstTreeLevel).c_str(), s.worstLevel,
                 s.smallestMargin);
+            if (std::isfinite(s.riverMargin))
+                std::printf(", and their river parts the recomputed river and outline deviations "
+                            "(smallest margin %.3g m)",
+                            s.riverMargin);
             if (s.nodeRiverWorst > 0)
                 std::printf("; tree nodes: original river points within %.9g m of their river",
                             s.nodeRiverWorst);

@@ -42,7 +42,9 @@ void addBlock(tinygltf::Model& model, const format::Header& header, const format
     extras["level"] = Value(int(sel.wanted.level));
     extras["step"] = Value(int(sel.wanted.step));
     extras["h_lim"] = Value(sel.hLim);
+    if (std::isfinite(sel.hLimRiver)) extras["h_lim_river"] = Value(sel.hLimRiver);
     extras["error"] = Value(sel.wanted.error);
+    extras["river_error"] = Value(sel.wanted.riverError);
     extras["distance"] = Value(sel.distance);
     extras["min_depth"] = Value(sel.box.minDepth);
     extras["axis_cos"] = Value(sel.box.axisCos);
