@@ -561,6 +561,31 @@ TEST_F(UlodHostile, ShiftedCountsRejected) {
     EXPECT_NE(error.find("TriangleOffset"), std::string::npos) << error;
 }
 
+TEST_F(UlodHostile, BlockHeaderReservedWordMustBeZero) {
+    // Version 4's block header ends in a reserved word (offset 148), which a reader must see 0.
+    const auto offset = load<std::uint64_t>(bytes, entry(0) + 56);
+    ASSERT_EQ(load<std::uint32_t>(bytes, offset + 148), 0u);
+    store<std::uint32_t>(bytes, offset + 148, 1);
+    resealBlock(0);
+    const std::string error = failure();
+    EXPECT_NE(error.find("reserved block header field not 0"), std::string::npos) << error;
+}
+
+// The river part of errorMax may not exceed it (the raw errorRiver array, right after
+// errorPaper: both 3 floats, padded to 16 bytes).
+TEST_F(UlodHostile, RiverPartAboveTheMaxErrorRejected) {
+    const auto offset = load<std::uint64_t>(bytes, entry(0) + 56);
+    std::uint64_t at = offset + kBlockHeaderSize;
+    const std::size_t sizes[13] = {16, 12, 4, 4, 4, 4, 12, 12, 8, 8, 4, 4, 4};
+    for (int i = 0; i < 12; ++i)
+        at += (std::uint64_t(load<std::uint32_t>(bytes, offset + 72 + 4 * i)) * sizes[i] + 7) / 8 * 8;
+    ASSERT_EQ(load<std::uint32_t>(bytes, offset + 72 + 4 * 12), 3u);  // errorRiverCount
+    store<float>(bytes, at + 8, 1e6f);  // errorRiver[2], above errorMax[2]
+    resealBlock(0);
+    const std::string error = failure();
+    EXPECT_NE(error.find("errorRiver[2] exceeds errorMax[2]"), std::string::npos) << error;
+}
+
 TEST_F(UlodHostile, IndexOutOfRangeInFileRejected) {
     // The last river index of the block (level 2's edge (0,2)): make it (0,200). The grid array
     // (8 bytes per vertex) follows the river indices.
