@@ -42,7 +42,29 @@ struct RunData {
     double warmupSeconds = 0;               // their wall time, the GPU's work included
     std::uint64_t loaderBytesAtStart = 0;   // the loader's totals when the measured frames began
     double loaderSecondsAtStart = 0;
+    std::uint64_t loaderBytes = 0;  // the loader's reads during the measured frames
+    double loaderSeconds = 0;
+    std::uint32_t rounds = 0;       // runs pooled here (BenchOptions::rounds)
 };
+
+// Another round's run pooled into `into`: its frames appended, its totals added.
+void pool(RunData& into, const RunData& r) {
+    into.frameMs.insert(into.frameMs.end(), r.frameMs.begin(), r.frameMs.end());
+    into.cpuMs.insert(into.cpuMs.end(), r.cpuMs.begin(), r.cpuMs.end());
+    into.gpuMs.insert(into.gpuMs.end(), r.gpuMs.begin(), r.gpuMs.end());
+    into.stats.insert(into.stats.end(), r.stats.begin(), r.stats.end());
+    into.seconds += r.seconds;
+    into.warmupBytesUploaded += r.warmupBytesUploaded;
+    into.warmupFrames += r.warmupFrames;
+    into.warmupSeconds += r.warmupSeconds;
+    into.loaderBytes += r.loaderBytes;
+    into.loaderSeconds += r.loaderSeconds;
+    ++into.rounds;
+}
+
+double medianOf(std::vector<double> v) {
+    return v.empty() ? 0.0 : summary(std::move(v))["median"].get<double>();
+}
 
 nlohmann::json runJson(const RunData& r, bool perFrame) {
     std::vector<double> triangles, resident, fallback, visible;
@@ -79,8 +101,8 @@ nlohmann::json runJson(const RunData& r, bool perFrame) {
     };
     if (!r.stats.empty()) {
         // The loader thread's reads during the run (compact blocks decode there, not in a frame).
-        const double bytes = double(r.stats.back().loaderBytesRead - r.loaderBytesAtStart);
-        const double seconds = r.stats.back().loaderSeconds - r.loaderSecondsAtStart;
+        const double bytes = double(r.loaderBytes);
+        const double seconds = r.loaderSeconds;
         j["loader_bytes_read"] = std::uint64_t(bytes);
         j["loader_read_decode_seconds"] = seconds;
         j["loader_ms_per_mb"] = bytes > 0 ? seconds * 1000 / (bytes / 1e6) : 0.0;
@@ -172,6 +194,10 @@ bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
         data.cpuMs.push_back(t.cpuMs);
         if (t.gpuMs >= 0) data.gpuMs.push_back(t.gpuMs);
     }
+    if (!stats.empty()) {
+        data.loaderBytes = stats.back().loaderBytesRead - data.loaderBytesAtStart;
+        data.loaderSeconds = stats.back().loaderSeconds - data.loaderSecondsAtStart;
+    }
     data.stats = std::move(stats);
     return true;
 }
@@ -209,46 +235,59 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
         if (o.progress) o.progress(what, 0, o.cameras.size());
     };
 
-    if (has("lod")) {
-        say("lod: streamed, per-block LOD");
-        HeadlessRenderer r;
-        RunData d;
-        const bool ok = openRenderer(r, o.scene) && run(r, o, false, nullptr, d, error);
-        closeRenderer(r);
-        if (!ok) return false;
-        runs["lod"] = runJson(d, o.perFrame);
-    }
-    if (has("resident") || has("bare")) {
-        SceneOptions scene = o.scene;
-        scene.preloadAll = true;
-        HeadlessRenderer r;
-        RunData resident, bare;
-        bool ok = openRenderer(r, scene);
-        if (ok) {
-            say("resident: per-block LOD, everything preloaded");
-            ok = run(r, o, true, nullptr, resident, error);
+    // Rounds (BenchOptions::rounds): the runs in the same order each round, pooled per run;
+    // each round's own ratios are kept too.
+    RunData pooled[4];  // lod, resident, bare, full
+    nlohmann::json roundRatios = nlohmann::json::array();
+    for (std::uint32_t round = 0; round < std::max(1u, o.rounds); ++round) {
+        RunData lod, resident, bare, full;
+        if (has("lod")) {
+            say("lod: streamed, per-block LOD");
+            HeadlessRenderer r;
+            const bool ok = openRenderer(r, o.scene) && run(r, o, false, nullptr, lod, error);
+            closeRenderer(r);
+            if (!ok) return false;
         }
-        if (ok && has("bare")) {
-            say("bare: the resident run's draws replayed");
-            ok = run(r, o, false, &resident.drawLists, bare, error);
+        if (has("resident") || has("bare")) {
+            SceneOptions scene = o.scene;
+            scene.preloadAll = true;
+            HeadlessRenderer r;
+            bool ok = openRenderer(r, scene);
+            if (ok) {
+                say("resident: per-block LOD, everything preloaded");
+                ok = run(r, o, true, nullptr, resident, error);
+            }
+            if (ok && has("bare")) {
+                say("bare: the resident run's draws replayed");
+                ok = run(r, o, false, &resident.drawLists, bare, error);
+            }
+            closeRenderer(r);
+            if (!ok) return false;
+            resident.drawLists.clear();
         }
-        closeRenderer(r);
-        if (!ok) return false;
-        if (has("resident")) runs["resident"] = runJson(resident, o.perFrame);
-        if (has("bare")) runs["bare"] = runJson(bare, o.perFrame);
+        if (has("full")) {
+            say("full: every visible block at full resolution");
+            SceneOptions scene = o.scene;
+            scene.preloadAll = true;
+            scene.policy = LodPolicy::Finest;
+            HeadlessRenderer r;
+            const bool ok = openRenderer(r, scene) && run(r, o, false, nullptr, full, error);
+            closeRenderer(r);
+            if (!ok) return false;
+        }
+        nlohmann::json ratios = nlohmann::json::object();
+        const double mLod = medianOf(lod.frameMs), mResident = medianOf(resident.frameMs),
+                     mBare = medianOf(bare.frameMs), mFull = medianOf(full.frameMs);
+        if (mLod > 0 && mBare > 0) ratios["lod_over_bare"] = mLod / mBare;
+        if (mResident > 0 && mBare > 0) ratios["resident_over_bare"] = mResident / mBare;
+        if (mLod > 0 && mFull > 0) ratios["full_over_lod"] = mFull / mLod;
+        roundRatios.push_back(ratios);
+        pool(pooled[0], lod), pool(pooled[1], resident), pool(pooled[2], bare),
+            pool(pooled[3], full);
     }
-    if (has("full")) {
-        say("full: every visible block at full resolution");
-        SceneOptions scene = o.scene;
-        scene.preloadAll = true;
-        scene.policy = LodPolicy::Finest;
-        HeadlessRenderer r;
-        RunData d;
-        const bool ok = openRenderer(r, scene) && run(r, o, false, nullptr, d, error);
-        closeRenderer(r);
-        if (!ok) return false;
-        runs["full"] = runJson(d, o.perFrame);
-    }
+    const char* names[4] = {"lod", "resident", "bare", "full"};
+    for (int k = 0; k < 4; ++k)
+        if (has(names[k])) runs[names[k]] = runJson(pooled[k], o.perFrame);
     if (!messages.empty()) {
         error = std::to_string(messages.size()) +
                 " Vulkan validation message(s) (first: " + messages.front() + ")";
@@ -276,6 +315,8 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
         {"metric", o.scene.metric.empty() ? "file default" : o.scene.metric},
         {"distance", o.scene.distance == DistanceMode::Nearest ? "nearest" : "centre"},
         {"gpu_budget", o.scene.gpuBudget},
+        {"rounds", std::max(1u, o.rounds)},
+        {"round_ratios", roundRatios},
         {"runs", runs},
         {"ratios_of_median_frame_ms", ratios},
         {"goals",

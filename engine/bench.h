@@ -43,6 +43,11 @@ struct BenchOptions {
     // (record, submit, GPU done), not the interval between frames.
     double paceMs = 0;
     std::vector<std::string> runs = {"lod", "resident", "bare", "full"};
+    // Rounds (1: one of each run): the runs are repeated in the same order this many times and
+    // each run's frames pooled, so that a slow phase of a shared machine (lavapipe's `full` run
+    // moved 30-42 ms between runs of identical frames) falls on every run alike; the JSON keeps
+    // each round's ratios (`round_ratios`).
+    std::uint32_t rounds = 1;
     // Progress (may be empty): at the start of each run its description (done 0), after each
     // measured frame an empty description and the run's frames done of total. Called from the
     // calling thread between frames (the caller rate-limits its printing: cmd_bench.cpp).

@@ -414,4 +414,25 @@ TEST_F(Streaming, BenchWarmsUpForItsFramesAndItsTime) {
     }
 }
 
+// --rounds: the runs repeated in order and each run's frames pooled; every round's ratios kept.
+TEST_F(Streaming, BenchRoundsPoolTheirFrames) {
+    const auto r = runCli("bench " + q(file_) +
+                          " --frames 3 --size 160x90 --runs lod,full --rounds 3 --warmup 1 "
+                          "--warmup-ms 0 --json -");
+    ASSERT_EQ(r.code, 0) << r.err;
+    const nlohmann::json j = nlohmann::json::parse(r.out);
+    EXPECT_EQ(j["rounds"].get<int>(), 3);
+    ASSERT_EQ(j["round_ratios"].size(), 3u);
+    for (const nlohmann::json& round : j["round_ratios"])
+        EXPECT_GT(round["full_over_lod"].get<double>(), 0.0);
+    for (const char* run : {"lod", "full"}) {
+        EXPECT_EQ(j["runs"][run]["frames"].get<int>(), 9) << run;  // 3 frames x 3 rounds
+        EXPECT_EQ(j["runs"][run]["warmup_frames"].get<int>(), 3) << run;
+    }
+    EXPECT_FALSE(j["runs"].contains("bare"));
+    const auto bad = runCli("bench " + q(file_) + " --rounds 0");
+    EXPECT_NE(bad.code, 0);
+    EXPECT_NE(bad.err.find("--rounds"), std::string::npos) << bad.err;
+}
+
 }  // namespace

@@ -156,6 +156,8 @@ TEST_F(Inputs, OptionValuesOutsideTheirRangeAreUsageErrorsWithShortMessages) {
         {"bench " + q(model) + " -o " + q(out), "--warmup-ms", "nan"},
         {"bench " + q(model) + " -o " + q(out), "--warmup-ms", "-1"},
         {"bench " + q(model) + " -o " + q(out), "--warmup", "100001"},
+        {"bench " + q(model) + " -o " + q(out), "--rounds", "0"},
+        {"bench " + q(model) + " -o " + q(out), "--rounds", "101"},
     };
     for (const Case& c : cases) {
         SCOPED_TRACE(c.option + " " + c.value);

@@ -131,6 +131,12 @@ int run(BenchCli& c) {
     }
     std::printf("device: %s, %ux%u, %zu frames", out["device"].get<std::string>().c_str(),
                 c.o.width, c.o.height, c.o.cameras.size());
+    if (c.o.rounds > 1) {
+        std::printf(" x %u rounds (full/lod by round:", c.o.rounds);
+        for (const auto& r : out["round_ratios"])
+            if (r.contains("full_over_lod")) std::printf(" %.2f", r["full_over_lod"].get<double>());
+        std::printf(")");
+    }
     if (c.o.paceMs > 0)
         std::printf(", paced every %g ms (frame time: each frame's own)", c.o.paceMs);
     std::printf("\n");
@@ -174,6 +180,11 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
     c->engine.add(*sub, "1920x1080");
     sub->add_option("--runs", c->runs,
                     "comma-separated runs: lod, resident, bare, full (default: all four)");
+    sub->add_option("--rounds", c->o.rounds,
+                    "repeat the runs in order this many times and pool each run's frames, so "
+                    "that a slow phase of the machine falls on every run alike; the JSON keeps "
+                    "each round's ratios (default 1)")
+        ->check(CLI::Range(1u, 100u));
     sub->add_flag("--per-frame", c->o.perFrame, "include every frame's numbers in the JSON");
     addOutputOptions(sub, c->output, "write the JSON to this file ('-': stdout)", false);
     addJsonOption(sub, c->json,
