@@ -43,6 +43,13 @@ TEST(Lod, ExactStepIsTheLastStateWithinTolerance) {
     EXPECT_EQ(engine::exactStep(errors, 2.5), 5u);
     EXPECT_EQ(engine::exactStep(errors, 9.0), 9u);
     EXPECT_EQ(engine::exactStep(errors, 1e9), 9u);
+    // With the river part held to its own tolerance: the shorter of the two prefixes.
+    const std::vector<float> river = {0, 0, 0, 1, 1, 1, 1, 4, 4, 4};
+    EXPECT_EQ(engine::exactStep(errors, 2.5, river, 0.5), 2u);
+    EXPECT_EQ(engine::exactStep(errors, 2.5, river, 1.0), 5u);
+    EXPECT_EQ(engine::exactStep(errors, 9.0, river, 3.0), 6u);
+    EXPECT_EQ(engine::exactStep(errors, 9.0, river, INFINITY), 9u);
+    EXPECT_EQ(engine::exactStep(errors, 9.0, {}, 0.0), 9u);  // no river part: errors alone
 }
 
 // Three stored levels with errors 0 / 2 / 6 (both metrics), river edges when `rivers`.
