@@ -1,7 +1,8 @@
 // The compact block encoding of .ulod (since version 3, issue 19; version 4 adds the errorRiver
 // array to the errors stream). A built block is stored as integers and records without
-// redundancy, each stream compressed with zstd; the decoder rebuilds exactly the in-memory Block the builder made (ulod.h), so every reader path (validateBlock, `check`,
-// the engine) is unchanged. README.md beside this file gives the byte layout.
+// redundancy, each stream compressed with zstd; the decoder rebuilds exactly the in-memory Block
+// the builder made (ulod.h), so every reader path (validateBlock, `check`, the engine) is
+// unchanged. README.md beside this file gives the byte layout.
 //
 // What is stored and what is derived:
 // - vertices: exact grid integers (x, y) and z as an integer multiple of the file's z quantum, in
