@@ -54,7 +54,7 @@ bool checkLevelError(const format::Block& b, std::size_t level,
                 " at vertex " + std::to_string(e.riverVertex) + ", tolerance " + metres(tolerance);
         return false;
     }
-    summary.riverMargin = std::min(summary.riverMargin, storedRiver - e.river);
+    if (e.river > 0) summary.riverMargin = std::min(summary.riverMargin, storedRiver - e.river);
     const double margin = stored - recomputed;
     if (!summary.errorsChecked || margin < summary.smallestMargin) summary.smallestMargin = margin;
     summary.errorsChecked = true;
@@ -321,7 +321,7 @@ bool checkNodeOriginals(format::Reader& reader, std::size_t index, const format:
                     "tolerance " + metres(tolerance);
             return false;
         }
-        if (std::isfinite(river.value))
+        if (river.value > 0 && std::isfinite(river.value))
             summary.riverMargin = std::min(summary.riverMargin, storedRiver - river.value);
         const double margin = stored - w.value;
         if (margin < summary.smallestMargin) summary.smallestMargin = margin;
