@@ -44,7 +44,6 @@ struct RunData {
     double loaderSecondsAtStart = 0;
     std::uint64_t loaderBytes = 0;  // the loader's reads during the measured frames
     double loaderSeconds = 0;
-    std::uint32_t rounds = 0;       // runs pooled here (BenchOptions::rounds)
 };
 
 // Another round's run pooled into `into`: its frames appended, its totals added.
@@ -59,11 +58,19 @@ void pool(RunData& into, const RunData& r) {
     into.warmupSeconds += r.warmupSeconds;
     into.loaderBytes += r.loaderBytes;
     into.loaderSeconds += r.loaderSeconds;
-    ++into.rounds;
 }
 
 double medianOf(std::vector<double> v) {
     return v.empty() ? 0.0 : summary(std::move(v))["median"].get<double>();
+}
+
+// The ratios of median frame times (0: a run not made).
+nlohmann::json ratiosOf(double lod, double resident, double bare, double full) {
+    nlohmann::json ratios = nlohmann::json::object();
+    if (lod > 0 && bare > 0) ratios["lod_over_bare"] = lod / bare;
+    if (resident > 0 && bare > 0) ratios["resident_over_bare"] = resident / bare;
+    if (lod > 0 && full > 0) ratios["full_over_lod"] = full / lod;
+    return ratios;
 }
 
 nlohmann::json runJson(const RunData& r, bool perFrame) {
@@ -275,13 +282,8 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
             closeRenderer(r);
             if (!ok) return false;
         }
-        nlohmann::json ratios = nlohmann::json::object();
-        const double mLod = medianOf(lod.frameMs), mResident = medianOf(resident.frameMs),
-                     mBare = medianOf(bare.frameMs), mFull = medianOf(full.frameMs);
-        if (mLod > 0 && mBare > 0) ratios["lod_over_bare"] = mLod / mBare;
-        if (mResident > 0 && mBare > 0) ratios["resident_over_bare"] = mResident / mBare;
-        if (mLod > 0 && mFull > 0) ratios["full_over_lod"] = mFull / mLod;
-        roundRatios.push_back(ratios);
+        roundRatios.push_back(ratiosOf(medianOf(lod.frameMs), medianOf(resident.frameMs),
+                                       medianOf(bare.frameMs), medianOf(full.frameMs)));
         pool(pooled[0], lod), pool(pooled[1], resident), pool(pooled[2], bare),
             pool(pooled[3], full);
     }
@@ -293,16 +295,8 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
                 " Vulkan validation message(s) (first: " + messages.front() + ")";
         return false;
     }
-    auto median = [&](const char* name) {
-        return runs.contains(name) ? runs[name]["frame_ms"]["median"].get<double>() : 0.0;
-    };
-    nlohmann::json ratios = nlohmann::json::object();
-    if (median("lod") > 0 && median("bare") > 0)
-        ratios["lod_over_bare"] = median("lod") / median("bare");
-    if (median("resident") > 0 && median("bare") > 0)
-        ratios["resident_over_bare"] = median("resident") / median("bare");
-    if (median("lod") > 0 && median("full") > 0)
-        ratios["full_over_lod"] = median("full") / median("lod");
+    nlohmann::json ratios = ratiosOf(medianOf(pooled[0].frameMs), medianOf(pooled[1].frameMs),
+                                     medianOf(pooled[2].frameMs), medianOf(pooled[3].frameMs));
     out = {
         {"file", o.path},
         {"device", deviceName},
