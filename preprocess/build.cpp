@@ -81,6 +81,7 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     summary.demWidth = dem.width;
     summary.demHeight = dem.height;
     summary.crsName = crsDisplayName(dem.wkt);
+    summary.demConversions = dem.conversions;
     summary.cleaning = describe(data.cleaning);
     summary.riverLines = data.rivers.size();
 

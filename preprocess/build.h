@@ -63,6 +63,7 @@ struct BuildOptions : IngestOptions {
 struct BuildSummary {
     int demWidth = 0, demHeight = 0;
     std::string crsName;
+    std::vector<std::string> demConversions;  // DemGrid::conversions: what reached metres
     std::size_t demPoints = 0, riverPoints = 0, lockedPoints = 0, riverLines = 0;
     int blockSize = 0;  // the block size used (cells; automatic or as given)
     std::size_t blocks = 0, steps = 0, kept = 0, deferrals = 0;

@@ -10,7 +10,9 @@
 
 #include <algorithm>
 #include <cassert>
+#include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <memory>
 
@@ -29,6 +31,8 @@ namespace unilod {
 namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+// A working CRS whose scale at the DEM's centre is further than this from 1 gets a warning.
+constexpr double kGridScaleWarning = 0.02;
 
 // GDAL's C option lists want a NULL-terminated char* array.
 struct ArgList {
@@ -81,7 +85,80 @@ std::string toWkt(const OGRSpatialReference& srs) {
     return wkt;
 }
 
+
+// Lower case without spaces, '_', '-', '.' and brackets: "US survey foot" -> "ussurveyfoot".
+std::string unitKey(const std::string& unit) {
+    std::string key;
+    for (char ch : unit) {
+        if (std::isspace(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-' || ch == '.' ||
+            ch == '(' || ch == ')')
+            continue;
+        key += static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    }
+    return key;
+}
+
+// The centre of the raster (geotransform `gt`, w x h cells) in WGS 84 longitude, latitude.
+bool centreLonLat(const OGRSpatialReference& srs, const double gt[6], int w, int h, double& lon,
+                  double& lat) {
+    OGRSpatialReference wgs84;
+    wgs84.SetWellKnownGeogCS("WGS84");
+    wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    std::unique_ptr<OGRCoordinateTransformation> ct(
+        OGRCreateCoordinateTransformation(&srs, &wgs84));
+    lon = gt[0] + 0.5 * w * gt[1];
+    lat = gt[3] + 0.5 * h * gt[5];
+    return ct && ct->Transform(1, &lon, &lat) && std::isfinite(lon) && std::isfinite(lat);
+}
+
+// Ground metres per CRS metre at (x, y) of a projected CRS in metres, the worse of the two axis
+// directions (1 on a true-scale grid, 1.24 for Web Mercator at 36 degrees): a 1 km step along
+// each axis measured on the sphere. 0 when it cannot be computed.
+double gridScale(const OGRSpatialReference& srs, double x, double y) {
+    OGRSpatialReference wgs84;
+    wgs84.SetWellKnownGeogCS("WGS84");
+    wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    std::unique_ptr<OGRCoordinateTransformation> ct(
+        OGRCreateCoordinateTransformation(&srs, &wgs84));
+    if (!ct) return 0;
+    constexpr double kStep = 1000.0, kEarthRadius = 6371008.8, kRad = 3.14159265358979323846 / 180;
+    double xs[3] = {x, x + kStep, x}, ys[3] = {y, y, y + kStep};
+    if (!ct->Transform(3, xs, ys)) return 0;
+    auto ground = [&](int i) {  // haversine from point 0 to point i
+        const double dLat = (ys[i] - ys[0]) * kRad, dLon = (xs[i] - xs[0]) * kRad;
+        const double a = std::sin(dLat / 2) * std::sin(dLat / 2) +
+                         std::cos(ys[0] * kRad) * std::cos(ys[i] * kRad) * std::sin(dLon / 2) *
+                             std::sin(dLon / 2);
+        return 2 * kEarthRadius * std::asin(std::min(1.0, std::sqrt(a)));
+    };
+    const double kx = kStep / ground(1), ky = kStep / ground(2);
+    if (!std::isfinite(kx) || !std::isfinite(ky)) return 0;
+    return std::fabs(kx - 1) > std::fabs(ky - 1) ? kx : ky;
+}
+
 }  // namespace
+
+double metresPerUnit(const std::string& unit) {
+    const std::string key = unitKey(unit);
+    if (key.empty()) return 1;
+    for (const char* m : {"m", "metre", "meter", "metres", "meters"})
+        if (key == m) return 1;
+    for (const char* f : {"ft", "foot", "feet", "internationalfoot", "footinternational", "ftintl",
+                          "intlfoot", "intft"})
+        if (key == f) return 0.3048;
+    for (const char* f : {"ussurveyfoot", "ussurveyfeet", "usft", "ftus", "surveyfoot", "footus",
+                          "usfoot", "usfeet", "footussurvey"})
+        if (key == f) return 1200.0 / 3937.0;
+    for (const char* c : {"cm", "centimetre", "centimeter", "centimetres", "centimeters"})
+        if (key == c) return 0.01;
+    for (const char* c : {"mm", "millimetre", "millimeter", "millimetres", "millimeters"})
+        if (key == c) return 0.001;
+    for (const char* c : {"dm", "decimetre", "decimeter", "decimetres", "decimeters"})
+        if (key == c) return 0.1;
+    for (const char* c : {"km", "kilometre", "kilometer", "kilometres", "kilometers"})
+        if (key == c) return 1000;
+    return 0;
+}
 
 int utmEpsgFor(double lon, double lat) {
     // Normalise 0..360 longitudes; zones are 6 degrees wide starting at -180.
@@ -194,6 +271,13 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
                     "' is not a projected (metric) CRS (--t-srs)";
             return false;
         }
+        const char* unit = nullptr;
+        if (std::fabs(target.GetLinearUnits(&unit) - 1.0) > 1e-9) {
+            error = "DEM '" + path + "': the target CRS '" + options.targetSrs + "' is in " +
+                    (unit != nullptr ? unit : "an unknown unit") +
+                    ", not metres (--t-srs: choose a projected CRS in metres, e.g. a UTM zone)";
+            return false;
+        }
         if (srcSrs == nullptr) {
             error = "DEM '" + path + "': the raster has no CRS, cannot reproject it to '" +
                     options.targetSrs + "' (give its CRS with --s-srs, or leave out --t-srs)";
@@ -212,8 +296,88 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
             return false;
         }
         warp = true;
+    } else if (const char* unit = nullptr;
+               srcSrs != nullptr && srcSrs->IsProjected() &&
+               std::fabs(srcSrs->GetLinearUnits(&unit) - 1.0) > 1e-9) {
+        // A projected CRS in feet (State Plane, some national grids): to metres through the UTM
+        // zone of the centre, as a geographic raster (DESIGN.md "Coordinates": metres in x, y, z).
+        double lon = 0, lat = 0;
+        if (!centreLonLat(*srcSrs, gt, ds->GetRasterXSize(), ds->GetRasterYSize(), lon, lat) ||
+            target.importFromEPSG(utmEpsgFor(lon, lat)) != OGRERR_NONE) {
+            error = "DEM '" + path + "': its CRS is in " + (unit != nullptr ? unit : "a unit") +
+                    ", not metres, and its centre cannot be placed in a UTM zone (give a metric "
+                    "CRS with --t-srs)" + gdalErrorSuffix();
+            return false;
+        }
+        warp = true;
+        dem.conversions.push_back("CRS '" + crsDisplayName(toWkt(*srcSrs)) + "' is in " +
+                                  (unit != nullptr ? unit : "a unit") +
+                                  ", not metres: reprojected to '" +
+                                  crsDisplayName(toWkt(target)) + "' (--t-srs to choose)");
     } else if (srcSrs != nullptr) {
         target = *srcSrs;
+        // A metric grid far from true scale (Web Mercator away from the equator, a UTM zone far
+        // from the data) stretches the terrain against its heights: say so.
+        double lon = 0, lat = 0;
+        if (target.IsProjected() && options.warn &&
+            centreLonLat(target, gt, ds->GetRasterXSize(), ds->GetRasterYSize(), lon, lat)) {
+            const double k = gridScale(target, gt[0] + 0.5 * ds->GetRasterXSize() * gt[1],
+                                       gt[3] + 0.5 * ds->GetRasterYSize() * gt[5]);
+            if (k > 0 && std::fabs(k - 1) > kGridScaleWarning) {
+                char text[64];
+                std::snprintf(text, sizeof text, "%.3f", k);
+                options.warn("DEM '" + path + "': its CRS '" + crsDisplayName(toWkt(target)) +
+                             "' has a scale of " + text +
+                             " at the DEM's centre: horizontal distances are off by that factor "
+                             "against the heights (slopes, errors, the rendered shape); for true "
+                             "metres reproject with --t-srs EPSG:" +
+                             std::to_string(utmEpsgFor(lon, lat)));
+            }
+        }
+    }
+
+    // Elevations: raw * scale + offset (the band's, read before any warp, which keeps raw
+    // values), in the band's unit, else a declared vertical CRS's unit; then metres.
+    GDALRasterBand* original = ds->GetRasterBand(band);
+    int hasScale = 0, hasOffset = 0;
+    double scale = original->GetScale(&hasScale), offset = original->GetOffset(&hasOffset);
+    if (!hasScale) scale = 1;
+    if (!hasOffset) offset = 0;
+    if (!std::isfinite(scale) || scale == 0 || !std::isfinite(offset)) {
+        error = "DEM '" + path + "': band " + std::to_string(band) +
+                " has an unusable scale or offset (" + std::to_string(scale) + ", " +
+                std::to_string(offset) + ")";
+        return false;
+    }
+    std::string zUnit = original->GetUnitType() != nullptr ? original->GetUnitType() : "";
+    double zMetres = metresPerUnit(zUnit);
+    if (zUnit.empty() && srcSrs != nullptr && (srcSrs->IsCompound() || srcSrs->IsVertical())) {
+        const char* name = nullptr;
+        const double f = srcSrs->GetTargetLinearUnits("VERT_CS", &name);
+        if (f > 0 && std::isfinite(f)) {
+            zMetres = f;
+            zUnit = name != nullptr ? name : "";
+        }
+    }
+    if (zMetres == 0) {
+        if (options.warn)
+            options.warn("DEM '" + path + "': unknown elevation unit '" + zUnit + "' of band " +
+                         std::to_string(band) + ": read as metres");
+        zMetres = 1;
+    }
+    auto number = [](double v) {
+        char text[32];
+        std::snprintf(text, sizeof text, "%.10g", v);
+        return std::string(text);
+    };
+    if (scale != 1 || offset != 0) {
+        dem.conversions.push_back("elevations = stored value x " + number(scale) +
+                                  (offset != 0 ? " + " + number(offset) : std::string()) +
+                                  " (the band's scale and offset)");
+    }
+    if (zMetres != 1) {
+        dem.conversions.push_back("elevations in " + zUnit + ", converted to metres (x " +
+                                  number(zMetres) + ")");
     }
 
     GDALDataset* source = ds.get();
@@ -268,7 +432,9 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
         for (int c = 0; c < w; ++c) {
             const double v = row[c];
             if (!std::isfinite(v) || (hasNoData && v == noData)) continue;
-            out[c] = static_cast<float>(v);
+            const double z = (v * scale + offset) * zMetres;
+            if (!std::isfinite(z)) continue;
+            out[c] = static_cast<float>(z);
             ++valid;
         }
     }

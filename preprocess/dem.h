@@ -3,6 +3,7 @@
 // is warped to the UTM zone of its centre (or to a CRS the user names); a projected DEM is kept.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,9 @@ struct DemGrid {
     double cellX = 1, cellY = -1;
     std::vector<float> z;  // row-major, width * height, NaN = nodata
     std::string wkt;       // working CRS as WKT; empty when the source had no CRS
+    // What loadDem changed to reach metres, for the user (empty: nothing): a projected CRS in
+    // feet reprojected, elevations scaled (the band's scale / offset) or converted from feet.
+    std::vector<std::string> conversions;
 
     double centreX(int col) const { return originX + col * cellX; }
     double centreY(int row) const { return originY + row * cellY; }
@@ -35,12 +39,22 @@ struct DemLoadOptions {
     int band = 0;           // 1-based band; 0 = "the only band" (multi-band rasters need one)
     std::string targetSrs;  // any SRS GDAL understands (EPSG:32616, WKT, PROJ); empty = automatic
     std::string assumeSrs;  // the CRS of a raster that declares none (--s-srs); ignored otherwise
+    // Accepted-but-odd input (an unknown elevation unit, a working CRS that distorts distances).
+    std::function<void(const std::string&)> warn;
 };
 
-// Loads `path` into `dem`. Working CRS: `targetSrs` when given (the raster is warped to it unless
-// it is already in it); otherwise a geographic raster is warped (bilinear) to the UTM zone of its
-// centre (EPSG:326xx north, 327xx south) and a projected raster, or one without a CRS, keeps its
-// grid. Returns false with `error` naming the file and the problem (missing file, not a raster, no
+// Metres per unit of an elevation or length unit name as GDAL reports it (band unit type, CRS
+// unit): metre, foot, US survey foot and their usual spellings, cm, mm, km. 0 when unknown; 1 for
+// an empty name.
+double metresPerUnit(const std::string& unit);
+
+// Loads `path` into `dem`, in metres (DESIGN.md "Coordinates"). Working CRS: `targetSrs` when
+// given (it must be projected in metres; the raster is warped to it unless it is already in it);
+// otherwise a geographic raster, or a projected one whose unit is not the metre (State Plane in
+// feet), is warped (bilinear) to the UTM zone of its centre (EPSG:326xx north, 327xx south) and a
+// projected raster in metres, or one without a CRS, keeps its grid. Elevations: the band's scale
+// and offset applied (scaled integers), then converted to metres from the band's unit (or, when
+// it has none, from the unit of a vertical CRS it declares). Returns false with `error` naming the file and the problem (missing file, not a raster, no
 // bands, multi-band without a band, band out of range, rotated grid, all cells nodata, GDAL
 // failures).
 bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& dem,

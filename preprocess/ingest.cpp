@@ -68,6 +68,7 @@ bool ingest(const IngestOptions& o, Ingested& data, std::string& error) {
     demOptions.band = o.band;
     demOptions.targetSrs = o.targetSrs;
     demOptions.assumeSrs = o.assumeSrs;
+    demOptions.warn = warn;
     DemGrid& dem = data.dem;
     if (!loadDem(o.demPath, demOptions, dem, error)) return false;
     if (dem.width < 2 || dem.height < 2) {

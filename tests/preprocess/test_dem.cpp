@@ -51,6 +51,16 @@ void writeTiff(const std::string& path, int w, int h,
     }
 }
 
+// Sets band 1's scale, offset and unit type of the raster at `path`.
+void describeBand(const std::string& path, double scale, double offset, const char* unit) {
+    GDALDatasetUniquePtr ds(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+    ASSERT_TRUE(ds);
+    GDALRasterBand* band = ds->GetRasterBand(1);
+    ASSERT_EQ(band->SetScale(scale), CE_None);
+    ASSERT_EQ(band->SetOffset(offset), CE_None);
+    ASSERT_EQ(band->SetUnitType(unit), CE_None);
+}
+
 // 4 x 3 grid of 10 m cells, upper-left corner (500000, 4000000), EPSG:32616.
 const double kGt[6] = {500000.0, 10.0, 0.0, 4000000.0, 0.0, -10.0};
 
@@ -290,4 +300,115 @@ TEST(Dem, UtmZoneChoice) {
     EXPECT_EQ(utmEpsgFor(-180.0, 0.0), 32601);
     EXPECT_EQ(utmEpsgFor(179.9, 1.0), 32660);
     EXPECT_EQ(utmEpsgFor(181.0, 1.0), 32601);  // wraps
+}
+
+TEST(Dem, ElevationUnitNames) {
+    EXPECT_EQ(metresPerUnit(""), 1.0);
+    EXPECT_EQ(metresPerUnit("m"), 1.0);
+    EXPECT_EQ(metresPerUnit("Metre"), 1.0);
+    EXPECT_EQ(metresPerUnit("meters"), 1.0);
+    EXPECT_EQ(metresPerUnit("ft"), 0.3048);
+    EXPECT_EQ(metresPerUnit("Foot"), 0.3048);
+    EXPECT_EQ(metresPerUnit("US survey foot"), 1200.0 / 3937.0);
+    EXPECT_EQ(metresPerUnit("ftUS"), 1200.0 / 3937.0);
+    EXPECT_EQ(metresPerUnit("us-ft"), 1200.0 / 3937.0);
+    EXPECT_EQ(metresPerUnit("cm"), 0.01);
+    EXPECT_EQ(metresPerUnit("km"), 1000.0);
+    EXPECT_EQ(metresPerUnit("furlong"), 0.0);
+    EXPECT_EQ(metresPerUnit("elevation"), 0.0);
+}
+
+TEST(Dem, ScaledIntegersAndFeetBecomeMetres) {
+    TempDir dir("scaled");
+    std::vector<double> raw(12);
+    for (std::size_t i = 0; i < raw.size(); ++i)
+        raw[i] = 1000.0 + 37.0 * double(i);
+    raw[5] = -32768;  // nodata: compared before the scale
+    const std::string path = dir.file("scaled.tif");
+    writeTiff(path, 4, 3, {raw}, GDT_Int16, kGt, 32616, -32768);
+    describeBand(path, 0.1, 250.0, "ft");
+    std::vector<std::string> warnings;
+    DemLoadOptions o;
+    o.warn = [&](const std::string& w) { warnings.push_back(w); };
+    DemGrid dem;
+    std::string error;
+    ASSERT_TRUE(loadDem(path, o, dem, error)) << error;
+    EXPECT_TRUE(warnings.empty());
+    EXPECT_TRUE(std::isnan(dem.z[5]));
+    for (std::size_t i = 0; i < raw.size(); ++i) {
+        if (i == 5) continue;
+        EXPECT_EQ(dem.z[i], static_cast<float>((raw[i] * 0.1 + 250.0) * 0.3048)) << i;
+    }
+    ASSERT_EQ(dem.conversions.size(), 2u);
+    EXPECT_NE(dem.conversions[0].find("x 0.1 + 250"), std::string::npos) << dem.conversions[0];
+    EXPECT_NE(dem.conversions[1].find("ft"), std::string::npos) << dem.conversions[1];
+
+    // An unknown unit: read as metres, with a warning naming the file and the unit.
+    describeBand(path, 1.0, 0.0, "furlong");
+    ASSERT_TRUE(loadDem(path, o, dem, error)) << error;
+    EXPECT_EQ(dem.z[0], 1000.0f);
+    EXPECT_TRUE(dem.conversions.empty());
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find(path), std::string::npos) << warnings[0];
+    EXPECT_NE(warnings[0].find("furlong"), std::string::npos) << warnings[0];
+
+    // A scale of 0 would flatten the terrain: refused.
+    describeBand(path, 0.0, 0.0, "m");
+    EXPECT_FALSE(loadDem(path, o, dem, error));
+    EXPECT_NE(error.find(path), std::string::npos) << error;
+    EXPECT_NE(error.find("scale"), std::string::npos) << error;
+}
+
+TEST(Dem, ProjectedCrsInFeetIsReprojectedToUtm) {
+    // The same ground as kGt in NAD83 / Tennessee (ftUS), EPSG:2274: 100 ft cells.
+    TempDir dir("feet");
+    const std::string path = dir.file("feet.tif");
+    const double gt[6] = {1800000.0, 100.0, 0.0, 600000.0, 0.0, -100.0};
+    std::vector<double> v(20 * 20, 300.0);
+    writeTiff(path, 20, 20, {v}, GDT_Float32, gt, 2274);
+    DemGrid dem;
+    std::string error;
+    ASSERT_TRUE(loadDem(path, {}, dem, error)) << error;
+    OGRSpatialReference srs;
+    ASSERT_EQ(srs.importFromWkt(dem.wkt.c_str()), OGRERR_NONE);
+    EXPECT_TRUE(srs.IsProjected());
+    EXPECT_DOUBLE_EQ(srs.GetLinearUnits(), 1.0);
+    EXPECT_STREQ(srs.GetAuthorityCode(nullptr), "32616");  // Tennessee: UTM zone 16N
+    // 100 US survey feet = 30.48 m: the warped cells are metres, within the warp's rounding.
+    EXPECT_NEAR(std::fabs(dem.cellX), 30.48, 1.0);
+    EXPECT_NEAR(std::fabs(dem.cellY), 30.48, 1.0);
+    ASSERT_EQ(dem.conversions.size(), 1u);
+    EXPECT_NE(dem.conversions[0].find("US survey foot"), std::string::npos) << dem.conversions[0];
+
+    // A target CRS in feet is refused (the model works in metres).
+    DemLoadOptions o;
+    o.targetSrs = "EPSG:2274";
+    EXPECT_FALSE(loadDem(path, o, dem, error));
+    EXPECT_NE(error.find(path), std::string::npos) << error;
+    EXPECT_NE(error.find("not metres"), std::string::npos) << error;
+}
+
+TEST(Dem, DistortingMetricCrsIsWarnedAbout) {
+    // Web Mercator at about 36 degrees north stretches distances by about 1.24.
+    TempDir dir("mercator");
+    const std::string path = dir.file("mercator.tif");
+    const double gt[6] = {-9500000.0, 100.0, 0.0, 4300000.0, 0.0, -100.0};
+    writeTiff(path, 4, 3, {std::vector<double>(12, 300.0)}, GDT_Float32, gt, 3857);
+    std::vector<std::string> warnings;
+    DemLoadOptions o;
+    o.warn = [&](const std::string& w) { warnings.push_back(w); };
+    DemGrid dem;
+    std::string error;
+    ASSERT_TRUE(loadDem(path, o, dem, error)) << error;
+    EXPECT_DOUBLE_EQ(dem.cellX, 100.0);  // kept as it is
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("scale of 1.2"), std::string::npos) << warnings[0];
+    EXPECT_NE(warnings[0].find("--t-srs EPSG:326"), std::string::npos) << warnings[0];
+
+    // A UTM grid in its own zone is true to scale within 0.1 %: no warning.
+    warnings.clear();
+    const std::string utm = dir.file("utm.tif");
+    writeTiff(utm, 4, 3, {std::vector<double>(12, 300.0)}, GDT_Float32, kGt, 32616);
+    ASSERT_TRUE(loadDem(utm, o, dem, error)) << error;
+    EXPECT_TRUE(warnings.empty());
 }

@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include <gdal_priv.h>
+
 #include "synthetic.h"
 #include "tools/cliutil.h"
 #include "ulod.h"
@@ -202,3 +204,35 @@ TEST_F(Inputs, CameraPathWithAnOverflowingNumberNamesTheProblem) {
 }
 
 }  // namespace
+
+// A DEM whose band stores scaled values in feet (scale 2, unit "ft"): the model's heights are
+// metres (x 2 x 0.3048) and the build summary says which conversion it made.
+TEST_F(Inputs, ScaledElevationsInFeetBecomeMetresInTheModel) {
+    const std::string scaled = (dir / "scaled_feet.tif").string();
+    fs::copy_file(dir / "synth" / "dem.tif", scaled);
+    {
+        GDALAllRegister();
+        GDALDatasetUniquePtr ds(
+            GDALDataset::Open(scaled.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+        ASSERT_TRUE(ds);
+        ASSERT_EQ(ds->GetRasterBand(1)->SetScale(2.0), CE_None);
+        ASSERT_EQ(ds->GetRasterBand(1)->SetUnitType("ft"), CE_None);
+    }
+    const std::string out = (dir / "scaled_feet.ulod").string();
+    const auto r = runCli("build " + q(scaled) + " " + q(rivers) + " -o " + q(out) +
+                          " --block-size 32");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.out.find("DEM conversion   elevations = stored value x 2 (the band's scale"),
+              std::string::npos)
+        << r.out;
+    EXPECT_NE(r.out.find("DEM conversion   elevations in ft, converted to metres (x 0.3048)"),
+              std::string::npos)
+        << r.out;
+    const nlohmann::json plain = parseStrict(runCli("info --json " + q(model)).out);
+    const nlohmann::json feet = parseStrict(runCli("info --json " + q(out)).out);
+    ASSERT_TRUE(plain.contains("z_range") && feet.contains("z_range")) << feet.dump();
+    for (int i = 0; i < 2; ++i)
+        EXPECT_NEAR(feet["z_range"][i].get<double>(),
+                    plain["z_range"][i].get<double>() * 2 * 0.3048, 0.02)
+            << i;
+}

@@ -65,6 +65,8 @@ int run(BuildCli& c) {
     std::printf("unilod build summary\n");
     std::printf("  DEM              %s (%d x %d cells, %s)\n", c.o.demPath.c_str(), s.demWidth,
                 s.demHeight, s.crsName.c_str());
+    for (const std::string& conversion : s.demConversions)
+        std::printf("  DEM conversion   %s\n", conversion.c_str());
     std::printf("  rivers           %s (%zu lines after cleaning)\n", c.o.riversPath.c_str(),
                 s.riverLines);
     std::printf("  river cleaning   %s\n", s.cleaning.c_str());

@@ -6,8 +6,8 @@ namespace unilod::cli {
 
 void addSrsOptions(CLI::App& sub, IngestOptions& o) {
     sub.add_option("--t-srs", o.targetSrs,
-                   "target (working) CRS, any GDAL SRS text (default: a projected DEM's own, a "
-                   "geographic DEM's UTM zone)");
+                   "target (working) CRS, projected in metres, any GDAL SRS text (default: a "
+                   "projected DEM's own when in metres, else the UTM zone of the DEM's centre)");
     sub.add_option("--s-srs", o.assumeSrs,
                    "source CRS assumed for an input that declares none (the DEM, the river "
                    "layer), as gdalwarp -s_srs");
