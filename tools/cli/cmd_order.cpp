@@ -172,8 +172,12 @@ int runOrder(const OrderOptions& o) {
     char cells[160];
     std::snprintf(cells, sizeof cells, "%d x %d cells of %.2f x %.2f, ", dem.width, dem.height,
                   std::abs(dem.cellX), std::abs(dem.cellY));
+    std::string conversions;
+    for (const std::string& c : dem.conversions)
+        conversions += "; " + c;
     progress("ingest", seconds["ingest"],
-             cells + crs + ", " + std::to_string(data.rivers.size()) + " river lines");
+             cells + crs + ", " + std::to_string(data.rivers.size()) + " river lines" +
+                 conversions);
 
     // One block covering the DEM, its outer edge locked: the point set `build --order 3ddp`
     // ranks when the DEM is one block.
@@ -234,6 +238,7 @@ int runOrder(const OrderOptions& o) {
     summary["input"] = {{"dem", o.in.demPath},
                         {"rivers", o.in.riversPath},
                         {"crs", crs},
+                        {"dem_conversions", dem.conversions},
                         {"width", dem.width},
                         {"height", dem.height},
                         {"stride", o.in.stride},
