@@ -216,8 +216,9 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
         error = "no frames";
         return false;
     }
+    std::vector<std::string> wanted = o.runs;
     auto has = [&](const char* name) {
-        return std::find(o.runs.begin(), o.runs.end(), name) != o.runs.end();
+        return std::find(wanted.begin(), wanted.end(), name) != wanted.end();
     };
     nlohmann::json runs = nlohmann::json::object();
     std::string deviceName;
@@ -242,6 +243,24 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
         if (o.progress) o.progress(what, 0, o.cameras.size());
     };
 
+    // The preloaded runs need every block resident at once: checked on the streamed run's scene
+    // before its first frame (BenchOptions::runsGiven); without a streamed run the first
+    // preloaded run's open fails at once with the same message.
+    nlohmann::json skipped = nlohmann::json::object();
+    auto checkPreload = [&](HeadlessRenderer& r) {
+        if (!(has("resident") || has("bare") || has("full"))) return true;
+        std::string why;
+        if (r.scene().preloadFits(why)) return true;
+        if (o.runsGiven) {
+            error = why;
+            return false;
+        }
+        for (const char* name : {"resident", "bare", "full"})
+            if (has(name)) skipped[name] = why;
+        wanted = {"lod"};
+        return true;
+    };
+
     // Rounds (BenchOptions::rounds): the runs in the same order each round, pooled per run;
     // each round's own ratios are kept too.
     RunData pooled[4];  // lod, resident, bare, full
@@ -251,7 +270,8 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
         if (has("lod")) {
             say("lod: streamed, per-block LOD");
             HeadlessRenderer r;
-            const bool ok = openRenderer(r, o.scene) && run(r, o, false, nullptr, lod, error);
+            const bool ok = openRenderer(r, o.scene) && (round > 0 || checkPreload(r)) &&
+                            run(r, o, false, nullptr, lod, error);
             closeRenderer(r);
             if (!ok) return false;
         }
@@ -312,6 +332,7 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
         {"rounds", std::max(1u, o.rounds)},
         {"round_ratios", roundRatios},
         {"runs", runs},
+        {"skipped", skipped},
         {"ratios_of_median_frame_ms", ratios},
         {"goals",
          {{"lod_over_bare_at_most", kLodOverBareGoal},

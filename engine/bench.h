@@ -43,6 +43,11 @@ struct BenchOptions {
     // (record, submit, GPU done), not the interval between frames.
     double paceMs = 0;
     std::vector<std::string> runs = {"lod", "resident", "bare", "full"};
+    // The runs that preload every block (resident, bare, full) are checked against the device
+    // before any run. When they do not fit: an error if the caller named the runs (`runsGiven`),
+    // else they are skipped and the JSON says why (`skipped`), so that `bench` with its defaults
+    // still measures the streamed run of a model larger than the device's memory.
+    bool runsGiven = false;
     // Rounds (1: one of each run): the runs are repeated in the same order this many times and
     // each run's frames pooled, so that a slow phase of a shared machine (lavapipe's `full` run
     // moved 30-42 ms between runs of identical frames) falls on every run alike; the JSON keeps

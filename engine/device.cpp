@@ -248,6 +248,11 @@ bool createDevice(const DeviceOptions& requested, Device& device, std::string& e
         p2.pNext = &m3;
         vkGetPhysicalDeviceProperties2(device.physical, &p2);
         device.maxAllocation = m3.maxMemoryAllocationSize;
+        if (options.allocationCap > 0)
+            device.maxAllocation = device.maxAllocation > 0
+                                       ? std::min<VkDeviceSize>(device.maxAllocation,
+                                                                options.allocationCap)
+                                       : options.allocationCap;
     }
     graphicsFamily(device.physical, device.surface, device.queueFamily);
 

@@ -4,6 +4,7 @@
 
 #include <vulkan/vulkan.h>
 
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -18,6 +19,9 @@ struct DeviceOptions {
     // build's default, as opposed to an explicit --validation).
     bool validationOptional = false;
     int deviceIndex = -1;     // physical device index; -1: $UNILOD_DEVICE, else automatic
+    // At most this many bytes in one allocation (0: the device's own limit): the tests rehearse
+    // a device with less memory than the one they run on.
+    std::uint64_t allocationCap = 0;
     // Presentation (engine/window.h); empty for the headless target. The instance gets these
     // extensions; `createSurface` runs right after the instance exists, so that device selection
     // can require a graphics queue family that presents to the surface and VK_KHR_swapchain.

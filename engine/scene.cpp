@@ -192,6 +192,57 @@ struct StreamingScene::Impl {
     std::thread loader;
     static constexpr std::size_t kMaxReady = 2;
 
+    // The arena's size for `options` (preloadAll: raised to every block), checked against one
+    // buffer's addressing, the coarse set and the device's largest allocation.
+    bool checkBudget(const Device& dev, const SceneOptions& o, std::uint64_t& size,
+                     std::string& error) const {
+        const std::string& path = reader.path();
+        std::uint64_t wanted = o.gpuBudget;
+        if (o.preloadAll) {
+            std::uint64_t all = coarseBytes;
+            for (const BlockState& b : blocks) all += alignUp(b.fullBytes);
+            wanted = std::max(wanted, all);
+        }
+        if (wanted > kMaxGpuBudget) {
+            char text[160];
+            std::snprintf(text, sizeof text,
+                          ": %s %.10g MiB is more than one buffer can address (%llu MiB)",
+                          o.preloadAll ? "every block resident needs" : "--gpu-budget",
+                          double(wanted) / 1048576.0, (unsigned long long)(kMaxGpuBudget >> 20));
+            error = path + text;
+            return false;
+        }
+        size = wanted / kAlignment * kAlignment;
+        if (coarseBytes > size) {
+            char text[200];
+            std::snprintf(text, sizeof text,
+                          ": --gpu-budget %.6g MiB is below the always-resident coarse levels "
+                          "(%.2f MiB)",
+                          double(o.gpuBudget) / 1048576.0, double(coarseBytes) / 1048576.0);
+            error = path + text;
+            return false;
+        }
+        // The arena must fit the device: checked first, so that a large --gpu-budget (or a model
+        // too large to preload) is an error naming the option and the device's limit, not a
+        // driver abort.
+        const std::uint64_t deviceLimit =
+            largestAllocation(dev, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+        if (size > deviceLimit) {
+            char text[160];
+            if (o.preloadAll)
+                std::snprintf(text, sizeof text, ": every block resident needs %.2f MiB, more than ",
+                              double(size) / 1048576.0);
+            else
+                std::snprintf(text, sizeof text, ": --gpu-budget %.10g MiB is more than ",
+                              double(o.gpuBudget) / 1048576.0);
+            error = path + text + "the Vulkan device '" + dev.properties.deviceName +
+                    "' can allocate at once (" + std::to_string(deviceLimit >> 20) + " MiB)";
+            return false;
+        }
+        return true;
+    }
+
+
     void loaderMain() {
         for (;;) {
             std::uint32_t index;
@@ -373,46 +424,7 @@ bool StreamingScene::open(const Device& device, const std::string& path,
     }
     for (std::size_t i = 0; i < s.blocks.size(); ++i)
         s.nodes[i].levels = &s.blocks[i].levels;
-    std::uint64_t budget = options.gpuBudget;
-    if (options.preloadAll) {
-        std::uint64_t all = s.coarseBytes;
-        for (const BlockState& b : s.blocks) all += alignUp(b.fullBytes);
-        budget = std::max(budget, all);
-    }
-    if (budget > kMaxGpuBudget) {
-        char text[160];
-        std::snprintf(text, sizeof text,
-                      ": %s %.10g MiB is more than one buffer can address (%llu MiB)",
-                      options.preloadAll ? "every block resident needs" : "--gpu-budget",
-                      double(budget) / 1048576.0, (unsigned long long)(kMaxGpuBudget >> 20));
-        error = path + text;
-        return false;
-    }
-    s.budget = budget / kAlignment * kAlignment;
-    if (s.coarseBytes > s.budget) {
-        char text[200];
-        std::snprintf(text, sizeof text,
-                      ": --gpu-budget %.6g MiB is below the always-resident coarse levels "
-                      "(%.2f MiB)",
-                      double(options.gpuBudget) / 1048576.0, double(s.coarseBytes) / 1048576.0);
-        error = path + text;
-        return false;
-    }
-    // The arena must fit the device: checked first, so that a large --gpu-budget (or a model too
-    // large to preload) is an error naming the option and the device's limit, not a driver abort.
-    const std::uint64_t deviceLimit = largestAllocation(device, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-    if (s.budget > deviceLimit) {
-        char text[160];
-        if (options.preloadAll)
-            std::snprintf(text, sizeof text, ": every block resident needs %.2f MiB, more than ",
-                          double(s.budget) / 1048576.0);
-        else
-            std::snprintf(text, sizeof text, ": --gpu-budget %.10g MiB is more than ",
-                          double(options.gpuBudget) / 1048576.0);
-        error = path + text + "the Vulkan device '" + device.properties.deviceName +
-                "' can allocate at once (" + std::to_string(deviceLimit >> 20) + " MiB)";
-        return false;
-    }
+    if (!s.checkBudget(device, options, s.budget, error)) return false;
     s.device = &device;
     if (!tryCreateBuffer(device, s.budget,
                          VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_INDEX_BUFFER_BIT |
@@ -506,6 +518,15 @@ bool StreamingScene::open(const Device& device, const std::string& path,
     s.stats.gpuBytesUsed = s.allocator.used();
     s.loader = std::thread([&s] { s.loaderMain(); });
     return true;
+}
+
+bool StreamingScene::preloadFits(std::string& why) const {
+    const Impl& s = *impl_;
+    assert(s.device);
+    SceneOptions o = s.options;
+    o.preloadAll = true;
+    std::uint64_t size = 0;
+    return s.checkBudget(*s.device, o, size, why);
 }
 
 void StreamingScene::close() {

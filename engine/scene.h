@@ -107,6 +107,10 @@ public:
               std::string& error);
     // Stops the loader and frees the GPU memory. The device must be idle.
     void close();
+    // After open(): whether this file opened with preloadAll on the same device would pass
+    // open()'s budget checks (one buffer holding every block); false with open()'s message. The
+    // benchmark asks before its first run.
+    bool preloadFits(std::string& why) const;
 
     // Outside a render pass, once per frame: releases the memory of frames <= completedFrame
     // (-1: none yet), chooses the levels for `view`, queues loads, and records into `cmd` the

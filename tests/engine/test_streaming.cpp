@@ -21,6 +21,7 @@
 
 #include "camera.h"
 #include "capture.h"
+#include "bench.h"
 #include "headless.h"
 #include "testutil.h"
 #include "tools/cliutil.h"
@@ -433,6 +434,48 @@ TEST_F(Streaming, BenchRoundsPoolTheirFrames) {
     const auto bad = runCli("bench " + q(file_) + " --rounds 0");
     EXPECT_NE(bad.code, 0);
     EXPECT_NE(bad.err.find("--rounds"), std::string::npos) << bad.err;
+}
+
+// A model whose preloaded runs do not fit the device (here a device capped below what every
+// block resident needs): with the default runs `bench` measures the streamed run and says why the
+// others were skipped; with the runs named (--runs) it fails before any run.
+TEST_F(Streaming, BenchSkipsThePreloadedRunsOfAModelLargerThanTheDevice) {
+    engine::BenchOptions o;
+    o.path = file_;
+    o.width = 160;
+    o.height = 90;
+    o.warmup = 1;
+    o.warmupMs = 0;
+    o.cameras = {oblique(0.3), oblique(0.5)};
+    o.device.validation = true;
+    o.scene.gpuBudget = 4u << 20;
+    o.scene.uploadBytesPerFrame = 1u << 20;
+    o.device.allocationCap = 6u << 20;  // the streamed run's 4 MiB fit, the whole model does not
+    nlohmann::json j;
+    std::string error;
+    ASSERT_TRUE(engine::runBench(o, j, error)) << error;
+    EXPECT_TRUE(j["runs"].contains("lod"));
+    for (const char* run : {"resident", "bare", "full"}) {
+        EXPECT_FALSE(j["runs"].contains(run)) << run;
+        ASSERT_TRUE(j["skipped"].contains(run)) << j["skipped"].dump();
+        const std::string why = j["skipped"][run].get<std::string>();
+        EXPECT_NE(why.find("every block resident needs"), std::string::npos) << why;
+        EXPECT_NE(why.find("can allocate at once (6 MiB)"), std::string::npos) << why;
+    }
+    EXPECT_EQ(j["runs"]["lod"]["frames"].get<int>(), 2);
+    EXPECT_FALSE(j["ratios_of_median_frame_ms"].contains("full_over_lod"));
+
+    // Named runs: an error at once, no run made.
+    o.runsGiven = true;
+    o.runs = {"lod", "full"};
+    EXPECT_FALSE(engine::runBench(o, j, error));
+    EXPECT_NE(error.find("every block resident needs"), std::string::npos) << error;
+
+    // Without the cap the same options run everything.
+    o.device.allocationCap = 0;
+    ASSERT_TRUE(engine::runBench(o, j, error)) << error;
+    EXPECT_TRUE(j["runs"].contains("full"));
+    EXPECT_TRUE(j["skipped"].empty());
 }
 
 }  // namespace

@@ -30,6 +30,7 @@ struct BenchCli {
     engine::BenchOptions o;
     EngineCli engine;
     std::string cameraPath, runs = "lod,resident,bare,full";
+    CLI::Option* runsOption = nullptr;
     OutputFlags output;
     JsonFlags json;
     std::uint32_t frames = 200;
@@ -39,6 +40,7 @@ struct BenchCli {
 int run(BenchCli& c) {
     if (!c.engine.apply(c.o.scene, c.o.device, c.o.width, c.o.height, "bench")) return 2;
     c.o.runs.clear();
+    c.o.runsGiven = c.runsOption != nullptr && c.runsOption->count() > 0;
     std::stringstream list(c.runs);
     for (std::string r; std::getline(list, r, ',');) {
         if (r != "lod" && r != "resident" && r != "bare" && r != "full") {
@@ -117,6 +119,9 @@ int run(BenchCli& c) {
                     num(r["triangles"]["mean"]), num(r["resident_blocks"]["mean"]),
                     double(r["bytes_uploaded"].get<std::uint64_t>()) / 1e6);
     }
+    for (const char* name : {"resident", "bare", "full"})
+        if (out["skipped"].contains(name))
+            std::printf("%-9s skipped: %s\n", name, out["skipped"][name].get<std::string>().c_str());
     for (auto& [k, v] : out["ratios_of_median_frame_ms"].items()) {
         std::printf("%s = %.3f", k.c_str(), v.get<double>());
         for (auto& [goal, met] : out["goals_met"].items()) {
@@ -178,7 +183,7 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
                     "to back)")
         ->check(numberIn(0, 10000));
     c->engine.add(*sub, "1920x1080");
-    sub->add_option("--runs", c->runs,
+    c->runsOption = sub->add_option("--runs", c->runs,
                     "comma-separated runs: lod, resident, bare, full (default: all four)");
     sub->add_option("--rounds", c->o.rounds,
                     "repeat the runs in order this many times and pool each run's frames, so "
