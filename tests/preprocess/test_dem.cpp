@@ -61,6 +61,13 @@ void describeBand(const std::string& path, double scale, double offset, const ch
     ASSERT_EQ(band->SetUnitType(unit), CE_None);
 }
 
+// Load options whose warnings go to `warnings`.
+DemLoadOptions collecting(std::vector<std::string>& warnings) {
+    DemLoadOptions o;
+    o.warn = [&warnings](const std::string& w) { warnings.push_back(w); };
+    return o;
+}
+
 // 4 x 3 grid of 10 m cells, upper-left corner (500000, 4000000), EPSG:32616.
 const double kGt[6] = {500000.0, 10.0, 0.0, 4000000.0, 0.0, -10.0};
 
@@ -328,8 +335,7 @@ TEST(Dem, ScaledIntegersAndFeetBecomeMetres) {
     writeTiff(path, 4, 3, {raw}, GDT_Int16, kGt, 32616, -32768);
     describeBand(path, 0.1, 250.0, "ft");
     std::vector<std::string> warnings;
-    DemLoadOptions o;
-    o.warn = [&](const std::string& w) { warnings.push_back(w); };
+    const DemLoadOptions o = collecting(warnings);
     DemGrid dem;
     std::string error;
     ASSERT_TRUE(loadDem(path, o, dem, error)) << error;
@@ -395,8 +401,7 @@ TEST(Dem, DistortingMetricCrsIsWarnedAbout) {
     const double gt[6] = {-9500000.0, 100.0, 0.0, 4300000.0, 0.0, -100.0};
     writeTiff(path, 4, 3, {std::vector<double>(12, 300.0)}, GDT_Float32, gt, 3857);
     std::vector<std::string> warnings;
-    DemLoadOptions o;
-    o.warn = [&](const std::string& w) { warnings.push_back(w); };
+    const DemLoadOptions o = collecting(warnings);
     DemGrid dem;
     std::string error;
     ASSERT_TRUE(loadDem(path, o, dem, error)) << error;
