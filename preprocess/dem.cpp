@@ -85,7 +85,6 @@ std::string toWkt(const OGRSpatialReference& srs) {
     return wkt;
 }
 
-
 // Lower case without spaces, '_', '-', '.' and brackets: "US survey foot" -> "ussurveyfoot".
 std::string unitKey(const std::string& unit) {
     std::string key;
@@ -98,14 +97,19 @@ std::string unitKey(const std::string& unit) {
     return key;
 }
 
-// The centre of the raster (geotransform `gt`, w x h cells) in WGS 84 longitude, latitude.
-bool centreLonLat(const OGRSpatialReference& srs, const double gt[6], int w, int h, double& lon,
-                  double& lat) {
+// From `srs` to WGS 84 longitude, latitude (null when PROJ has no transformation).
+std::unique_ptr<OGRCoordinateTransformation> toLonLat(const OGRSpatialReference& srs) {
     OGRSpatialReference wgs84;
     wgs84.SetWellKnownGeogCS("WGS84");
     wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
-    std::unique_ptr<OGRCoordinateTransformation> ct(
+    return std::unique_ptr<OGRCoordinateTransformation>(
         OGRCreateCoordinateTransformation(&srs, &wgs84));
+}
+
+// The centre of the raster (geotransform `gt`, w x h cells) in WGS 84 longitude, latitude.
+bool centreLonLat(const OGRSpatialReference& srs, const double gt[6], int w, int h, double& lon,
+                  double& lat) {
+    const std::unique_ptr<OGRCoordinateTransformation> ct = toLonLat(srs);
     lon = gt[0] + 0.5 * w * gt[1];
     lat = gt[3] + 0.5 * h * gt[5];
     return ct && ct->Transform(1, &lon, &lat) && std::isfinite(lon) && std::isfinite(lat);
@@ -115,11 +119,7 @@ bool centreLonLat(const OGRSpatialReference& srs, const double gt[6], int w, int
 // directions (1 on a true-scale grid, 1.24 for Web Mercator at 36 degrees): a 1 km step along
 // each axis measured on the sphere. 0 when it cannot be computed.
 double gridScale(const OGRSpatialReference& srs, double x, double y) {
-    OGRSpatialReference wgs84;
-    wgs84.SetWellKnownGeogCS("WGS84");
-    wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
-    std::unique_ptr<OGRCoordinateTransformation> ct(
-        OGRCreateCoordinateTransformation(&srs, &wgs84));
+    const std::unique_ptr<OGRCoordinateTransformation> ct = toLonLat(srs);
     if (!ct) return 0;
     constexpr double kStep = 1000.0, kEarthRadius = 6371008.8, kRad = 3.14159265358979323846 / 180;
     double xs[3] = {x, x + kStep, x}, ys[3] = {y, y, y + kStep};
