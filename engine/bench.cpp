@@ -229,6 +229,9 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
         ho.width = o.width;
         ho.height = o.height;
         ho.scene = scene;
+        ho.scene.openProgress = [&](std::size_t done, std::size_t total) {
+            if (o.progress) o.progress(done == 0 ? "opening the model" : "", done, total);
+        };
         ho.device = o.device;
         ho.spirvDir = o.spirvDir;
         if (!r.open(ho, error)) return false;
@@ -268,10 +271,12 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
     for (std::uint32_t round = 0; round < std::max(1u, o.rounds); ++round) {
         RunData lod, resident, bare, full;
         if (has("lod")) {
-            say("lod: streamed, per-block LOD");
             HeadlessRenderer r;
-            const bool ok = openRenderer(r, o.scene) && (round > 0 || checkPreload(r)) &&
-                            run(r, o, false, nullptr, lod, error);
+            bool ok = openRenderer(r, o.scene) && (round > 0 || checkPreload(r));
+            if (ok) {
+                say("lod: streamed, per-block LOD");
+                ok = run(r, o, false, nullptr, lod, error);
+            }
             closeRenderer(r);
             if (!ok) return false;
         }
@@ -293,12 +298,15 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
             resident.drawLists.clear();
         }
         if (has("full")) {
-            say("full: every visible block at full resolution");
             SceneOptions scene = o.scene;
             scene.preloadAll = true;
             scene.policy = LodPolicy::Finest;
             HeadlessRenderer r;
-            const bool ok = openRenderer(r, scene) && run(r, o, false, nullptr, full, error);
+            bool ok = openRenderer(r, scene);
+            if (ok) {
+                say("full: every visible block at full resolution");
+                ok = run(r, o, false, nullptr, full, error);
+            }
             closeRenderer(r);
             if (!ok) return false;
         }

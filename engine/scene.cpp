@@ -378,10 +378,18 @@ bool StreamingScene::open(const Device& device, const std::string& path,
     std::vector<format::BlockGeometry> coarsest(blockCount);
     std::vector<std::string> errors(blockCount);
     std::vector<char> failed(blockCount, 0);
-    forEachIndexInParallel(blockCount, [&](std::size_t i) {
-        const int last = int(s.reader.blocks()[i].levelCount) - 1;
-        failed[i] = !s.reader.readGeometry(i, last, coarsest[i], errors[i]);
-    });
+    // In batches, so that the progress is reported from this thread.
+    constexpr std::size_t kOpenBatch = 64;
+    if (options.openProgress) options.openProgress(0, blockCount);
+    for (std::size_t from = 0; from < blockCount; from += kOpenBatch) {
+        const std::size_t count = std::min(kOpenBatch, blockCount - from);
+        forEachIndexInParallel(count, [&](std::size_t k) {
+            const std::size_t i = from + k;
+            const int last = int(s.reader.blocks()[i].levelCount) - 1;
+            failed[i] = !s.reader.readGeometry(i, last, coarsest[i], errors[i]);
+        });
+        if (options.openProgress) options.openProgress(from + count, blockCount);
+    }
     for (std::size_t i = 0; i < blockCount; ++i)
         if (failed[i]) {
             error = std::move(errors[i]);

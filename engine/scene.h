@@ -26,6 +26,7 @@
 #include <vulkan/vulkan.h>
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -59,6 +60,10 @@ struct SceneOptions {
     // Everything resident: open() also uploads every block's full LOD geometry (the budget
     // is raised to what that needs) and nothing is streamed: the benchmark's baseline.
     bool preloadAll = false;
+    // open() reads and validates every entry of the file (seconds for a large model: about 50 s
+    // for the 64M-point synthetic on 2 cores): called from the calling thread with (0, total)
+    // first, then after each batch of entries (may be empty).
+    std::function<void(std::size_t done, std::size_t total)> openProgress;
 };
 
 // One visible block's choice in the last prepared frame: the cut's choice (lod/cut.h) and what

@@ -18,6 +18,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <thread>
 
 #include "camera.h"
 #include "capture.h"
@@ -434,6 +435,38 @@ TEST_F(Streaming, BenchRoundsPoolTheirFrames) {
     const auto bad = runCli("bench " + q(file_) + " --rounds 0");
     EXPECT_NE(bad.code, 0);
     EXPECT_NE(bad.err.find("--rounds"), std::string::npos) << bad.err;
+}
+
+// Opening reads every entry: the progress starts at (0, total), rises in batches from the
+// calling thread and ends at (total, total); bench reports it as its own stage.
+TEST_F(Streaming, OpeningReportsItsProgress) {
+    engine::HeadlessOptions o = options(engine::kDefaultGpuBudget);
+    std::vector<std::pair<std::size_t, std::size_t>> calls;
+    const std::thread::id caller = std::this_thread::get_id();
+    bool otherThread = false;
+    o.scene.openProgress = [&](std::size_t done, std::size_t total) {
+        calls.push_back({done, total});
+        otherThread = otherThread || std::this_thread::get_id() != caller;
+    };
+    engine::HeadlessRenderer r;
+    std::string error;
+    ASSERT_TRUE(r.open(o, error)) << error;
+    r.close();
+    const std::size_t n = reader_.blocks().size();
+    ASSERT_GE(calls.size(), 2u);
+    EXPECT_EQ(calls.front(), std::make_pair(std::size_t(0), n));
+    EXPECT_EQ(calls.back(), std::make_pair(n, n));
+    for (std::size_t i = 1; i < calls.size(); ++i) {
+        EXPECT_GT(calls[i].first, calls[i - 1].first);
+        EXPECT_EQ(calls[i].second, n);
+    }
+    EXPECT_FALSE(otherThread);
+    const auto b = runCli("bench " + q(file_) + " --frames 1 --warmup 0 --size 160x90 --runs lod");
+    ASSERT_EQ(b.code, 0) << b.err;
+    EXPECT_NE(b.err.find("bench: opening the model  " + std::to_string(n) + "/" +
+                         std::to_string(n)),
+              std::string::npos)
+        << b.err;
 }
 
 // A model whose preloaded runs do not fit the device (here a device capped below what every

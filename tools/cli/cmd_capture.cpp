@@ -64,10 +64,17 @@ int run(CaptureCli& c) {
     c.o.cameras = engine::sampleCameraPath(path, frames);
     c.o.settle = !c.noSettle;
     engine::CaptureResult result;
-    // The engine renders all frames, then writes them: one stage, no count to report.
-    Progress progress("capture", !c.quiet,
-                      "rendering " + std::to_string(c.o.cameras.size()) + " frame" +
-                          (c.o.cameras.size() == 1 ? "" : "s"));
+    // Opening the model (entries read of all), then rendering: the engine renders all frames,
+    // then writes them, no count to report.
+    const std::string rendering = "rendering " + std::to_string(c.o.cameras.size()) + " frame" +
+                                  (c.o.cameras.size() == 1 ? "" : "s");
+    Progress progress("capture", !c.quiet, "opening the model");
+    c.o.scene.openProgress = [&](std::size_t done, std::size_t total) {
+        if (done < total)
+            progress.update(done, total);
+        else
+            progress.stage(rendering);
+    };
     const bool ok = engine::runCapture(c.o, result, error);
     progress.finish();
     if (!ok) {

@@ -12,6 +12,7 @@
 #include "engineopts.h"
 #include "numbers.h"
 #include "outputopts.h"
+#include "progress.h"
 #include "view.h"
 
 namespace unilod::cli {
@@ -54,7 +55,16 @@ int run(ViewCli& c) {
         c.o.camera.pitchDegrees = c.camera[4];
     }
     engine::ViewResult result;
-    if (!engine::runView(c.o, result, error)) {
+    // The model's entries are read and validated before the first frame (seconds for a large
+    // model): that, and nothing else, has a progress line.
+    Progress progress("view", !c.quiet, "opening the model");
+    c.o.scene.openProgress = [&](std::size_t done, std::size_t total) {
+        progress.update(done, total);
+        if (done == total) progress.finish();
+    };
+    const bool ok = engine::runView(c.o, result, error);
+    progress.finish();
+    if (!ok) {
         std::fprintf(stderr, "unilod view: error: %s\n",
                      errorForFile(c.o.path, error).c_str());
         return 1;
@@ -91,7 +101,7 @@ void addViewCommand(CLI::App& app, int& exitCode) {
     sub->add_flag("--grid", c->o.grid, "start in the 2D grid mode (top-down wireframe)");
     sub->add_flag("--annotate", c->o.annotate,
                   "screenshots get a colour key (height, m), a scale bar and a north arrow");
-    addQuietFlag(sub, c->quiet);  // view prints nothing on stderr but errors: accepted for scripts
+    addQuietFlag(sub, c->quiet);  // drops the progress of opening the model
     sub->callback([c, &exitCode] { exitCode = run(*c); });
 }
 
