@@ -242,7 +242,6 @@ struct StreamingScene::Impl {
         return true;
     }
 
-
     void loaderMain() {
         for (;;) {
             std::uint32_t index;
