@@ -37,6 +37,9 @@ struct RunData {
     std::vector<FrameStats> stats;
     std::vector<std::vector<DrawBlock>> drawLists;  // "resident" keeps them for "bare"
     double seconds = 0;
+    // The renderer's open: device, pipelines and the scene (the directory, level table and roots;
+    // for the preloaded runs every entry too). 0 for `bare`, which uses the resident run's.
+    double openSeconds = 0;
     std::uint64_t warmupBytesUploaded = 0;  // streamed during the unmeasured warm-up frames
     std::uint32_t warmupFrames = 0;         // warm-up frames rendered
     double warmupSeconds = 0;               // their wall time, the GPU's work included
@@ -53,6 +56,7 @@ void pool(RunData& into, const RunData& r) {
     into.gpuMs.insert(into.gpuMs.end(), r.gpuMs.begin(), r.gpuMs.end());
     into.stats.insert(into.stats.end(), r.stats.begin(), r.stats.end());
     into.seconds += r.seconds;
+    into.openSeconds += r.openSeconds;
     into.warmupBytesUploaded += r.warmupBytesUploaded;
     into.warmupFrames += r.warmupFrames;
     into.warmupSeconds += r.warmupSeconds;
@@ -89,6 +93,7 @@ nlohmann::json runJson(const RunData& r, bool perFrame) {
     nlohmann::json j = {
         {"frames", r.frameMs.size()},
         {"seconds", r.seconds},
+        {"open_seconds", r.openSeconds},
         {"fps", r.seconds > 0 ? double(r.frameMs.size()) / r.seconds : 0.0},
         {"fps_median", medianFrame > 0 ? 1000.0 / medianFrame : 0.0},
         {"frame_ms", summary(r.frameMs)},
@@ -223,7 +228,8 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
     nlohmann::json runs = nlohmann::json::object();
     std::string deviceName;
     std::vector<std::string> messages;
-    auto openRenderer = [&](HeadlessRenderer& r, const SceneOptions& scene) {
+    auto openRenderer = [&](HeadlessRenderer& r, const SceneOptions& scene, RunData& data) {
+        const auto start = Clock::now();
         HeadlessOptions ho;
         ho.path = o.path;
         ho.width = o.width;
@@ -235,6 +241,7 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
         ho.device = o.device;
         ho.spirvDir = o.spirvDir;
         if (!r.open(ho, error)) return false;
+        data.openSeconds = std::chrono::duration<double>(Clock::now() - start).count();
         deviceName = r.device().properties.deviceName;
         return true;
     };
@@ -272,7 +279,7 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
         RunData lod, resident, bare, full;
         if (has("lod")) {
             HeadlessRenderer r;
-            bool ok = openRenderer(r, o.scene) && (round > 0 || checkPreload(r));
+            bool ok = openRenderer(r, o.scene, lod) && (round > 0 || checkPreload(r));
             if (ok) {
                 say("lod: streamed, per-block LOD");
                 ok = run(r, o, false, nullptr, lod, error);
@@ -284,7 +291,7 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
             SceneOptions scene = o.scene;
             scene.preloadAll = true;
             HeadlessRenderer r;
-            bool ok = openRenderer(r, scene);
+            bool ok = openRenderer(r, scene, resident);
             if (ok) {
                 say("resident: per-block LOD, everything preloaded");
                 ok = run(r, o, true, nullptr, resident, error);
@@ -302,7 +309,7 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
             scene.preloadAll = true;
             scene.policy = LodPolicy::Finest;
             HeadlessRenderer r;
-            bool ok = openRenderer(r, scene);
+            bool ok = openRenderer(r, scene, full);
             if (ok) {
                 say("full: every visible block at full resolution");
                 ok = run(r, o, false, nullptr, full, error);

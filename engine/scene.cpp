@@ -132,7 +132,6 @@ struct BlockState {
     format::BlockInfo info;
     double originX = 0, originY = 0;
     double boxMin[3] = {}, boxMax[3] = {};
-    std::vector<format::Level> levels;
     std::uint64_t terrainTriangles = 0, riverEdges = 0;  // index data the levels use
     std::uint64_t fullBytes = 0;
     // coarse: the last level only, always resident, for a root (an entry with no tree parent:
@@ -315,7 +314,7 @@ struct StreamingScene::Impl {
     // Whether drawing `level` of `b` needs its full geometry: any level of an entry below the
     // root, a level finer than the coarse one of a root.
     static bool needsFull(const BlockState& b, std::size_t level) {
-        return b.parent != kNoParent || level + 1 < b.levels.size();
+        return b.parent != kNoParent || level + 1 < b.info.levels.size();
     }
     // Whether some level of `b` can be drawn now.
     static bool drawable(const BlockState& b) { return b.full.valid || b.coarse.valid; }
@@ -361,50 +360,56 @@ bool StreamingScene::open(const Device& device, const std::string& path,
         return false;
     }
 
-    // Levels of every block, and the coarse geometry. readGeometry validates the whole block
-    // (checksum, structure, every level's geometry: what `unilod check` trusts), so a damaged
-    // block fails the open with the file and block named, before anything is drawn.
-    std::vector<Packed> coarse;
-    std::uint64_t largest = 0;
+    // Every entry's box, levels and outline flag come from the directory (format version 5); the
+    // roots' coarse geometry is read now (readGeometry validates the whole block: checksum,
+    // structure, every level's geometry, its levels against the directory), every other entry
+    // when it is first streamed (a damaged one then fails the frame that wanted it, naming the
+    // file and the block).
     std::vector<std::uint32_t> parent(s.reader.blocks().size(), kNoParent);
     for (std::size_t i = 0; i < parent.size(); ++i) {
         const format::BlockInfo& info = s.reader.blocks()[i];
         for (std::uint32_t c = 0; c < info.childCount; ++c)
             parent[info.firstChild + c] = std::uint32_t(i);  // links checked by the reader
     }
-    // Read and validated in parallel; the first failing block in file order is reported.
     const std::size_t blockCount = s.reader.blocks().size();
-    std::vector<format::BlockGeometry> coarsest(blockCount);
-    std::vector<std::string> errors(blockCount);
-    std::vector<char> failed(blockCount, 0);
-    // In batches, so that the progress is reported from this thread.
+    std::vector<std::uint32_t> roots;
+    for (std::uint32_t i = 0; i < blockCount; ++i)
+        if (parent[i] == kNoParent) roots.push_back(i);
+    // Read and validated in parallel, in batches so that the progress is reported from this
+    // thread; the first failing root in file order is reported.
+    std::vector<Packed> coarse(blockCount);
+    std::vector<std::string> errors(roots.size());
+    std::vector<char> failed(roots.size(), 0);
     constexpr std::size_t kOpenBatch = 64;
-    if (options.openProgress) options.openProgress(0, blockCount);
-    for (std::size_t from = 0; from < blockCount; from += kOpenBatch) {
-        const std::size_t count = std::min(kOpenBatch, blockCount - from);
+    if (options.openProgress) options.openProgress(0, roots.size());
+    for (std::size_t from = 0; from < roots.size(); from += kOpenBatch) {
+        const std::size_t count = std::min(kOpenBatch, roots.size() - from);
         forEachIndexInParallel(count, [&](std::size_t k) {
-            const std::size_t i = from + k;
+            const std::uint32_t i = roots[from + k];
             const int last = int(s.reader.blocks()[i].levelCount) - 1;
-            failed[i] = !s.reader.readGeometry(i, last, coarsest[i], errors[i]);
+            format::BlockGeometry g;
+            failed[from + k] = !s.reader.readGeometry(i, last, g, errors[from + k]);
+            if (!failed[from + k])
+                pack(g, g.terrainIndices.size(), g.riverIndices.size(), coarse[i]);
         });
-        if (options.openProgress) options.openProgress(from + count, blockCount);
+        if (options.openProgress) options.openProgress(from + count, roots.size());
     }
-    for (std::size_t i = 0; i < blockCount; ++i)
-        if (failed[i]) {
-            error = std::move(errors[i]);
+    for (std::size_t k = 0; k < roots.size(); ++k)
+        if (failed[k]) {
+            error = std::move(errors[k]);
             return false;
         }
+    std::uint64_t largest = 0;
     for (std::size_t i = 0; i < blockCount; ++i) {
-        format::BlockGeometry g = std::move(coarsest[i]);
         BlockState b;
         b.info = s.reader.blocks()[i];
         b.parent = parent[i];
         b.treeLevel = b.info.level;
-        b.originX = g.originX;
-        b.originY = g.originY;
-        b.boxMin[0] = g.minX, b.boxMin[1] = g.minY, b.boxMin[2] = g.minZ;
-        b.boxMax[0] = g.maxX, b.boxMax[1] = g.maxY, b.boxMax[2] = g.maxZ;
-        for (const format::Level& l : g.levels) {
+        b.originX = b.info.originX;
+        b.originY = b.info.originY;
+        b.boxMin[0] = b.info.minX, b.boxMin[1] = b.info.minY, b.boxMin[2] = b.info.minZ;
+        b.boxMax[0] = b.info.maxX, b.boxMax[1] = b.info.maxY, b.boxMax[2] = b.info.maxZ;
+        for (const format::Level& l : b.info.levels) {
             b.terrainTriangles =
                 std::max<std::uint64_t>(b.terrainTriangles, std::uint64_t(l.triangleFirst) + l.triangleCount);
             b.riverEdges = std::max<std::uint64_t>(b.riverEdges, std::uint64_t(l.riverFirst) + l.riverCount);
@@ -413,24 +418,16 @@ bool StreamingScene::open(const Device& device, const std::string& path,
                       b.terrainTriangles * sizeof(format::Triangle) +
                       b.riverEdges * sizeof(format::Edge);
         largest = std::max(largest, b.fullBytes);
-        LodNode node = lodNode(g);  // the coarsest level: whether its outline may move
-        b.levels = std::move(g.levels);
-        node.levels = nullptr;  // set below, once s.blocks no longer moves
-        s.nodes.push_back(node);
-        Packed p;
-        if (b.parent == kNoParent) {
-            pack(g, g.terrainIndices.size(), g.riverIndices.size(), p);
-            s.coarseBytes += alignUp(p.bytes.size());
-        }
-        coarse.push_back(std::move(p));
+        if (b.parent == kNoParent) s.coarseBytes += alignUp(coarse[i].bytes.size());
         s.blocks.push_back(std::move(b));
     }
     if (s.blocks.empty()) {
         error = path + ": no blocks to draw";
         return false;
     }
-    for (std::size_t i = 0; i < s.blocks.size(); ++i)
-        s.nodes[i].levels = &s.blocks[i].levels;
+    // What the cut needs, once s.blocks no longer moves.
+    for (const BlockState& b : s.blocks)
+        s.nodes.push_back(lodNode(b.info));
     if (!s.checkBudget(device, options, s.budget, error)) return false;
     s.device = &device;
     if (!tryCreateBuffer(device, s.budget,
@@ -482,7 +479,7 @@ bool StreamingScene::open(const Device& device, const std::string& path,
         // holds the largest block).
         std::vector<std::uint32_t> todo;
         for (std::uint32_t i = 0; i < s.blocks.size(); ++i)
-            if (!(s.blocks[i].parent == kNoParent && s.blocks[i].levels.size() < 2))
+            if (!(s.blocks[i].parent == kNoParent && s.blocks[i].info.levels.size() < 2))
                 todo.push_back(i);  // not a root whose coarse level is all there is
         constexpr std::size_t kBatch = 32;
         std::vector<Packed> packed(kBatch);
@@ -676,7 +673,7 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
     };
     auto addDraw = [&](const BlockState& b, bool full, std::size_t level) {
         const Allocation* alloc = full ? &b.full : &b.coarse;
-        const format::Level& l = b.levels[level];
+        const format::Level& l = b.info.levels[level];
         // The coarse allocation holds only its level, rebased to 0.
         const std::uint64_t triangleFirst = full ? l.triangleFirst : 0;
         const std::uint64_t riverFirst = full ? l.riverFirst : 0;
@@ -699,7 +696,7 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
         if (cover != kNoParent) {
             // Drawn through the entry above it: its finest resident level.
             const BlockState& c = s.blocks[cover];
-            const std::size_t level = c.full.valid ? 0 : c.levels.size() - 1;
+            const std::size_t level = c.full.valid ? 0 : c.info.levels.size() - 1;
             if (!sel.fallback) {
                 sel.fallback = true;
                 ++st.fallbackBlocks;
@@ -716,8 +713,8 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
         const BlockState& b = s.blocks[sel.block];
         // Resident as wanted, or a root at its coarse level (wanted, or a fallback).
         const bool full = s.needsFull(b, sel.wanted.level) && b.full.valid;
-        sel.drawnLevel = full ? sel.wanted.level : b.levels.size() - 1;
-        const format::Level& l = b.levels[sel.drawnLevel];
+        sel.drawnLevel = full ? sel.wanted.level : b.info.levels.size() - 1;
+        const format::Level& l = b.info.levels[sel.drawnLevel];
         sel.triangles = l.triangleCount;
         sel.riverEdges = l.riverCount;
         addDraw(b, full, sel.drawnLevel);
@@ -779,7 +776,7 @@ const std::vector<BlockSelection>& StreamingScene::selection() const { return im
 const format::Header& StreamingScene::header() const { return impl_->reader.header(); }
 std::uint32_t StreamingScene::metric() const { return impl_->metric; }
 const std::vector<format::Level>& StreamingScene::levels(std::size_t index) const {
-    return impl_->blocks[index].levels;
+    return impl_->blocks[index].info.levels;
 }
 const format::BlockInfo& StreamingScene::blockInfo(std::size_t index) const {
     return impl_->blocks[index].info;

@@ -1,10 +1,11 @@
 // The streamed scene (DESIGN.md "Engine", issue 5): the blocks of a .ulod file in one device
 // buffer under a memory budget, and the per-frame choice of what to draw.
 //
-// - At open, every block's levels are read, and the coarsest level of every root (an entry with
-//   no tree parent: the tree's root, or every block of a file without a tree) is uploaded and
-//   stays resident, so no area ever disappears; the budget must hold this coarse set. Entries
-//   below the root are streamed whole (every level).
+// - At open, every entry's levels come from the file's directory and level table (format
+//   version 5), and the coarsest level of every root (an entry with no tree parent: the tree's
+//   root, or every block of a file without a tree) is read, uploaded and stays resident, so no
+//   area ever disappears; the budget must hold this coarse set. Entries below the root are read
+//   when first streamed, whole (every level).
 // - Every frame, prepare() culls the blocks against the view, computes S and h_lim per visible
 //   block and picks the coarsest level with h_s <= h_lim (lod/cut.h selectCut). A block whose chosen level is
 //   finer than its resident coarse level needs its full LOD geometry (all levels' index data):
@@ -60,9 +61,9 @@ struct SceneOptions {
     // Everything resident: open() also uploads every block's full LOD geometry (the budget
     // is raised to what that needs) and nothing is streamed: the benchmark's baseline.
     bool preloadAll = false;
-    // open() reads and validates every entry of the file (seconds for a large model: about 50 s
-    // for the 64M-point synthetic on 2 cores): called from the calling thread with (0, total)
-    // first, then after each batch of entries (may be empty).
+    // open() reads and validates every root of the file (every block of a file without a tree:
+    // seconds for a large one): called from the calling thread with (0, roots) first, then after
+    // each batch of roots.
     std::function<void(std::size_t done, std::size_t total)> openProgress;
 };
 
@@ -104,10 +105,12 @@ public:
     StreamingScene(const StreamingScene&) = delete;
     StreamingScene& operator=(const StreamingScene&) = delete;
 
-    // Opens the file, reads and validates every block (format::Reader::readGeometry: checksum,
-    // structure, level geometry), uploads the coarse set (blocking: startup). False with a
-    // message naming the file (unreadable, a block that fails validation, named, no geometry,
-    // budget below the coarse set, unknown metric).
+    // Opens the file (header, directory, level table), reads and validates every root
+    // (format::Reader::readGeometry: checksum, structure, level geometry; with preloadAll every
+    // entry), uploads the coarse set (blocking: startup). False with a message naming the file
+    // (unreadable, a root that fails validation, named, no geometry, budget below the coarse
+    // set, unknown metric). An entry below the roots that fails validation when it is streamed
+    // fails that frame's prepare() (below).
     bool open(const Device& device, const std::string& path, const SceneOptions& options,
               std::string& error);
     // Stops the loader and frees the GPU memory. The device must be idle.

@@ -19,18 +19,20 @@
 namespace unilod::test {
 
 struct UlodBytes {
-    // README.md: file header 144 bytes, directory entries 104, trailer 8, block header 152. The
+    // README.md: file header 152 bytes, directory entries 128, trailer 8, block header 152. The
     // array accessors describe raw blocks (`build --encoding raw`); a compact block's payload
     // starts at kBlockHeaderSize and is kPayloadSize bytes long.
-    static constexpr std::size_t kHeaderSize = 144, kEntrySize = 104, kBlockHeaderSize = 152;
+    static constexpr std::size_t kHeaderSize = 152, kEntrySize = 128, kBlockHeaderSize = 152;
     // Header fields.
     static constexpr std::size_t kOriginX = 24, kMinX = 40, kMinY = 48, kMinZ = 56, kMaxX = 64,
                                  kMaxY = 72, kMaxZ = 80, kBlockWidth = 88, kBlockHeight = 96,
                                  kBlocksX = 104, kBlocksY = 108, kBlockCount = 120,
-                                 kCrsWktSize = 124, kBuildInfoSize = 128, kZQuantum = 136;
+                                 kCrsWktSize = 124, kBuildInfoSize = 128, kLevelTableCrc = 132,
+                                 kZQuantum = 136, kLevelTableOffset = 144;
     // Directory entry fields.
     static constexpr std::size_t kEntryOffset = 56, kEntrySizeField = 64, kEntryChecksum = 72,
-                                 kEntryEncoding = 100;
+                                 kEntryEncoding = 100, kEntryOriginX = 104, kEntryFlags = 120;
+    static constexpr std::size_t kLevelSize = 36;  // one level in a block and in the level table
     // Block header fields; the 17 array counts start at kCounts, in array order.
     static constexpr std::size_t kBlockOriginX = 8, kBlockMinX = 24, kCounts = 72,
                                  kEncoding = 140, kPayloadSize = 144;
@@ -119,6 +121,21 @@ struct UlodBytes {
         }
         return static_cast<std::uint32_t>(c);
     }
+    // The level table (after the blocks, to the end of the file) and the first level of entry i
+    // in it: the entries' levels in directory order.
+    std::uint64_t levelTableAt() const { return get<std::uint64_t>(kLevelTableOffset); }
+    std::uint64_t levelTableEntry(std::size_t i) const {
+        std::uint64_t at = levelTableAt();
+        for (std::size_t k = 0; k < i && has(entry(k), kEntrySize); ++k)
+            at += kLevelSize * get<std::uint32_t>(entry(k) + 84);  // levelCount
+        return at;
+    }
+    // The level table's CRC into the header, then the header CRC.
+    void resealLevelTable() {
+        const std::uint64_t at = levelTableAt();
+        if (at <= bytes.size()) set<std::uint32_t>(kLevelTableCrc, crc(at, bytes.size() - at));
+        resealHeader();
+    }
     // The header CRC over everything before the trailer (the directory included).
     void resealHeader() {
         const std::uint64_t trailer = trailerAt();
@@ -137,7 +154,7 @@ struct UlodBytes {
             const std::uint64_t at = blockAt(i), size = blockSize(i);
             if (has(at, size)) set<std::uint32_t>(entry(i) + kEntryChecksum, crc(at, size));
         }
-        resealHeader();
+        resealLevelTable();
     }
 };
 

@@ -155,21 +155,12 @@ unilod::format::Block mergedLeaves(const std::string& path) {
     return out;
 }
 
-// The nodes as the engine sees them: boxes, links and level tables (coarsest level read).
-void readLodNodes(unilod::format::Reader& reader,
-                  std::vector<std::vector<unilod::format::Level>>& levels,
-                  std::vector<unilod::engine::LodNode>& nodes) {
-    const std::size_t count = reader.blocks().size();
-    levels.assign(count, {});
-    nodes.assign(count, {});
-    std::string error;
-    for (std::size_t i = 0; i < count; ++i) {
-        unilod::format::BlockGeometry g;
-        if (!reader.readGeometry(i, int(reader.blocks()[i].levelCount) - 1, g, error)) fail(error);
-        nodes[i] = unilod::engine::lodNode(g);
-        levels[i] = std::move(g.levels);
-        nodes[i].levels = &levels[i];
-    }
+// The nodes as the engine sees them: boxes, links and levels from the directory.
+std::vector<unilod::engine::LodNode> lodNodes(const unilod::format::Reader& reader) {
+    std::vector<unilod::engine::LodNode> nodes;
+    for (const unilod::format::BlockInfo& info : reader.blocks())
+        nodes.push_back(unilod::engine::lodNode(info));
+    return nodes;
 }
 
 // Issue 18's targets on a model with the block hierarchy: the cut for a uniform h_lim (the
@@ -210,9 +201,7 @@ json treeBenchmark(const std::string& path, const std::vector<double>& errors) {
     out["file_ratio_vs_leaf_level"] = double(allBytes) / double(leafBytes);
     out["file_target"] = 1.3;
 
-    std::vector<std::vector<unilod::format::Level>> levels;
-    std::vector<unilod::engine::LodNode> nodes;
-    readLodNodes(reader, levels, nodes);
+    const std::vector<unilod::engine::LodNode> nodes = lodNodes(reader);
     // What the uniform cuts keep on the hierarchy's locked borders: vertices flagged locked that
     // lie on their node's box outline inside the model (the model's own outer edge excluded), and
     // the drawn triangles that touch one.
@@ -334,9 +323,7 @@ json viewBenchmark(const std::string& path, const std::string& cameraPath, std::
     unilod::format::Reader reader;
     std::string error;
     if (!reader.open(path, error)) fail(error);
-    std::vector<std::vector<unilod::format::Level>> levels;
-    std::vector<unilod::engine::LodNode> nodes;
-    readLodNodes(reader, levels, nodes);
+    const std::vector<unilod::engine::LodNode> nodes = lodNodes(reader);
     unilod::engine::CameraPath route = unilod::engine::defaultFlyOver(reader.header());
     if (!cameraPath.empty() && !unilod::engine::loadCameraPath(cameraPath, route, error))
         fail(error);

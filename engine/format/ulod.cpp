@@ -52,13 +52,15 @@ struct FileHeader {
     std::uint32_t blockCount;
     std::uint32_t crsWktSize;
     std::uint32_t buildInfoSize;
-    std::uint32_t reserved;  // 0
-    double zQuantum;         // vertex heights are multiples of it
+    std::uint32_t levelTableCrc;  // CRC-32 of the level table's bytes (padding included)
+    double zQuantum;              // vertex heights are multiples of it
+    std::uint64_t levelTableOffset;  // the level table: after the last block, to fileSize
 };
-static_assert(sizeof(FileHeader) == 144);
+static_assert(sizeof(FileHeader) == 152);
 static_assert(offsetof(FileHeader, fileSize) == 16);
 static_assert(offsetof(FileHeader, blocksX) == 104);
-static_assert(offsetof(FileHeader, reserved) == 132);
+static_assert(offsetof(FileHeader, levelTableCrc) == 132);
+static_assert(offsetof(FileHeader, levelTableOffset) == 144);
 
 // One block directory entry (BlockInfo on disk).
 struct DirEntry {
@@ -71,10 +73,17 @@ struct DirEntry {
     std::uint16_t level, childCount;  // tree links (Block)
     std::uint32_t firstChild;
     std::uint32_t encoding;  // BlockEncoding, as in the block header
+    double originX, originY;  // as in the block header
+    std::uint32_t flags;      // kEntryOutlineMoves
+    std::uint32_t reserved;   // 0
 };
-static_assert(sizeof(DirEntry) == 104);
+static_assert(sizeof(DirEntry) == 128);
+static_assert(offsetof(DirEntry, originX) == 104);
 static_assert(offsetof(DirEntry, offset) == 56);
 static_assert(offsetof(DirEntry, checksum) == 72);
+
+// DirEntry::flags: the block's outline may move between its levels (ulod.h outlineMoves).
+constexpr std::uint32_t kEntryOutlineMoves = 1;
 
 // Written after the directory: the CRC-32 of every byte before it.
 struct HeaderTrailer {
@@ -382,6 +391,7 @@ struct Writer::Impl {
     AtomicFile file;
     std::size_t blockCount = 0;
     std::vector<DirEntry> dir;
+    std::vector<Level> levelTable;  // every entry's levels, in directory order
     std::uint64_t dataStart = 0, offset = 0;
     std::vector<unsigned char> bytes;
     bool open = false;
@@ -460,6 +470,9 @@ bool Writer::writeBlock(const Block& b, std::string& error) {
     e.childCount = std::uint16_t(std::min<std::uint32_t>(b.childCount, 0xFFFF));
     e.firstChild = b.firstChild;
     std::memcpy(&e.encoding, w.bytes.data() + offsetof(BlockHeader, encoding), 4);
+    e.originX = b.originX;
+    e.originY = b.originY;
+    e.flags = outlineMoves(b) ? kEntryOutlineMoves : 0;
     // Tree links are checked as a whole in finish() (treeValid); positions here, early.
     {
         std::vector<DirEntry> one = {e};
@@ -471,6 +484,7 @@ bool Writer::writeBlock(const Block& b, std::string& error) {
     if (!w.file.writeAt(w.bytes.data(), w.bytes.size(), w.offset, error)) return false;
     w.offset += w.bytes.size();
     w.dir.push_back(e);
+    w.levelTable.insert(w.levelTable.end(), b.levels.begin(), b.levels.end());
     return true;
 }
 
@@ -492,8 +506,12 @@ bool Writer::finish(std::string& error) {
     if (expectedStart != w.dataStart) return fail("CRS WKT or build info changed size after open");
     std::string why;
     if (!metricsValid(header.metrics, header.defaultMetric, why)) return fail(why);
+    // The level table after the last block.
+    std::vector<unsigned char> table;
+    appendPadded(table, w.levelTable.data(), w.levelTable.size() * sizeof(Level));
+    const std::uint64_t fileSize = w.offset + table.size();
     // What Reader::open checks of the header and directory holds before anything is written.
-    if (!headerValid(header, w.offset, why)) return fail(why);
+    if (!headerValid(header, fileSize, why)) return fail(why);
     for (const DirEntry& e : w.dir) {
         const double box[6] = {e.minX, e.minY, e.minZ, e.maxX, e.maxY, e.maxZ};
         if (!directoryBoxValid(header, box, why))
@@ -522,8 +540,10 @@ bool Writer::finish(std::string& error) {
     fh.blockCount = static_cast<std::uint32_t>(w.blockCount);
     fh.crsWktSize = static_cast<std::uint32_t>(header.crsWkt.size());
     fh.buildInfoSize = static_cast<std::uint32_t>(header.buildInfo.size());
-    fh.fileSize = w.offset;
+    fh.fileSize = fileSize;
     fh.zQuantum = header.zQuantum;
+    fh.levelTableOffset = w.offset;
+    fh.levelTableCrc = crc32Of(table.data(), table.size());
 
     std::vector<unsigned char> bytes;
     appendPadded(bytes, &fh, sizeof(fh));
@@ -533,6 +553,8 @@ bool Writer::finish(std::string& error) {
     HeaderTrailer trailer{crc32Of(bytes.data(), bytes.size()), 0};
     appendPadded(bytes, &trailer, sizeof(trailer));
     assert(bytes.size() == w.dataStart);
+    if (!table.empty() && !w.file.writeAt(table.data(), table.size(), w.offset, error))
+        return false;
     if (!w.file.writeAt(bytes.data(), bytes.size(), 0, error)) return false;
     // fsync, close and the move into place: AtomicFile (no replacing unless asked to).
     if (!w.file.commit(error)) return false;
@@ -650,7 +672,7 @@ bool Reader::open(const std::string& path, std::string& error) {
     std::memcpy(&trailer, head.data() + trailerAt, sizeof(trailer));
     const std::uint32_t crc = crc32Of(head.data(), trailerAt);
     if (crc != trailer.crc) return fail("header checksum mismatch");
-    if (fh.reserved != 0 || trailer.reserved != 0) return fail("reserved header field not 0");
+    if (trailer.reserved != 0) return fail("reserved header field not 0");
     std::string why;
     if (!metricsValid(fh.metrics, fh.defaultMetric, why)) return fail(why);
 
@@ -679,6 +701,26 @@ bool Reader::open(const std::string& path, std::string& error) {
     if (fh.blockCount > 0)
         std::memcpy(dir.data(), head.data() + dirAt, dir.size() * sizeof(DirEntry));
     if (!treeValid(h, dir, why)) return fail(why);
+    // The level table: from levelTableOffset (after every block) to the end of the file, the
+    // entries' levels in directory order; the count is checked against its bytes before any
+    // allocation.
+    std::uint64_t levelTotal = 0;
+    for (const DirEntry& e : dir) levelTotal += e.levelCount;
+    if (fh.levelTableOffset < dataStart || fh.levelTableOffset % kAlign != 0 ||
+        fh.levelTableOffset > actualSize ||
+        alignUp(levelTotal * sizeof(Level)) != actualSize - fh.levelTableOffset) {
+        return fail("level table at " + std::to_string(fh.levelTableOffset) + " does not hold the " +
+                    std::to_string(levelTotal) + " levels the directory counts up to the end of "
+                    "the file");
+    }
+    std::vector<unsigned char> tableBytes(actualSize - fh.levelTableOffset);
+    if (!preadAll(r.fd, tableBytes.data(), tableBytes.size(), fh.levelTableOffset))
+        return fail("read failed: " + errnoText());
+    if (crc32Of(tableBytes.data(), tableBytes.size()) != fh.levelTableCrc)
+        return fail("level table checksum mismatch");
+    for (std::uint64_t at = levelTotal * sizeof(Level); at < tableBytes.size(); ++at)
+        if (tableBytes[at] != 0) return fail("level table padding not 0");
+    std::uint64_t levelAt = 0;
     std::vector<std::pair<std::uint64_t, std::uint64_t>> ranges;  // (offset, size) per block
     ranges.reserve(fh.blockCount);
     for (std::uint32_t i = 0; i < fh.blockCount; ++i) {
@@ -688,13 +730,17 @@ bool Reader::open(const std::string& path, std::string& error) {
         if (e.encoding > std::uint32_t(BlockEncoding::kCompact))
             return fail(name + ": unknown block encoding " + std::to_string(e.encoding));
         // Overflow-safe: offset <= actualSize is checked before actualSize - offset.
-        if (e.offset < dataStart || e.offset % kAlign != 0 || e.offset > actualSize ||
-            e.size > actualSize - e.offset || e.size < sizeof(BlockHeader)) {
+        if (e.offset < dataStart || e.offset % kAlign != 0 || e.offset > fh.levelTableOffset ||
+            e.size > fh.levelTableOffset - e.offset || e.size < sizeof(BlockHeader)) {
             return fail(name + ": byte range [" + std::to_string(e.offset) + ", +" +
                         std::to_string(e.size) + ") is out of bounds");
         }
         const double box[6] = {e.minX, e.minY, e.minZ, e.maxX, e.maxY, e.maxZ};
         if (!directoryBoxValid(h, box, why)) return fail(name + ": " + why);
+        if (!std::isfinite(e.originX) || !std::isfinite(e.originY))
+            return fail(name + ": origin not finite");
+        if ((e.flags & ~kEntryOutlineMoves) != 0 || e.reserved != 0)
+            return fail(name + ": unknown flags or reserved field not 0");
         ranges.emplace_back(e.offset, e.size);
         BlockInfo& info = r.blocks[i];
         info.col = e.col;
@@ -716,6 +762,17 @@ bool Reader::open(const std::string& path, std::string& error) {
         info.level = e.level;
         info.firstChild = e.firstChild;
         info.childCount = e.childCount;
+        info.originX = e.originX;
+        info.originY = e.originY;
+        info.outlineMoves = (e.flags & kEntryOutlineMoves) != 0;
+        info.levels.resize(e.levelCount);
+        if (e.levelCount > 0)
+            std::memcpy(info.levels.data(), tableBytes.data() + levelAt,
+                        e.levelCount * sizeof(Level));
+        levelAt += std::uint64_t(e.levelCount) * sizeof(Level);
+        if (!validateLevelTable(info.levels, e.vertexCount, e.stepCount, e.fullTriangles,
+                                h.metrics, why))
+            return fail(name + ": level table: " + why);
     }
     std::sort(ranges.begin(), ranges.end());
     for (std::size_t i = 1; i < ranges.size(); ++i) {
@@ -827,6 +884,12 @@ bool Reader::readBlock(std::size_t index, Block& block, std::string& error) cons
     if (b.levels[0].triangleCount != info.fullTriangles) {
         return fail("full-resolution triangle count differs from the directory");
     }
+    if (b.originX != info.originX || b.originY != info.originY)
+        return fail("origin differs from the directory");
+    if (std::memcmp(b.levels.data(), info.levels.data(), b.levels.size() * sizeof(Level)) != 0)
+        return fail("levels differ from the file's level table");
+    if (outlineMoves(b) != info.outlineMoves)
+        return fail("the directory's outline flag is wrong");
     block = std::move(b);
     return true;
 }
@@ -854,6 +917,7 @@ bool Reader::readGeometry(std::size_t index, int level, BlockGeometry& geometry,
     g.minX = b.minX, g.minY = b.minY, g.minZ = b.minZ;
     g.maxX = b.maxX, g.maxY = b.maxY, g.maxZ = b.maxZ;
     g.levels = b.levels;
+    g.outlineMoves = impl_->blocks[index].outlineMoves;
     if (level == kAllLevels) {
         g.vertices = std::move(b.vertices);
         g.terrainIndices = std::move(b.terrainIndices);

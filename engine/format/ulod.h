@@ -18,8 +18,12 @@ inline constexpr char kMagic[8] = {'U', 'L', 'O', 'D', '\r', '\n', '\x1a', '\n'}
 // 19): blocks are stored compactly (blockcodec.h) or raw, the header states the z quantum.
 // Version 4 (issue 15): the `max` error's river part is stored beside it (Block::errorRiver,
 // Level::errorRiver), so the engine bounds vertical errors with the sin(phi) factor and river
-// displacements without it.
-inline constexpr std::uint32_t kVersion = 4;
+// displacements without it. Version 5 (issue 18, "the directory lets the engine cull and
+// schedule nodes without reading them"): the directory entry carries the block's origin and
+// whether its outline may move, and a level table at the end of the file holds every entry's
+// stored levels, so that opening a model reads the header, the directory, the level table and
+// the roots only (a 64M-point model read and decoded all 1 324 entries at open: 50 s).
+inline constexpr std::uint32_t kVersion = 5;
 
 // The height quantum of built models (Header::zQuantum): 1/128 m. A binary fraction, so k / 128
 // is exact in a double and, for |z| < 131 km, in the float a vertex stores.
@@ -144,6 +148,11 @@ struct BlockInfo {
     std::uint32_t col = 0, row = 0;
     std::uint32_t level = 0, firstChild = kNoChild, childCount = 0;  // as in Block
     double minX = 0, minY = 0, minZ = 0, maxX = 0, maxY = 0, maxZ = 0;
+    double originX = 0, originY = 0;  // as in Block
+    // The block's stored levels (from the file's level table; Reader::readBlock checks that they
+    // equal the block's own) and whether its outline may move between them (outlineMoves).
+    std::vector<Level> levels;
+    bool outlineMoves = false;
     std::uint64_t offset = 0, size = 0;  // byte range of the block in the file
     std::uint32_t checksum = 0;          // CRC-32 of those bytes
     std::uint32_t vertexCount = 0, stepCount = 0, levelCount = 0;
@@ -163,6 +172,27 @@ inline constexpr double kAbsoluteSlack = 1e-6;
 // How messages name a directory entry: "block (c,r)" for a leaf, "node (c,r) of tree level L"
 // above the leaves.
 std::string blockName(std::uint32_t col, std::uint32_t row, std::uint32_t level = 0);
+
+// Whether a block's outline (preprocess/cdt.h "Domain") may move between its levels: unless the
+// coarsest level's outline is the block's bounding rectangle. The greedy order deletes an outline
+// vertex only where no other changes sides (preprocess/deletion.h), and a deleted vertex never
+// returns, so a rectangle at the coarsest level means only straight stretches of it were
+// simplified (no displacement) at every level. The directory stores the answer (BlockInfo); the
+// writer computes it and the reader checks it against the block. `vertices` and the coarsest
+// level's `count` triangles; the box in doubles, vertices relative to the origin.
+bool outlineMoves(const Vertex* vertices, const Triangle* triangles, std::size_t count,
+                  double originX, double originY, double minX, double minY, double maxX,
+                  double maxY);
+bool outlineMoves(const Block& block);
+
+// The checks of a block's stored levels that need only the levels and the directory's counts
+// (Reader::open runs them on the level table before anything is read or drawn): levels[0] is step
+// 0 with `fullTriangles` triangles, steps strictly ascending and <= stepCount, vertexCount =
+// vertices - step, errors of the metrics present finite, >= 0 and non-decreasing. validateBlock
+// proves the rest once the block is read.
+bool validateLevelTable(const std::vector<Level>& levels, std::uint32_t vertexCount,
+                        std::uint32_t stepCount, std::uint32_t fullTriangles,
+                        std::uint32_t metrics, std::string& error);
 
 // Validation of one block: the one definition of a block every reader path trusts (writeUlod and
 // Writer::writeBlock, Reader::readBlock, hence readGeometry, `unilod check`, export, capture,
@@ -243,6 +273,7 @@ struct BlockGeometry {
     double originX = 0, originY = 0;
     double minX = 0, minY = 0, minZ = 0, maxX = 0, maxY = 0, maxZ = 0;
     std::vector<Level> levels;  // every stored level, as in the file
+    bool outlineMoves = false;  // as in BlockInfo
     // Read by readGeometry: all vertices and index data (level = kAllLevels), or only what one
     // level draws: the vertex prefix [0, vertexCount) and that level's index ranges, which then
     // start at 0 here.

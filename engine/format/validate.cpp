@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "blockarrays.h"
@@ -280,6 +281,65 @@ bool validateLevelGeometryImpl(const Block& b, std::size_t level, std::string& e
     return true;
 }
 
+// Ulod.h validateLevelTable (messages without the block's name).
+bool levelTableValid(const std::vector<Level>& levels, std::uint64_t vertexCount,
+                     std::uint64_t stepCount, std::uint32_t fullTriangles, std::uint32_t metrics,
+                     std::string& error) {
+    if (levels.empty()) {
+        error = "no levels (levels[0] must be the full resolution)";
+        return false;
+    }
+    if (levels[0].step != 0) {
+        error = "levels[0].step is " + std::to_string(levels[0].step) + ", expected 0";
+        return false;
+    }
+    if (levels[0].triangleCount != fullTriangles) {
+        error = "levels[0] has " + std::to_string(levels[0].triangleCount) +
+                " triangles, the directory " + std::to_string(fullTriangles);
+        return false;
+    }
+    for (std::size_t l = 0; l < levels.size(); ++l) {
+        const Level& level = levels[l];
+        const std::string where = "level " + std::to_string(l);
+        if (l > 0 && level.step <= levels[l - 1].step) {
+            error = where + ": step " + std::to_string(level.step) + " is not above level " +
+                    std::to_string(l - 1) + "'s step " + std::to_string(levels[l - 1].step);
+            return false;
+        }
+        if (level.step > stepCount || stepCount > vertexCount) {
+            error = where + ": step " + std::to_string(level.step) + " > step count " +
+                    std::to_string(stepCount) + " or more steps than vertices";
+            return false;
+        }
+        if (level.vertexCount != vertexCount - level.step) {
+            error = where + ": vertexCount " + std::to_string(level.vertexCount) +
+                    ", expected vertices - step = " + std::to_string(vertexCount - level.step);
+            return false;
+        }
+        // Errors of the metrics present: finite, >= 0, non-decreasing (the river part within
+        // the `max` error).
+        const float values[3] = {level.errorMax, level.errorPaper, level.errorRiver};
+        const bool present[3] = {(metrics & kMetricMax) != 0, (metrics & kMetricPaper) != 0,
+                                 (metrics & kMetricMax) != 0};
+        for (int k = 0; k < 3; ++k) {
+            const float before = l == 0 ? 0.0f
+                                 : k == 0 ? levels[l - 1].errorMax
+                                 : k == 1 ? levels[l - 1].errorPaper
+                                          : levels[l - 1].errorRiver;
+            const bool ok = !present[k] || (std::isfinite(values[k]) && values[k] >= before);
+            if (!ok) {
+                error = where + ": an error is not finite, negative or below the level before";
+                return false;
+            }
+        }
+        if (present[0] && level.errorRiver > level.errorMax) {
+            error = where + ": errorRiver exceeds errorMax";
+            return false;
+        }
+    }
+    return true;
+}
+
 bool validateBlockImpl(const Block& b, std::uint32_t metrics, std::string& error) {
     constexpr std::uint64_t kMax32 = std::numeric_limits<std::uint32_t>::max();
     bool tooBig = false;
@@ -368,14 +428,9 @@ bool validateBlockImpl(const Block& b, std::uint32_t metrics, std::string& error
         }
     }
 
-    if (b.levels.empty()) {
-        error = "no levels (levels[0] must be the full resolution)";
+    if (!levelTableValid(b.levels, n, stepCount, b.levels.empty() ? 0 : b.levels[0].triangleCount,
+                         metrics, error))
         return false;
-    }
-    if (b.levels[0].step != 0) {
-        error = "levels[0].step is " + std::to_string(b.levels[0].step) + ", expected 0";
-        return false;
-    }
 
     // Alive counts replayed from the full resolution (levels[0]) through the records.
     std::vector<std::uint64_t> trianglesAlive(stepCount + 1), edgesAlive(stepCount + 1);
@@ -408,21 +463,6 @@ bool validateBlockImpl(const Block& b, std::uint32_t metrics, std::string& error
     for (std::size_t l = 0; l < b.levels.size(); ++l) {
         const Level& level = b.levels[l];
         const std::string where = "level " + std::to_string(l);
-        if (l > 0 && level.step <= b.levels[l - 1].step) {
-            error = where + ": step " + std::to_string(level.step) + " is not above level " +
-                    std::to_string(l - 1) + "'s step " + std::to_string(b.levels[l - 1].step);
-            return false;
-        }
-        if (level.step > stepCount) {
-            error = where + ": step " + std::to_string(level.step) + " > step count " +
-                    std::to_string(stepCount);
-            return false;
-        }
-        if (level.vertexCount != n - level.step) {
-            error = where + ": vertexCount " + std::to_string(level.vertexCount) +
-                    ", expected vertices - step = " + std::to_string(n - level.step);
-            return false;
-        }
         if (level.triangleCount != trianglesAlive[level.step] ||
             level.riverCount != edgesAlive[level.step]) {
             error = where + ": " + std::to_string(level.triangleCount) + " triangles and " +
@@ -472,6 +512,47 @@ bool validateBlock(const Block& block, std::uint32_t metrics, std::string& error
 
 bool validateLevelGeometry(const Block& block, std::size_t level, std::string& error) {
     return validateLevelGeometryImpl(block, level, error);
+}
+
+bool validateLevelTable(const std::vector<Level>& levels, std::uint32_t vertexCount,
+                        std::uint32_t stepCount, std::uint32_t fullTriangles,
+                        std::uint32_t metrics, std::string& error) {
+    return levelTableValid(levels, vertexCount, stepCount, fullTriangles, metrics, error);
+}
+
+bool outlineMoves(const Vertex* vertices, const Triangle* triangles, std::size_t count,
+                  double originX, double originY, double minX, double minY, double maxX,
+                  double maxY) {
+    // The directed edges of the triangles that no other triangle has reversed: the outline.
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> directed;
+    directed.reserve(3 * count);
+    for (std::size_t i = 0; i < count; ++i) {
+        const Triangle& t = triangles[i];
+        directed.push_back({t.a, t.b}), directed.push_back({t.b, t.c}), directed.push_back({t.c, t.a});
+    }
+    std::sort(directed.begin(), directed.end());
+    // Float vertices relative to the origin; the box in doubles: the reader's tolerance.
+    auto on = [](double v, double side) {
+        return std::fabs(v - side) <= kFloatSlack * std::fabs(side) + 2e-3;
+    };
+    const double x0 = minX - originX, x1 = maxX - originX;
+    const double y0 = minY - originY, y1 = maxY - originY;
+    for (const auto& [u, w] : directed) {
+        if (std::binary_search(directed.begin(), directed.end(), std::make_pair(w, u))) continue;
+        const Vertex &a = vertices[u], &b = vertices[w];
+        const bool side = (on(a.x, x0) && on(b.x, x0)) || (on(a.x, x1) && on(b.x, x1)) ||
+                          (on(a.y, y0) && on(b.y, y0)) || (on(a.y, y1) && on(b.y, y1));
+        if (!side) return true;
+    }
+    return false;
+}
+
+bool outlineMoves(const Block& b) {
+    if (b.levels.empty()) return false;
+    const Level& last = b.levels.back();
+    assert(std::size_t(last.triangleFirst) + last.triangleCount <= b.terrainIndices.size());
+    return outlineMoves(b.vertices.data(), b.terrainIndices.data() + last.triangleFirst,
+                        last.triangleCount, b.originX, b.originY, b.minX, b.minY, b.maxX, b.maxY);
 }
 
 bool levelFits(const Level& level, std::uint32_t metric, double hLim, double hRiver) {

@@ -4,7 +4,6 @@
 #include <array>
 #include <cassert>
 #include <cmath>
-#include <set>
 #include <utility>
 
 namespace unilod::engine {
@@ -13,34 +12,9 @@ namespace {
 
 constexpr double kDegree = 3.14159265358979323846 / 180.0;
 
-// The directed edges of `count` triangles that no other triangle has reversed: the outline.
-bool outlineMovesImpl(const format::Vertex* vertices, const format::Triangle* triangles,
-                      std::size_t count, double originX, double originY, double minX, double minY,
-                      double maxX, double maxY) {
-    std::set<std::pair<std::uint32_t, std::uint32_t>> directed;
-    for (std::size_t i = 0; i < count; ++i) {
-        const format::Triangle& t = triangles[i];
-        directed.insert({t.a, t.b}), directed.insert({t.b, t.c}), directed.insert({t.c, t.a});
-    }
-    // Float vertices relative to the origin; the box in doubles: the reader's tolerance.
-    auto on = [](double v, double side) {
-        return std::fabs(v - side) <= format::kFloatSlack * std::fabs(side) + 2e-3;
-    };
-    const double x0 = minX - originX, x1 = maxX - originX;
-    const double y0 = minY - originY, y1 = maxY - originY;
-    for (const auto& [u, w] : directed) {
-        if (directed.count({w, u})) continue;
-        const format::Vertex &a = vertices[u], &b = vertices[w];
-        const bool side = (on(a.x, x0) && on(b.x, x0)) || (on(a.x, x1) && on(b.x, x1)) ||
-                          (on(a.y, y0) && on(b.y, y0)) || (on(a.y, y1) && on(b.y, y1));
-        if (!side) return true;
-    }
-    return false;
-}
-
-// Box, position and tree links: what the directory holds of any entry.
+// Box, position, tree links, levels and whether its `max` error bounds horizontal displacements.
 template <typename B>
-LodNode placedNode(const B& b) {
+LodNode nodeOf(const B& b, bool moves) {
     LodNode n;
     n.boxMin[0] = b.minX;
     n.boxMin[1] = b.minY;
@@ -53,12 +27,6 @@ LodNode placedNode(const B& b) {
     n.level = b.level;
     n.firstChild = b.firstChild;
     n.childCount = b.childCount;
-    return n;
-}
-
-template <typename B>
-LodNode nodeOf(const B& b, bool moves) {
-    LodNode n = placedNode(b);
     n.horizontal = (!b.levels.empty() && b.levels.front().riverCount > 0) || moves;
     n.levels = &b.levels;
     return n;
@@ -66,29 +34,11 @@ LodNode nodeOf(const B& b, bool moves) {
 
 }  // namespace
 
-bool outlineMoves(const format::BlockGeometry& g) {
-    if (g.levels.empty()) return false;
-    return outlineMovesImpl(g.vertices.data(), g.terrainIndices.data(), g.terrainIndices.size(),
-                            g.originX, g.originY, g.minX, g.minY, g.maxX, g.maxY);
-}
-
-bool outlineMoves(const format::Block& b) {
-    if (b.levels.empty()) return false;
-    const format::Level& last = b.levels.back();
-    assert(std::size_t(last.triangleFirst) + last.triangleCount <= b.terrainIndices.size());
-    return outlineMovesImpl(b.vertices.data(), b.terrainIndices.data() + last.triangleFirst,
-                            last.triangleCount, b.originX, b.originY, b.minX, b.minY, b.maxX,
-                            b.maxY);
-}
-
-LodNode lodNode(const format::BlockGeometry& g) {
-    return nodeOf(g, outlineMoves(g));
-}
 LodNode lodNode(const format::Block& b) {
-    return nodeOf(b, outlineMoves(b));
+    return nodeOf(b, format::outlineMoves(b));
 }
 LodNode lodNode(const format::BlockInfo& info) {
-    return placedNode(info);
+    return nodeOf(info, info.outlineMoves);
 }
 
 bool nodeVisible(const ViewSpec& view, const double boxMin[3], const double boxMax[3]) {

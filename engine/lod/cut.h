@@ -57,20 +57,10 @@ struct LodNode {
     std::uint32_t firstChild = kNoChild, childCount = 0;
 };
 
-// Whether a block's outline (cdt.h "Domain") may move between its levels: unless the coarsest
-// level's outline is the block's bounding rectangle. The greedy order deletes an outline vertex
-// only where no other changes sides (deletion.h), and a deleted vertex never returns, so a
-// rectangle at the coarsest level means only straight stretches of it were simplified (no
-// displacement) at every level. `g` holds the coarsest level (Reader::readGeometry), `block`
-// every level.
-bool outlineMoves(const format::BlockGeometry& g);
-bool outlineMoves(const format::Block& block);
-
-// A block as a node: `g` holds its coarsest level (its levels: all of them), `block` is whole.
-LodNode lodNode(const format::BlockGeometry& g);
+// A block as a node (horizontal: river edges at full resolution, or format::outlineMoves).
+// `block` is whole; an entry of the directory (format version 5) carries its levels and outline
+// flag, so the cut needs nothing read from the blocks; the node points at `info.levels`.
 LodNode lodNode(const format::Block& block);
-// An entry known from the directory only: box, position and links; no levels (a node outside
-// the view, which the cut skips with its subtree without looking at its levels).
 LodNode lodNode(const format::BlockInfo& info);
 
 // One drawn node of the cut.

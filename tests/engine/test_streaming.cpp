@@ -25,6 +25,7 @@
 #include "bench.h"
 #include "headless.h"
 #include "testutil.h"
+#include "ulodbytes.h"
 #include "tools/cliutil.h"
 #include "ulod.h"
 
@@ -338,6 +339,11 @@ TEST_F(Streaming, BenchEmitsEveryField) {
         for (const char* k : {"median", "p95", "p99"})
             EXPECT_GT(x["frame_ms"][k].get<double>(), 0.0) << run << " " << k;
         EXPECT_GT(x["triangles"]["mean"].get<double>(), 0.0) << run;
+        // The renderer's open; bare replays the resident run's draws in its renderer.
+        if (std::string(run) == "bare")
+            EXPECT_EQ(x["open_seconds"].get<double>(), 0.0);
+        else
+            EXPECT_GT(x["open_seconds"].get<double>(), 0.0) << run;
     }
     // The streamed run streams: what the loader delivered was uploaded (during the warm-up or
     // the measured frames), or, where the loader had not delivered yet when the frames were
@@ -452,7 +458,17 @@ TEST_F(Streaming, OpeningReportsItsProgress) {
     std::string error;
     ASSERT_TRUE(r.open(o, error)) << error;
     r.close();
-    const std::size_t n = reader_.blocks().size();
+    // Format version 5: open reads the roots only (every other entry's levels are in the
+    // directory's level table); the bundled model's tree has one root.
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < reader_.blocks().size(); ++i) {
+        bool child = false;
+        for (const format::BlockInfo& info : reader_.blocks())
+            child = child || (info.childCount > 0 && i >= info.firstChild &&
+                              i < std::size_t(info.firstChild) + info.childCount);
+        n += child ? 0 : 1;
+    }
+    EXPECT_EQ(n, 1u);
     ASSERT_GE(calls.size(), 2u);
     EXPECT_EQ(calls.front(), std::make_pair(std::size_t(0), n));
     EXPECT_EQ(calls.back(), std::make_pair(n, n));
@@ -467,6 +483,43 @@ TEST_F(Streaming, OpeningReportsItsProgress) {
                          std::to_string(n)),
               std::string::npos)
         << b.err;
+}
+
+// Opening reads and validates the roots only (format version 5: the levels of every entry are in
+// the directory's level table), so an entry below the root is first read when a frame streams
+// it: a damaged one then fails that frame with the file and the entry named, and the open of a
+// preloading scene (which reads every entry) fails at once.
+TEST_F(Streaming, ADamagedEntryBelowTheRootFailsTheFrameThatStreamsIt) {
+    const std::string damaged = (dir_ / "damaged.ulod").string();
+    test::UlodBytes f = test::UlodBytes::load(file_);
+    const std::size_t count = reader_.blocks().size();
+    for (std::size_t i = 0; i + 1 < count; ++i)  // every entry but the root, last in the file
+        f.bytes[f.blockAt(i) + f.blockSize(i) / 2] ^= 0x5a;
+    ASSERT_TRUE(f.save(damaged));
+    engine::HeadlessOptions o = options(engine::kDefaultGpuBudget);
+    o.path = damaged;
+    std::string error;
+    {
+        engine::HeadlessRenderer r;
+        ASSERT_TRUE(r.open(o, error)) << error;
+        const engine::FrameView view = r.view(oblique(0.5));
+        bool failed = false;
+        for (int i = 0; i < 1000 && !failed; ++i) {
+            failed = !r.renderFrame(view, true, nullptr, error);
+            r.finish();
+        }
+        ASSERT_TRUE(failed) << "no frame read a damaged entry";
+        EXPECT_NE(error.find(damaged + ": "), std::string::npos) << error;
+        EXPECT_NE(error.find("checksum mismatch"), std::string::npos) << error;
+        EXPECT_TRUE(error.find("block (") != std::string::npos ||
+                    error.find("node (") != std::string::npos)
+            << error;
+        r.close();
+    }
+    o.scene.preloadAll = true;
+    engine::HeadlessRenderer r;
+    EXPECT_FALSE(r.open(o, error));
+    EXPECT_NE(error.find("checksum mismatch"), std::string::npos) << error;
 }
 
 // A model whose preloaded runs do not fit the device (here a device capped below what every

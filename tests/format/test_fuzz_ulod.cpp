@@ -91,7 +91,7 @@ constexpr double kInterestingDouble[] = {std::numeric_limits<double>::quiet_NaN(
 
 // Header fields (offsets, README.md): doubles and u32s.
 constexpr std::size_t kHeaderDoubles[] = {24, 32, 40, 48, 56, 64, 72, 80, 88, 96, 136};
-constexpr std::size_t kHeaderWords[] = {8, 12, 104, 108, 112, 116, 120, 124, 128, 132};
+constexpr std::size_t kHeaderWords[] = {8, 12, 104, 108, 112, 116, 120, 124, 128, 132, 144, 148};
 
 template <typename T, std::size_t N>
 T pick(Rng& rng, const T (&values)[N]) {
@@ -182,6 +182,14 @@ void mutateBlockArray(UlodBytes& f, Rng& rng) {
             f.set<float>(at, v + v * pick(rng, kRelative) + pick(rng, kAbsolute));
             break;
         }
+    }
+    // A level edited in the block is, most of the time, edited alike in the file's level table
+    // (format version 5), so that the block's own level checks are reached and not only the
+    // comparison with the table.
+    if (a == UlodBytes::kLevels && rng.below(4) != 0) {
+        const std::uint64_t mirror = f.levelTableEntry(i) + e * size;
+        if (f.has(mirror, size) && f.has(element, size))
+            std::memmove(f.bytes.data() + mirror, f.bytes.data() + element, size);
     }
 }
 

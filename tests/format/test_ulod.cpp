@@ -23,8 +23,8 @@ namespace fs = std::filesystem;
 namespace {
 
 // Layout constants from README.md (the test pins the documented layout).
-constexpr std::size_t kFileHeaderSize = 144;
-constexpr std::size_t kDirEntrySize = 104;
+constexpr std::size_t kFileHeaderSize = 152;
+constexpr std::size_t kDirEntrySize = 128;
 constexpr std::size_t kBlockHeaderSize = 152;
 
 std::size_t align8(std::size_t n) {
@@ -318,12 +318,25 @@ TEST_F(UlodTest, RoundTrip) {
             EXPECT_EQ(info.stepCount, b.steps.size());
             EXPECT_EQ(info.levelCount, b.levels.size());
             EXPECT_EQ(info.fullTriangles, 6u);
+            // Version 5: the origin, the outline flag and the levels without reading the block.
+            EXPECT_EQ(info.originX, b.originX);
+            EXPECT_EQ(info.originY, b.originY);
+            EXPECT_EQ(info.outlineMoves, outlineMoves(b));
+            ASSERT_EQ(info.levels.size(), b.levels.size());
+            EXPECT_EQ(std::memcmp(info.levels.data(), b.levels.data(),
+                                  b.levels.size() * sizeof(Level)),
+                      0);
 
             Block read;
             ASSERT_TRUE(reader.readBlock(i, read, error)) << error;
             expectSameBlock(read, b);
         }
-        EXPECT_EQ(reader.blocks().back().offset + reader.blocks().back().size, bytes.size());
+        // The level table follows the last block to the end of the file.
+        std::size_t levels = 0;
+        for (const Block& b : blocks) levels += b.levels.size();
+        EXPECT_EQ(reader.blocks().back().offset + reader.blocks().back().size +
+                      align8(levels * sizeof(Level)),
+                  bytes.size());
     }
 }
 
@@ -444,7 +457,7 @@ TEST_F(UlodTest, BadMagicRejected) {
 
 TEST_F(UlodTest, WrongVersionRejectedWithTheVersion) {
     std::vector<char> bytes = readBytes(writeStandard());
-    for (std::uint32_t version : {0u, 1u, 3u, 77u}) {
+    for (std::uint32_t version : {0u, 1u, 3u, 4u, 77u}) {
         store<std::uint32_t>(bytes, 8, version);
         const std::string path = file("version.ulod");
         writeBytes(path, bytes.data(), bytes.size());
@@ -452,7 +465,7 @@ TEST_F(UlodTest, WrongVersionRejectedWithTheVersion) {
         std::string error;
         EXPECT_FALSE(reader.open(path, error));
         EXPECT_NE(error.find("unsupported .ulod version " + std::to_string(version) +
-                             " (this build reads 4)"),
+                             " (this build reads 5)"),
                   std::string::npos)
             << error;
     }
@@ -460,13 +473,13 @@ TEST_F(UlodTest, WrongVersionRejectedWithTheVersion) {
 
 TEST_F(UlodTest, HeaderSizeMismatchRejected) {
     std::vector<char> bytes = readBytes(writeStandard());
-    store<std::uint32_t>(bytes, 12, 152);
+    store<std::uint32_t>(bytes, 12, 144);
     const std::string path = file("hsize.ulod");
     writeBytes(path, bytes.data(), bytes.size());
     Reader reader;
     std::string error;
     EXPECT_FALSE(reader.open(path, error));
-    EXPECT_NE(error.find("header size 152"), std::string::npos) << error;
+    EXPECT_NE(error.find("header size 144"), std::string::npos) << error;
 }
 
 // Hostile files with valid checksums: the structural checks alone must catch them.
@@ -503,6 +516,65 @@ protected:
 
 TEST_F(UlodHostile, Untouched) {
     EXPECT_EQ(failure(), "");
+}
+
+// Version 5: the level table after the blocks (each entry's levels, in directory order) and the
+// directory's origin and outline flag. The engine draws from them before it reads a block, so
+// open checks the table's checksum and rules and readBlock checks all three against the block.
+class UlodLevelTable : public UlodHostile {
+protected:
+    std::uint64_t tableAt() const { return load<std::uint64_t>(bytes, 144); }
+    // Level l of entry 0 (its levels come first).
+    std::size_t level0(std::size_t l) const { return std::size_t(tableAt()) + l * sizeof(Level); }
+    void resealTable() {
+        store<std::uint32_t>(bytes, 132, crcOf(bytes, tableAt(), bytes.size() - tableAt()));
+        resealHeader();
+    }
+};
+
+TEST_F(UlodLevelTable, DamageIsCaughtByItsChecksum) {
+    bytes[level0(1) + 5] ^= 0x10;
+    EXPECT_NE(failure().find("level table checksum mismatch"), std::string::npos) << failure();
+}
+
+TEST_F(UlodLevelTable, ItsRulesAreCheckedAtOpen) {
+    store<std::uint32_t>(bytes, level0(1), 0);  // level 1's step: not above level 0's
+    resealTable();
+    EXPECT_NE(failure().find("level table: level 1: step 0 is not above"), std::string::npos)
+        << failure();
+}
+
+TEST_F(UlodLevelTable, LevelsThatDifferFromTheBlockFailItsRead) {
+    // A larger error at the coarsest level (still non-decreasing): the engine would draw that
+    // level at a view the block's own errors allow.
+    Reader reader;
+    std::string error;
+    const std::string path = file("levels.ulod");
+    writeBytes(path, bytes.data(), bytes.size());
+    ASSERT_TRUE(reader.open(path, error)) << error;
+    const std::size_t last = reader.blocks()[0].levelCount - 1;
+    const std::size_t at = level0(last) + offsetof(Level, errorMax);
+    store<float>(bytes, at, load<float>(bytes, at) + 1.0f);
+    resealTable();
+    EXPECT_NE(failure(0).find("levels differ from the file's level table"), std::string::npos)
+        << failure(0);
+}
+
+TEST_F(UlodLevelTable, DirectoryOriginAndOutlineFlagAreCheckedAgainstTheBlock) {
+    const std::vector<char> pristine = bytes;
+    store<double>(bytes, entry(1) + 104, load<double>(bytes, entry(1) + 104) + 1.0);
+    resealHeader();
+    EXPECT_NE(failure(1).find("origin differs from the directory"), std::string::npos)
+        << failure(1);
+    bytes = pristine;
+    store<std::uint32_t>(bytes, entry(1) + 120, load<std::uint32_t>(bytes, entry(1) + 120) ^ 1u);
+    resealHeader();
+    EXPECT_NE(failure(1).find("the directory's outline flag is wrong"), std::string::npos)
+        << failure(1);
+    bytes = pristine;
+    store<std::uint32_t>(bytes, entry(1) + 120, 2u);  // an unknown flag
+    resealHeader();
+    EXPECT_NE(failure(1).find("unknown flags"), std::string::npos) << failure(1);
 }
 
 TEST_F(UlodHostile, DirectoryOutOfBounds) {
@@ -835,7 +907,15 @@ TEST_F(UlodValidateError, LevelVertexCountAndErrors) {
     block.levels[1].vertexCount = 6;
     EXPECT_NE(check(block).find("level 1: vertexCount 6"), std::string::npos) << check(block);
     block = makeBlock(1, 0, kMetricMax | kMetricPaper, true);
-    block.levels[1].errorMax = 9;
+    block.levels[1].errorMax = 9;  // above level 2's: the level table's own rule
+    EXPECT_NE(check(block).find("level 2: an error is not finite, negative or below the level "
+                                "before"),
+              std::string::npos)
+        << check(block);
+    block = makeBlock(1, 0, kMetricMax | kMetricPaper, true);
+    // Monotone and above the river part, but not the error table's value at the level's step.
+    block.levels[1].errorMax = std::max(block.levels[0].errorMax, block.levels[1].errorRiver);
+    ASSERT_LT(block.levels[1].errorMax, block.errorMax[block.levels[1].step]);
     EXPECT_NE(check(block).find("level 1: errors differ"), std::string::npos) << check(block);
 }
 

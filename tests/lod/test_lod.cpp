@@ -396,12 +396,12 @@ TEST(Cut, OutlineMovesUnlessTheCoarsestOutlineIsTheRectangle) {
     // Two triangles covering the square: the outline is the rectangle.
     const format::Block full = squareBlock(
         {{0, 0, 0, 0}, {10, 0, 0, 0}, {10, 10, 0, 0}, {0, 10, 0, 0}}, {{0, 1, 2}, {0, 2, 3}});
-    EXPECT_FALSE(engine::outlineMoves(full));
+    EXPECT_FALSE(format::outlineMoves(full));
     EXPECT_FALSE(engine::lodNode(full).horizontal);
     // One triangle: the diagonal is an outline edge inside the box (nodata beyond it).
     const format::Block half =
         squareBlock({{0, 0, 0, 0}, {10, 0, 0, 0}, {10, 10, 0, 0}}, {{0, 1, 2}});
-    EXPECT_TRUE(engine::outlineMoves(half));
+    EXPECT_TRUE(format::outlineMoves(half));
     EXPECT_TRUE(engine::lodNode(half).horizontal);
 }
 

@@ -103,27 +103,13 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
     assetExtras["selection"] = Value(sel);
     model.asset.extras = Value(assetExtras);
 
-    // The cut through the block hierarchy (engine/lod/cut.h, as the engine selects it): every
-    // block's box and levels first (a visible one read and validated once), then the drawn
-    // nodes, read again, in file order.
+    // The cut through the block hierarchy (engine/lod/cut.h, as the engine selects it) from the
+    // directory's boxes and levels, then the drawn nodes, read and validated, in file order.
     const std::size_t count = reader.blocks().size();
-    std::vector<std::vector<format::Level>> levels(count);
     std::vector<engine::LodNode> nodes(count);
     format::Block block;
-    for (std::size_t i = 0; i < count; ++i) {
-        const format::BlockInfo& info = reader.blocks()[i];
-        if (blockVisible(info, so)) {
-            if (!reader.readBlock(i, block, error)) return false;
-            nodes[i] = engine::lodNode(block);
-            levels[i] = std::move(block.levels);
-        } else {
-            // Outside the view: only its box and links matter (the cut skips its subtree).
-            nodes[i] = engine::lodNode(info);
-            levels[i].push_back(format::Level{});
-        }
-        nodes[i].levels = &levels[i];
-        if (options.progress) options.progress(i + 1, 2 * count);
-    }
+    for (std::size_t i = 0; i < count; ++i)
+        nodes[i] = engine::lodNode(reader.blocks()[i]);
     std::vector<engine::NodeChoice> cut;
     engine::selectCut(viewSpec(so), nodes, metric, cut);
     std::vector<std::uint32_t> drawn;
@@ -139,7 +125,7 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
         summary.vertices += s.vertexCount;
         summary.triangles += s.triangles;
         summary.riverEdges += s.riverEdges;
-        if (options.progress) options.progress(count + (k + 1) * count / drawn.size(), 2 * count);
+        if (options.progress) options.progress(k + 1, drawn.size());
     }
 
     std::string glb;

@@ -27,12 +27,6 @@ engine::ViewSpec viewSpec(const SelectionOptions& options) {
     return v;
 }
 
-bool blockVisible(const format::BlockInfo& info, const SelectionOptions& options) {
-    const double boxMin[3] = {info.minX, info.minY, info.minZ};
-    const double boxMax[3] = {info.maxX, info.maxY, info.maxZ};
-    return engine::nodeVisible(viewSpec(options), boxMin, boxMax);
-}
-
 ExportedBlock selectLevel(const format::Block& block, std::size_t index,
                           const SelectionOptions& options, std::uint32_t metric) {
     assert(!block.levels.empty());

@@ -40,9 +40,6 @@ struct ExportedBlock : engine::NodeChoice {
     std::uint32_t vertexCount = 0, triangles = 0, riverEdges = 0;
 };
 
-// Camera mode with culling: false when the block's box is outside the view frustum.
-bool blockVisible(const format::BlockInfo& info, const SelectionOptions& options);
-
 // Chooses the level of one block already read.
 ExportedBlock selectLevel(const format::Block& block, std::size_t index,
                           const SelectionOptions& options, std::uint32_t metric);
