@@ -770,9 +770,6 @@ bool Reader::open(const std::string& path, std::string& error) {
             std::memcpy(info.levels.data(), tableBytes.data() + levelAt,
                         e.levelCount * sizeof(Level));
         levelAt += std::uint64_t(e.levelCount) * sizeof(Level);
-        if (!validateLevelTable(info.levels, e.vertexCount, e.stepCount, e.fullTriangles,
-                                h.metrics, why))
-            return fail(name + ": level table: " + why);
     }
     std::sort(ranges.begin(), ranges.end());
     for (std::size_t i = 1; i < ranges.size(); ++i) {
@@ -780,6 +777,34 @@ bool Reader::open(const std::string& path, std::string& error) {
             return fail("directory: blocks at offsets " + std::to_string(ranges[i - 1].first) +
                         " and " + std::to_string(ranges[i].first) + " overlap");
         }
+    }
+    // Each entry's levels (the table), once the byte ranges are known to be sound.
+    for (std::uint32_t i = 0; i < fh.blockCount; ++i) {
+        const DirEntry& e = dir[i];
+        const BlockInfo& info = r.blocks[i];
+        const std::string name = "directory entry " + std::to_string(i) + " (" +
+                                 blockName(e.col, e.row, e.level) + ")";
+        if (!validateLevelTable(info.levels, e.vertexCount, e.stepCount, e.fullTriangles,
+                                h.metrics, why))
+            return fail(name + ": level table: " + why);
+        // What the engine sizes its buffers by before it reads the block (its vertices and the
+        // index data its levels reach) must fit what the block's bytes can hold, as readBlock
+        // requires of the block's own counts: so a lying table costs at most that, and the
+        // block's read then names the lie.
+        std::uint64_t terrainEnd = 0, riverEnd = 0;
+        for (const Level& l : info.levels) {
+            terrainEnd = std::max(terrainEnd, std::uint64_t(l.triangleFirst) + l.triangleCount);
+            riverEnd = std::max(riverEnd, std::uint64_t(l.riverFirst) + l.riverCount);
+        }
+        const std::uint64_t needs = std::uint64_t(e.vertexCount) * sizeof(Vertex) +
+                                    terrainEnd * sizeof(Triangle) + riverEnd * sizeof(Edge);
+        const std::uint64_t holds = e.encoding == std::uint32_t(BlockEncoding::kRaw)
+                                        ? e.size
+                                        : kMaxExpansion * e.size + (1u << 20);
+        if (needs > holds)
+            return fail(name + ": level table: its vertices and levels need " +
+                        std::to_string(needs) + " bytes, more than the block's " +
+                        std::to_string(e.size) + " bytes can hold");
     }
     return true;
 }

@@ -544,6 +544,15 @@ TEST_F(UlodLevelTable, ItsRulesAreCheckedAtOpen) {
         << failure();
 }
 
+TEST_F(UlodLevelTable, RangesBeyondWhatTheBlockCanHoldAreRefusedAtOpen) {
+    // The engine sizes its staging and arena by the levels before it reads the block: a range
+    // reaching 4 billion triangles must not get that far.
+    store<std::uint32_t>(bytes, level0(1) + offsetof(Level, triangleFirst), 0xFFFFFFF0u);
+    resealTable();
+    EXPECT_NE(failure().find("level table: its vertices and levels need"), std::string::npos)
+        << failure();
+}
+
 TEST_F(UlodLevelTable, LevelsThatDifferFromTheBlockFailItsRead) {
     // A larger error at the coarsest level (still non-decreasing): the engine would draw that
     // level at a view the block's own errors allow.
