@@ -186,10 +186,21 @@ bool createDevice(const DeviceOptions& requested, Device& device, std::string& e
         return false;
     }
 
+    // A driver that cannot enumerate its devices (VK_ERROR_INITIALIZATION_FAILED: a broken
+    // installation, or no memory to start) is an error of the machine, not of the code.
     std::uint32_t count = 0;
-    VK_CHECK(vkEnumeratePhysicalDevices(device.instance, &count, nullptr));
+    VkResult listed = vkEnumeratePhysicalDevices(device.instance, &count, nullptr);
     std::vector<VkPhysicalDevice> physicals(count);
-    VK_CHECK(vkEnumeratePhysicalDevices(device.instance, &count, physicals.data()));
+    if (listed == VK_SUCCESS)
+        listed = vkEnumeratePhysicalDevices(device.instance, &count, physicals.data());
+    if (listed != VK_SUCCESS && listed != VK_INCOMPLETE) {
+        destroyDevice(device);
+        throwIfOutOfMemory(listed, "vkEnumeratePhysicalDevices");
+        error = std::string("cannot list the Vulkan devices: vkEnumeratePhysicalDevices failed: ") +
+                resultName(listed);
+        return false;
+    }
+    physicals.resize(count);
 
     int index = options.deviceIndex;
     if (index < 0) {
@@ -285,7 +296,17 @@ bool createDevice(const DeviceOptions& requested, Device& device, std::string& e
         deviceInfo.enabledExtensionCount = 1;
         deviceInfo.ppEnabledExtensionNames = &swapchainExtension;
     }
-    VK_CHECK(vkCreateDevice(device.physical, &deviceInfo, nullptr, &device.device));
+    // As for the device list: a driver that cannot create the device (VK_ERROR_UNKNOWN,
+    // _INITIALIZATION_FAILED, also under a memory limit) is reported, not a programmer error.
+    const VkResult made = vkCreateDevice(device.physical, &deviceInfo, nullptr, &device.device);
+    if (made != VK_SUCCESS) {
+        device.device = VK_NULL_HANDLE;
+        destroyDevice(device);
+        throwIfOutOfMemory(made, "vkCreateDevice");
+        error = std::string("cannot create the Vulkan device: vkCreateDevice failed: ") +
+                resultName(made);
+        return false;
+    }
     vkGetDeviceQueue(device.device, device.queueFamily, 0, &device.queue);
     return true;
 }

@@ -11,8 +11,10 @@
 #include <condition_variable>
 #include <cstring>
 #include <deque>
+#include <exception>
 #include <map>
 #include <mutex>
+#include <new>
 #include <set>
 #include <thread>
 
@@ -114,18 +116,38 @@ void pack(const format::BlockGeometry& g, std::uint64_t terrainTriangles, std::u
 // the calling thread is one of them). fn must be safe to call concurrently for different i. The
 // open and the preload read and validate every block of the file this way (Reader is pread-based
 // and thread-safe): one thread took 22 s to open a 16M-point model and 20 s more to preload it.
+// An exception thrown by fn (std::bad_alloc under a memory limit) stops the other threads at their
+// next index and is rethrown here, on the calling thread, once they are joined; so is one from
+// starting a thread.
 template <class Fn>
 void forEachIndexInParallel(std::size_t n, Fn&& fn) {
     const std::size_t threads =
         std::min<std::size_t>({n, 16, std::max(1u, std::thread::hardware_concurrency())});
     std::atomic<std::size_t> next{0};
+    std::mutex mutex;
+    std::exception_ptr thrown;
     auto work = [&] {
-        for (std::size_t i = next++; i < n; i = next++) fn(i);
+        try {
+            for (std::size_t i = next++; i < n; i = next++)
+                fn(i);
+        } catch (...) {
+            next = n;
+            std::lock_guard lock(mutex);
+            if (!thrown) thrown = std::current_exception();
+        }
     };
     std::vector<std::thread> pool;
-    for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work);
+    try {
+        for (std::size_t t = 1; t < threads; ++t)
+            pool.emplace_back(work);
+    } catch (...) {
+        next = n;
+        std::lock_guard lock(mutex);
+        thrown = std::current_exception();
+    }
     work();
     for (std::thread& t : pool) t.join();
+    if (thrown) std::rethrow_exception(thrown);
 }
 
 struct BlockState {
@@ -254,19 +276,28 @@ struct StreamingScene::Impl {
             }
             Loaded item;
             item.block = index;
-            format::BlockGeometry g;
             const auto t0 = std::chrono::steady_clock::now();
-            const bool read = reader.readGeometry(index, format::kAllLevels, g, item.error);
+            try {
+                format::BlockGeometry g;
+                if (reader.readGeometry(index, format::kAllLevels, g, item.error)) {
+                    const BlockState& b = blocks[index];
+                    if (g.terrainIndices.size() < b.terrainTriangles ||
+                        g.riverIndices.size() < b.riverEdges)
+                        item.error = reader.path() + ": block arrays shorter than its levels";
+                    else
+                        pack(g, b.terrainTriangles, b.riverEdges, item.packed);
+                }
+            } catch (const std::bad_alloc&) {
+                // A memory limit (the entry's sizes are bounded by its bytes at open): the frame
+                // that needs it fails with this message, as for a damaged entry.
+                const format::BlockInfo& info = reader.blocks()[index];
+                item.packed = Packed{};
+                item.error = reader.path() + ": " +
+                             format::blockName(info.col, info.row, info.level) +
+                             ": out of memory reading it";
+            }
             const double seconds =
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-            if (read) {
-                const BlockState& b = blocks[index];
-                if (g.terrainIndices.size() < b.terrainTriangles ||
-                    g.riverIndices.size() < b.riverEdges)
-                    item.error = reader.path() + ": block arrays shorter than its levels";
-                else
-                    pack(g, b.terrainTriangles, b.riverEdges, item.packed);
-            }
             {
                 std::lock_guard lock(mutex);
                 loading = -1;

@@ -1,6 +1,8 @@
 // `unilod build` pipeline (build.h).
 #include "build.h"
 
+#include <sys/resource.h>
+
 #ifdef __GLIBC__
 #include <malloc.h>
 #endif
@@ -10,9 +12,15 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <mutex>
+#include <new>
 #include <nlohmann/json.hpp>
+#include <sstream>
+#include <system_error>
 #include <thread>
 
 #include "blockbuild.h"
@@ -33,6 +41,12 @@ format::OutputOptions outputOptions(const BuildOptions& o) {
     return out;
 }
 
+// What a failed allocation reports (std::bad_alloc: a memory limit such as ulimit -v; without one
+// Linux's OOM killer ends the process instead, hence the estimate before the work, build.h).
+const std::string outOfMemory =
+    "out of memory (the build needs more memory than this process may use; README \"Large "
+    "DEMs\")";
+
 }  // namespace
 
 bool recordsPaperMetric(const BuildOptions& o) {
@@ -40,7 +54,9 @@ bool recordsPaperMetric(const BuildOptions& o) {
            o.defaultMetric == format::kMetricPaper;
 }
 
-bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) {
+namespace {
+
+bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error) {
     const auto start = std::chrono::steady_clock::now();
     summary = {};
     // Fail fast, before the long work; the Writer checks again when it creates the file.
@@ -99,6 +115,35 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
         return false;
     summary.nodataCells = data.nodata.nodataCells;
     summary.filledNodataCells = data.nodata.filledCells;
+    if (o.memoryCheck) {
+        // The DEM points the blocks sample (nodata cells that stay nodata hold none).
+        const auto sampled = [&](int n) {
+            return std::uint64_t((std::int64_t(n) + o.stride - 1) / o.stride);
+        };
+        const std::uint64_t cells = sampled(dem.width) * sampled(dem.height);
+        const std::uint64_t empty =
+            (data.nodata.nodataCells - std::min(data.nodata.nodataCells, data.nodata.filledCells)) /
+            (std::uint64_t(o.stride) * std::uint64_t(o.stride));
+        const std::uint64_t points = cells - std::min(cells, empty);
+        const bool tree = o.tree && o.order == DeletionOrderKind::Greedy && !recordsPaperMetric(o);
+        const double need = buildMemoryEstimate(points, tree);
+        std::string what = "--memory-limit";
+        const double have =
+            o.memoryLimitBytes > 0 ? o.memoryLimitBytes : double(availableMemory(&what));
+        if (have > 0 && need > have) {
+            char text[320];
+            std::snprintf(text, sizeof text,
+                          "about %.1f M points need about %.2f GB of memory to build (%.0f bytes "
+                          "per point measured, README \"Large DEMs\"), more than %s allows "
+                          "(%.2f GB): --stride 2 builds a quarter of the points; "
+                          "--no-memory-check tries anyway",
+                          double(points) / 1e6, need / 1e9,
+                          tree ? kTreeBuildBytesPerPoint : kFlatBuildBytesPerPoint, what.c_str(),
+                          have / 1e9);
+            error = "DEM '" + o.demPath + "': " + text;
+            return false;
+        }
+    }
     summary.crossings = source.stats().crossings;
     summary.droppedDemPoints = source.stats().droppedDemPoints;
 
@@ -268,58 +313,66 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
                 if (failed) return;
             }
             const Item& it = items[i];
-            BlockBuildOptions itemOptions = blockOptions;
-            if (it.parent != format::kNoChild) {
-                itemOptions.stopTriangles = nodeHandoffTriangles(side, it.level);
-                itemOptions.stopKey = nodeHandoffError(
-                    std::max(header.blockWidth, header.blockHeight),
-                    std::max(dem.width * std::fabs(dem.cellX), dem.height * std::fabs(dem.cellY)),
-                    it.level, o.handoffPixels);
-            }
-            if (it.level > 0) itemOptions.lodRatio = kNodeLodTriangleRatio;
-            bool ok;
-            if (it.level == 0) {
-                const PointSet set = source.points(it.source);
-                ok = buildBlock(set, it.col, it.row, itemOptions, results[i], stats[i], errors[i],
-                                nullptr, tree ? &coarse[i] : nullptr);
-            } else {
-                std::vector<const CoarseState*> children;
-                for (std::uint32_t c = 0; c < it.childCount; ++c)
-                    children.push_back(&coarse[it.firstChild + c]);
-                auto originals = [&](const std::function<void(const Point&)>& f) {
-                    for (std::size_t l = it.leafFirst; l < it.leafFirst + it.leafCount; ++l) {
-                        const PointSet leaf = source.points(items[l].source);
-                        for (const Point& p : leaf.points)
-                            f(p);
-                    }
-                };
-                std::size_t originalCount = 0;
-                for (std::size_t l = it.leafFirst; l < it.leafFirst + it.leafCount; ++l)
-                    originalCount += stats[l].points;
-#ifdef __GLIBC__
-                // A node high in the tree measures its error against millions of original
-                // points (16 B each, in large buffers of their own): first hand the pages the
-                // finished blocks freed back to the system, so that peak RSS is not the sum.
-                if (originalCount >= (std::size_t(1) << 22)) malloc_trim(0);
-#endif
-                ok = buildNode(children, nodeBorder(it), it.col, it.row, itemOptions, originals,
-                               originalCount, results[i], stats[i], coarse[i], errors[i]);
-                if (ok) {
-                    // The node's box holds its children's (the cut culls a subtree by it).
-                    format::Block& b = results[i];
-                    for (std::uint32_t c = 0; c < it.childCount; ++c) {
-                        const auto& k = boxes[it.firstChild + c];
-                        b.minX = std::min(b.minX, k[0]);
-                        b.minY = std::min(b.minY, k[1]);
-                        b.minZ = std::min(b.minZ, k[2]);
-                        b.maxX = std::max(b.maxX, k[3]);
-                        b.maxY = std::max(b.maxY, k[4]);
-                        b.maxZ = std::max(b.maxZ, k[5]);
-                    }
-                    b.level = it.level;
-                    b.firstChild = it.firstChild;
-                    b.childCount = it.childCount;
+            bool ok = false;
+            try {
+                BlockBuildOptions itemOptions = blockOptions;
+                if (it.parent != format::kNoChild) {
+                    itemOptions.stopTriangles = nodeHandoffTriangles(side, it.level);
+                    itemOptions.stopKey =
+                        nodeHandoffError(std::max(header.blockWidth, header.blockHeight),
+                                         std::max(dem.width * std::fabs(dem.cellX),
+                                                  dem.height * std::fabs(dem.cellY)),
+                                         it.level, o.handoffPixels);
                 }
+                if (it.level > 0) itemOptions.lodRatio = kNodeLodTriangleRatio;
+                if (it.level == 0) {
+                    const PointSet set = source.points(it.source);
+                    ok = buildBlock(set, it.col, it.row, itemOptions, results[i], stats[i],
+                                    errors[i], nullptr, tree ? &coarse[i] : nullptr);
+                } else {
+                    std::vector<const CoarseState*> children;
+                    for (std::uint32_t c = 0; c < it.childCount; ++c)
+                        children.push_back(&coarse[it.firstChild + c]);
+                    auto originals = [&](const std::function<void(const Point&)>& f) {
+                        for (std::size_t l = it.leafFirst; l < it.leafFirst + it.leafCount; ++l) {
+                            const PointSet leaf = source.points(items[l].source);
+                            for (const Point& p : leaf.points)
+                                f(p);
+                        }
+                    };
+                    std::size_t originalCount = 0;
+                    for (std::size_t l = it.leafFirst; l < it.leafFirst + it.leafCount; ++l)
+                        originalCount += stats[l].points;
+#ifdef __GLIBC__
+                    // A node high in the tree measures its error against millions of original
+                    // points (16 B each, in large buffers of their own): first hand the pages the
+                    // finished blocks freed back to the system, so that peak RSS is not the sum.
+                    if (originalCount >= (std::size_t(1) << 22)) malloc_trim(0);
+#endif
+                    ok = buildNode(children, nodeBorder(it), it.col, it.row, itemOptions, originals,
+                                   originalCount, results[i], stats[i], coarse[i], errors[i]);
+                    if (ok) {
+                        // The node's box holds its children's (the cut culls a subtree by it).
+                        format::Block& b = results[i];
+                        for (std::uint32_t c = 0; c < it.childCount; ++c) {
+                            const auto& k = boxes[it.firstChild + c];
+                            b.minX = std::min(b.minX, k[0]);
+                            b.minY = std::min(b.minY, k[1]);
+                            b.minZ = std::min(b.minZ, k[2]);
+                            b.maxX = std::max(b.maxX, k[3]);
+                            b.maxY = std::max(b.maxY, k[4]);
+                            b.maxZ = std::max(b.maxZ, k[5]);
+                        }
+                        b.level = it.level;
+                        b.firstChild = it.firstChild;
+                        b.childCount = it.childCount;
+                    }
+                }
+            } catch (const std::bad_alloc&) {
+                // A memory limit: this item fails (the others stop), the file is not written.
+                results[i] = format::Block{};
+                errors[i] = outOfMemory;
+                ok = false;
             }
             {
                 std::lock_guard lock(mutex);
@@ -338,17 +391,30 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     };
     if (o.stage) o.stage(n > leafCount ? "blocks and tree nodes" : "blocks", n);
     std::vector<std::thread> pool;
-    for (unsigned t = 0; t < threads && t < n; ++t)
-        pool.emplace_back(work);
     std::string writeError;
-    for (std::size_t i = 0; i < n; ++i) {
+    try {
+        for (unsigned t = 0; t < threads && t < n; ++t)
+            pool.emplace_back(work);
+    } catch (const std::system_error& e) {
+        // No thread could be started: fail (the started ones stop at `failed`).
+        writeError = "cannot start a worker thread: " + std::string(e.what());
+        std::lock_guard lock(mutex);
+        failed = true;
+    }
+    for (std::size_t i = 0; i < n && writeError.empty(); ++i) {
         {
             std::unique_lock lock(mutex);
             changed.wait(lock, [&] { return ready[i] || failed; });
             if (!ready[i] || !errors[i].empty()) break;
         }
         const format::Block& b = results[i];
-        if (!writer.writeBlock(b, writeError)) {
+        bool wrote = false;
+        try {
+            wrote = writer.writeBlock(b, writeError);
+        } catch (const std::bad_alloc&) {
+            writeError = "'" + o.outPath + "': " + outOfMemory + " (writing a block)";
+        }
+        if (!wrote) {
             std::lock_guard lock(mutex);
             failed = true;
             break;
@@ -417,6 +483,75 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     summary.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return true;
+}
+
+// A number from the first line of a file ("max" or unreadable: 0).
+std::uint64_t readNumber(const char* path) {
+    std::ifstream in(path);
+    std::uint64_t v = 0;
+    if (!(in >> v)) return 0;
+    return v;
+}
+
+// A "Key: N kB" line of /proc/meminfo, in bytes (0 when absent).
+std::uint64_t meminfo(const std::string& text, const std::string& key) {
+    const std::size_t at = text.find("\n" + key + ":");
+    if (at == std::string::npos) return 0;
+    return std::strtoull(text.c_str() + at + key.size() + 2, nullptr, 10) * 1024;
+}
+
+}  // namespace
+
+double buildMemoryEstimate(std::uint64_t points, bool tree) {
+    return kBuildBaseBytes +
+           double(points) * (tree ? kTreeBuildBytesPerPoint : kFlatBuildBytesPerPoint);
+}
+
+std::uint64_t availableMemory(std::string* what) {
+    std::uint64_t best = 0;
+    auto consider = [&](std::uint64_t bytes, const char* name) {
+        if (bytes == 0 || (best != 0 && bytes >= best)) return;
+        best = bytes;
+        if (what) *what = name;
+    };
+    {
+        std::ifstream in("/proc/meminfo");
+        std::stringstream text;
+        text << "\n" << in.rdbuf();
+        const std::string t = text.str();
+        consider(meminfo(t, "MemAvailable") + meminfo(t, "SwapFree"), "the available memory");
+    }
+    const std::uint64_t v2max = readNumber("/sys/fs/cgroup/memory.max");
+    if (v2max > 0) {
+        const std::uint64_t used = readNumber("/sys/fs/cgroup/memory.current");
+        consider(v2max > used ? v2max - used : 1, "the cgroup's memory limit");
+    }
+    const std::uint64_t v1max = readNumber("/sys/fs/cgroup/memory/memory.limit_in_bytes");
+    if (v1max > 0 && v1max < (std::uint64_t(1) << 60)) {
+        const std::uint64_t used = readNumber("/sys/fs/cgroup/memory/memory.usage_in_bytes");
+        consider(v1max > used ? v1max - used : 1, "the cgroup's memory limit");
+    }
+    struct rlimit limit {};
+    if (getrlimit(RLIMIT_AS, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY) {
+        // Address space in use: VmSize of /proc/self/status.
+        std::ifstream in("/proc/self/status");
+        std::stringstream text;
+        text << "\n" << in.rdbuf();
+        const std::uint64_t used = meminfo(text.str(), "VmSize");
+        consider(limit.rlim_cur > used ? limit.rlim_cur - used : 1, "the address-space limit");
+    }
+    return best;
+}
+
+bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) {
+    try {
+        return buildModel(o, summary, error);
+    } catch (const std::bad_alloc&) {
+        // Outside the workers (reading the DEM, splitting into blocks): the output's temporary
+        // is removed on the way out (atomicfile.h).
+        error = "DEM '" + o.demPath + "' + rivers '" + o.riversPath + "': " + outOfMemory;
+        return false;
+    }
 }
 
 }  // namespace unilod

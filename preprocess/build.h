@@ -53,12 +53,33 @@ struct BuildOptions : IngestOptions {
     // Blocks stored as plain arrays (format::Writer::storeRaw) instead of the compact encoding:
     // about 35-40 times larger; for tools and tests that edit the bytes. --encoding raw.
     bool rawBlocks = false;
+    // Memory check before the long work (buildMemoryEstimate): refuse when the estimate exceeds
+    // `memoryLimitBytes`, or, when that is 0, the memory this process can get (availableMemory);
+    // `memoryCheck` false: no check (--no-memory-check). --memory-limit MB.
+    bool memoryCheck = true;
+    double memoryLimitBytes = 0;
     // Progress: the stages before the blocks ("splitting into blocks"), then the stage of the
     // blocks with their count, then blocks (and tree nodes) done of total. Both called from the
     // calling thread.
     std::function<void(const std::string& stage, std::size_t total)> stage;
     std::function<void(std::size_t, std::size_t)> progress;
 };
+
+// Peak memory of a default build, measured (README "Large DEMs"): 45 bytes per DEM point at 64M
+// points (2.91 GB), 56 at 16M (0.9 GB) with the block hierarchy, whose root measures its error
+// against every original point; 23 without it (the flat grid, --no-tree or --order 3ddp). The
+// estimate takes the smaller measured values, so it refuses only builds that would fail.
+inline constexpr double kTreeBuildBytesPerPoint = 45;
+inline constexpr double kFlatBuildBytesPerPoint = 23;
+inline constexpr double kBuildBaseBytes = 64e6;  // libraries, GDAL's cache, thread stacks
+double buildMemoryEstimate(std::uint64_t points, bool tree);
+
+// Bytes this process can still get (Linux): the smallest of the memory available to new
+// allocations (/proc/meminfo MemAvailable + SwapFree), the cgroup's limit less its use (v2
+// memory.max / memory.current, v1 memory.limit_in_bytes / usage_in_bytes) and the address-space
+// limit (RLIMIT_AS) less the address space in use. 0 when none can be read. `what` receives which
+// bound it is ("available memory", "the cgroup's memory limit", "the address-space limit").
+std::uint64_t availableMemory(std::string* what = nullptr);
 
 struct BuildSummary {
     int demWidth = 0, demHeight = 0;

@@ -123,6 +123,69 @@ TEST_F(CliOutputs, FailingWriteFailsTheExportAndLeavesNothing) {
     fs::remove(out);
 }
 
+// Under a memory limit (ulimit -v: allocations fail with std::bad_alloc, as with overcommit off)
+// the build of a DEM too large for it fails with exit 1 and a message naming the DEM and the
+// problem, and leaves no output and no temporary, instead of aborting (terminate, core dump) in a
+// worker thread: before the work, from the memory estimate (build.h buildMemoryEstimate against
+// availableMemory, which reads the address-space limit), or, with --no-memory-check, when an
+// allocation fails. The limit is found first: the smallest multiple of 10 MB under which the
+// binary starts at all (`build --help`), plus 40 MB, far below what a 1M-point DEM needs (about
+// 45 B a point). AddressSanitizer reserves terabytes of address space, so not under it.
+TEST_F(CliOutputs, BuildOutOfMemoryFailsWithAClearErrorAndNoOutput) {
+#if defined(__SANITIZE_ADDRESS__)
+    GTEST_SKIP() << "address space limits do not apply under AddressSanitizer";
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+    GTEST_SKIP() << "address space limits do not apply under AddressSanitizer";
+#endif
+#endif
+    const std::string data = dir->file("large");
+    auto r = runCli("synth --points 1000000 -o " + q(data));
+    ASSERT_EQ(r.code, 0) << r.err;
+    int startMb = 0;
+    for (int mb = 100; mb <= 2000 && startMb == 0; mb += 10) {
+        const auto help =
+            runCli("build --help", "ulimit -v " + std::to_string(mb * 1024) + "; exec");
+        if (help.code == 0) startMb = mb;
+    }
+    ASSERT_GT(startMb, 0) << "unilod does not start under a 2 GB address space limit";
+    const std::string out = dir->file("large.ulod");
+    const std::string demPath = data + "/dem.tif";
+    const std::string build =
+        "build -q " + q(demPath) + " " + q(data + "/rivers.geojson") + " -o " + q(out);
+    const std::string limit = "ulimit -v " + std::to_string((startMb + 40) * 1024) + "; exec";
+    r = runCli(build, limit);
+    EXPECT_EQ(r.code, 1) << r.out << r.err;
+    EXPECT_NE(r.err.find(demPath), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("more than the address-space limit allows"), std::string::npos) << r.err;
+    EXPECT_TRUE(entries(dir->path, "large.ulod").empty());
+    r = runCli(build + " --no-memory-check", limit);
+    EXPECT_EQ(r.code, 1) << r.out << r.err;
+    EXPECT_NE(r.err.find(demPath), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("out of memory"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("terminate"), std::string::npos) << r.err;
+    EXPECT_TRUE(entries(dir->path, "large.ulod").empty());
+    fs::remove_all(data);
+}
+
+// --memory-limit MB: the estimate is checked against it; --no-memory-check skips the check.
+TEST_F(CliOutputs, BuildMemoryLimitRefusesBeforeTheWork) {
+    const std::string out = dir->file("limited.ulod");
+    const std::string build = "build -q " + q(dem) + " " + q(rivers) + " -o " + q(out) + kBlocks;
+    auto r = runCli(build + " --memory-limit 1");
+    EXPECT_EQ(r.code, 1) << r.out << r.err;
+    EXPECT_NE(r.err.find(dem), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("more than --memory-limit allows (0.00 GB)"), std::string::npos)
+        << r.err;
+    EXPECT_FALSE(fs::exists(out));
+    r = runCli(build + " --memory-limit 1 --no-memory-check");
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_TRUE(fs::exists(out));
+    r = runCli(build + " --memory-limit 0");
+    EXPECT_EQ(r.code, 2) << r.err;
+    fs::remove(out);
+}
+
 TEST_F(CliOutputs, StaleTemporariesOfKilledRunsRemoved) {
     const std::string out = dir->file("stale.glb");
     const std::string dead = "stale.glb.tmp-" + std::to_string(deadPid()) + "-a1b2c3";

@@ -3,6 +3,8 @@
 // 1 data error (a file, GDAL, the computation), 2 usage error.
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <exception>
+#include <new>
 #include <string>
 
 #include "commands.h"
@@ -52,6 +54,18 @@ int main(int argc, char** argv) {
     } catch (const CLI::ParseError& e) {
         // --help and --version arrive here too, with exit code 0.
         return app.exit(e) == 0 ? 0 : 2;
+    } catch (const std::bad_alloc&) {
+        // Under a memory limit (ulimit -v, a container's limit with overcommit off) an allocation
+        // fails anywhere: a clear message and exit 1 instead of an abort. Outputs are written
+        // through temporaries removed on the way out (atomicfile.h), so none appears.
+        std::fprintf(stderr,
+                     "unilod %s: error: out of memory (the input needs more memory than this "
+                     "process may use); no output was written\n",
+                     first.c_str());
+        return 1;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "unilod %s: error: %s\n", first.c_str(), e.what());
+        return 1;
     }
     return exitCode;
 }
