@@ -69,55 +69,64 @@ std::size_t findBlock(const std::vector<format::BlockInfo>& blocks, std::uint32_
     return best;
 }
 
-// What the stats need of one block: its centre and, per step, the counts of that state.
-struct BlockSummary {
-    engine::LodNode node;  // its box (the cut's S and h_lim)
+// The model as the cut sees it, from the directory alone (format version 5: boxes, tree links,
+// levels, outline flags), and, read only for the nodes a cut draws, each one's per-step errors
+// and counts (the exact step k* of its h_lim). `stats` of a 16M-point model read and decoded
+// every block first (20 s on one core); the far views of Tables 2/3 draw a few nodes.
+struct StepCounts {
     std::vector<float> error;  // chosen metric, steps + 1 entries
     std::vector<float> river;  // the `max` metric's river part (empty for `paper`)
-    std::uint32_t vertexCount = 0;
     std::vector<std::uint32_t> triangles, riverEdges;  // per step k = 0..steps
-    std::vector<format::Level> levels;                 // the stored levels
+};
+struct Model {
+    format::Reader reader;
+    std::uint32_t metric = 0;
+    std::vector<engine::LodNode> nodes;  // point into reader.blocks()' levels
+    std::vector<StepCounts> steps;       // read by `stepsOf` (empty until then)
 };
 
-// Opens `path`, resolves the metric (0: the file's default) and reads every block's summary.
-bool loadSummaries(const std::string& path, std::uint32_t requestedMetric, format::Reader& reader,
-                   std::uint32_t& metric, std::vector<BlockSummary>& blocks, std::string& error) {
-    if (!reader.open(path, error)) return false;
-    const format::Header& h = reader.header();
-    const std::vector<format::BlockInfo>& infos = reader.blocks();
-    metric = requestedMetric != 0 ? requestedMetric : h.defaultMetric;
-    if ((h.metrics & metric) == 0 ||
-        (metric != format::kMetricMax && metric != format::kMetricPaper)) {
+// Opens `path` and resolves the metric (0: the file's default).
+bool openModel(const std::string& path, std::uint32_t requestedMetric, Model& m,
+               std::string& error) {
+    if (!m.reader.open(path, error)) return false;
+    const format::Header& h = m.reader.header();
+    const std::vector<format::BlockInfo>& infos = m.reader.blocks();
+    m.metric = requestedMetric != 0 ? requestedMetric : h.defaultMetric;
+    if ((h.metrics & m.metric) == 0 ||
+        (m.metric != format::kMetricMax && m.metric != format::kMetricPaper)) {
         error = "'" + path + "': the file does not store the " +
-                std::string(metric == format::kMetricPaper ? "paper" : "max") + " error metric";
+                std::string(m.metric == format::kMetricPaper ? "paper" : "max") + " error metric";
         return false;
     }
     if (infos.empty()) {
         error = "'" + path + "': the file has no blocks";
         return false;
     }
-    blocks.assign(infos.size(), {});
+    for (const format::BlockInfo& info : infos)
+        m.nodes.push_back(engine::lodNode(info));
+    m.steps.assign(infos.size(), {});
+    return true;
+}
+
+// Node i's per-step errors and counts, read from its block once.
+bool stepsOf(Model& m, std::size_t i, std::string& error) {
+    StepCounts& s = m.steps[i];
+    if (!s.error.empty()) return true;
     format::Block b;
-    for (std::size_t i = 0; i < infos.size(); ++i) {
-        if (!reader.readBlock(i, b, error)) return false;
-        BlockSummary& s = blocks[i];
-        s.node = engine::lodNode(b);
-        s.error = metric == format::kMetricPaper ? b.errorPaper : b.errorMax;
-        if (metric != format::kMetricPaper) s.river = b.errorRiver;
-        s.vertexCount = std::uint32_t(b.vertices.size());
-        if (b.levels.empty() || s.error.size() != b.steps.size() + 1) {
-            error = "'" + path + "': block (" + std::to_string(b.col) + "," +
-                    std::to_string(b.row) + ") has no full-resolution level or error table";
-            return false;
-        }
-        s.triangles.push_back(b.levels[0].triangleCount);
-        s.riverEdges.push_back(b.levels[0].riverCount);
-        for (const format::Step& step : b.steps) {
-            s.triangles.push_back(step.trianglesAlive);
-            s.riverEdges.push_back(step.riverEdgesAlive);
-        }
-        s.levels = std::move(b.levels);
-        s.node.levels = &s.levels;
+    if (!m.reader.readBlock(i, b, error)) return false;
+    s.error = m.metric == format::kMetricPaper ? b.errorPaper : b.errorMax;
+    if (m.metric != format::kMetricPaper) s.river = b.errorRiver;
+    if (b.levels.empty() || s.error.size() != b.steps.size() + 1) {
+        error = "'" + m.reader.path() + "': " + format::blockName(b.col, b.row, b.level) +
+                " has no full-resolution level or error table";
+        s.error.clear();
+        return false;
+    }
+    s.triangles.push_back(b.levels[0].triangleCount);
+    s.riverEdges.push_back(b.levels[0].riverCount);
+    for (const format::Step& step : b.steps) {
+        s.triangles.push_back(step.trianglesAlive);
+        s.riverEdges.push_back(step.riverEdgesAlive);
     }
     return true;
 }
@@ -127,24 +136,20 @@ bool loadSummaries(const std::string& path, std::uint32_t requestedMetric, forma
 struct CutCounts {
     std::uint64_t points = 0, riverEdges = 0, triangles = 0, nodes = 0;
 };
-CutCounts countCut(const engine::ViewSpec& view, const std::vector<BlockSummary>& blocks,
-                   std::uint32_t metric) {
-    std::vector<engine::LodNode> nodes;
-    nodes.reserve(blocks.size());
-    for (const BlockSummary& s : blocks)
-        nodes.push_back(s.node);
+bool countCut(const engine::ViewSpec& view, Model& m, CutCounts& c, std::string& error) {
     std::vector<engine::NodeChoice> cut;
-    engine::selectCut(view, nodes, metric, cut);
-    CutCounts c;
+    engine::selectCut(view, m.nodes, m.metric, cut);
+    c = {};
     c.nodes = cut.size();
     for (const engine::NodeChoice& choice : cut) {
-        const BlockSummary& bs = blocks[choice.block];
-        const std::size_t k = engine::exactStep(bs.error, choice.hLim, bs.river, choice.hLimRiver);
-        c.points += bs.vertexCount - k;
-        c.riverEdges += bs.riverEdges[k];
-        c.triangles += bs.triangles[k];
+        if (!stepsOf(m, choice.block, error)) return false;
+        const StepCounts& s = m.steps[choice.block];
+        const std::size_t k = engine::exactStep(s.error, choice.hLim, s.river, choice.hLimRiver);
+        c.points += m.reader.blocks()[choice.block].vertexCount - k;
+        c.riverEdges += s.riverEdges[k];
+        c.triangles += s.triangles[k];
     }
-    return c;
+    return true;
 }
 
 }  // namespace
@@ -190,15 +195,15 @@ bool computeStats(const std::string& path, const StatsOptions& o, StatsTable& ta
         }
     }
 
-    format::Reader reader;
-    std::vector<BlockSummary> blocks;
-    if (!loadSummaries(path, o.metric, reader, table.metric, blocks, error)) return false;
-    const format::Header& h = reader.header();
-    const std::vector<format::BlockInfo>& infos = reader.blocks();
+    Model m;
+    if (!openModel(path, o.metric, m, error)) return false;
+    table.metric = m.metric;
+    const format::Header& h = m.reader.header();
+    const std::vector<format::BlockInfo>& infos = m.reader.blocks();
     table.blocksX = h.blocksX;
     table.blocksY = h.blocksY;
-    for (const BlockSummary& s : blocks)
-        if (s.node.level == 0) table.fullPoints += s.vertexCount;
+    for (const format::BlockInfo& info : infos)
+        if (info.level == 0) table.fullPoints += info.vertexCount;
 
     const std::size_t corner = findBlock(infos, 0, 0);
     const std::uint32_t midCol = h.blocksX > 0 ? (h.blocksX - 1) / 2 : 0;
@@ -218,11 +223,12 @@ bool computeStats(const std::string& path, const StatsOptions& o, StatsTable& ta
             row.distance = d;
             row.pixels = p;
             const engine::ViewSpec view = statsView(h, o, d, p);
-            auto limit = [&](std::size_t i) { return engine::nodeTolerance(view, blocks[i].node); };
+            auto limit = [&](std::size_t i) { return engine::nodeTolerance(view, m.nodes[i]); };
             row.hEdge = limit(edge);
             row.hCorner = limit(corner);
             row.hMiddle = limit(middle);
-            const CutCounts c = countCut(view, blocks, table.metric);
+            CutCounts c;
+            if (!countCut(view, m, c, error)) return false;
             row.points = c.points;
             row.riverEdges = c.riverEdges;
             row.triangles = c.triangles;
@@ -244,19 +250,16 @@ bool computeErrorStats(const std::string& path, const std::vector<double>& error
             return false;
         }
     }
-    format::Reader reader;
-    std::vector<BlockSummary> blocks;
-    if (!loadSummaries(path, metric, reader, table.metric, blocks, error)) return false;
-    for (const BlockSummary& s : blocks) {
-        if (s.node.level != 0) continue;
+    Model m;
+    if (!openModel(path, metric, m, error)) return false;
+    table.metric = m.metric;
+    for (const format::BlockInfo& info : m.reader.blocks()) {
+        if (info.level != 0) continue;
         table.blocks += 1;
-        table.fullPoints += s.vertexCount;
-        table.fullTriangles += s.triangles[0];
+        table.fullPoints += info.vertexCount;
+        table.fullTriangles += info.fullTriangles;
     }
-    table.nodes = blocks.size() - table.blocks;
-    std::vector<engine::LodNode> nodes;
-    for (const BlockSummary& s : blocks)
-        nodes.push_back(s.node);
+    table.nodes = m.nodes.size() - table.blocks;
     std::vector<engine::NodeChoice> cut;
     for (double e : errors) {
         ErrorStatsRow row;
@@ -264,14 +267,16 @@ bool computeErrorStats(const std::string& path, const std::vector<double>& error
         engine::ViewSpec view;
         view.kind = engine::ViewSpec::Kind::Uniform;
         view.hLim = e;
-        engine::selectCut(view, nodes, table.metric, cut);
+        engine::selectCut(view, m.nodes, table.metric, cut);
         row.nodes = cut.size();
         for (const engine::NodeChoice& choice : cut) {
-            const BlockSummary& s = blocks[choice.block];
+            if (!stepsOf(m, choice.block, error)) return false;
+            const StepCounts& s = m.steps[choice.block];
+            const std::vector<format::Level>& levels = m.reader.blocks()[choice.block].levels;
             const std::size_t k = engine::exactStep(s.error, e);
-            row.exactPoints += s.vertexCount - k;
+            row.exactPoints += m.reader.blocks()[choice.block].vertexCount - k;
             row.exactTriangles += s.triangles[k];
-            const format::Level& level = s.levels[format::storedLevelFor(s.levels, table.metric, e)];
+            const format::Level& level = levels[format::storedLevelFor(levels, table.metric, e)];
             row.levelPoints += level.vertexCount;
             row.levelTriangles += level.triangleCount;
         }

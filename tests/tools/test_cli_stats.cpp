@@ -21,6 +21,7 @@
 #include "stats.h"
 #include "synthetic.h"
 #include "ulod.h"
+#include "ulodbytes.h"
 
 using namespace unilod;
 namespace fs = std::filesystem;
@@ -312,6 +313,52 @@ TEST_F(StatsTest, DataErrorsExitOneAndNameTheFile) {
     r = run("stats '" + junk + "'");
     EXPECT_EQ(r.code, 1);
     EXPECT_NE(r.err.find(junk), std::string::npos) << r.err;
+}
+
+// The cut is taken from the directory (format version 5): `stats` reads only the blocks the cut
+// draws, for their per-step counts. Every entry but the root damaged (its bytes, not the
+// directory): a far view, which draws the root alone, gives the same table as the intact file;
+// `--error 0`, whose cut is the leaves, reads a damaged one and fails naming the file and the
+// block. Only the root damaged: the far view fails naming it.
+TEST_F(StatsTest, OnlyTheDrawnNodesAreReadAndADamagedOneFails) {
+    BuildOptions bo;
+    bo.demPath = (dir / "dem.tif").string();
+    bo.riversPath = (dir / "rivers.geojson").string();
+    bo.outPath = (dir / "tree.ulod").string();
+    bo.blockSize = (demCells - 1) / 4;
+    bo.threads = 2;
+    BuildSummary summary;
+    std::string error;
+    ASSERT_TRUE(runBuild(bo, summary, error)) << error;
+    ASSERT_GT(summary.nodes, 0u) << "the default build makes a tree";
+    format::Reader reader;
+    ASSERT_TRUE(reader.open(bo.outPath, error)) << error;
+    const std::size_t count = reader.blocks().size();
+    ASSERT_EQ(reader.blocks().back().firstChild + reader.blocks().back().childCount, count - 1)
+        << "the root is the last entry";
+    const std::string damaged = (dir / "tree_damaged.ulod").string();
+    test::UlodBytes f = test::UlodBytes::load(bo.outPath);
+    for (std::size_t i = 0; i + 1 < count; ++i)
+        f.bytes[f.blockAt(i) + f.blockSize(i) / 2] ^= 0x5a;
+    ASSERT_TRUE(f.save(damaged));
+    const Result intact = run("stats " + q(bo.outPath) + " --distance 1500km");
+    ASSERT_EQ(intact.code, 0) << intact.err;
+    const Result far = run("stats " + q(damaged) + " --distance 1500km");
+    EXPECT_EQ(far.code, 0) << far.err;
+    const auto body = [](const std::string& out) { return out.substr(out.find('\n')); };
+    EXPECT_EQ(body(far.out), body(intact.out));  // the first line names the file
+    const Result exact = run("stats " + q(damaged) + " --error 0");
+    EXPECT_EQ(exact.code, 1) << exact.out;
+    EXPECT_NE(exact.err.find(damaged + ": block ("), std::string::npos) << exact.err;
+    EXPECT_NE(exact.err.find("checksum mismatch"), std::string::npos) << exact.err;
+    // Only the root damaged: the far view reads it and fails.
+    test::UlodBytes g = test::UlodBytes::load(bo.outPath);
+    g.bytes[g.blockAt(count - 1) + g.blockSize(count - 1) / 2] ^= 0x5a;
+    ASSERT_TRUE(g.save(damaged));
+    const Result root = run("stats " + q(damaged) + " --distance 1500km");
+    EXPECT_EQ(root.code, 1) << root.out;
+    EXPECT_NE(root.err.find(damaged + ": node ("), std::string::npos) << root.err;
+    EXPECT_NE(root.err.find("checksum mismatch"), std::string::npos) << root.err;
 }
 
 TEST_F(StatsTest, SmallGridsNameBlockZeroForAll) {

@@ -79,17 +79,12 @@ bool renderGrid(const std::string& path, const StatsOptions& stats, double dista
     const double pixels = stats.pixels.empty() ? 1.0 : stats.pixels.front();
     const engine::ViewSpec view = statsView(h, stats, distance, pixels);  // as `stats` counts
 
-    // The cut of the view through the block hierarchy, as `stats` and the engine take it.
-    // Only the levels stay in memory; the drawn blocks are read again below.
+    // The cut of the view through the block hierarchy, as `stats` and the engine take it, from
+    // the directory (format version 5); only the drawn blocks are read, below.
     format::Block block;
-    std::vector<std::vector<format::Level>> levels(reader.blocks().size());
     std::vector<engine::LodNode> nodes;
-    for (std::size_t i = 0; i < levels.size(); ++i) {
-        if (!reader.readBlock(i, block, error)) return false;
-        nodes.push_back(engine::lodNode(block));
-        levels[i] = block.levels;
-        nodes.back().levels = &levels[i];
-    }
+    for (const format::BlockInfo& info : reader.blocks())
+        nodes.push_back(engine::lodNode(info));
     std::vector<engine::NodeChoice> cut;
     engine::selectCut(view, nodes, metric, cut);
     std::sort(cut.begin(), cut.end(), [](const engine::NodeChoice& a, const engine::NodeChoice& b) {
