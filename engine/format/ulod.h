@@ -178,11 +178,8 @@ std::string blockName(std::uint32_t col, std::uint32_t row, std::uint32_t level 
 // vertex only where no other changes sides (preprocess/deletion.h), and a deleted vertex never
 // returns, so a rectangle at the coarsest level means only straight stretches of it were
 // simplified (no displacement) at every level. The directory stores the answer (BlockInfo); the
-// writer computes it and the reader checks it against the block. `vertices` and the coarsest
-// level's `count` triangles; the box in doubles, vertices relative to the origin.
-bool outlineMoves(const Vertex* vertices, const Triangle* triangles, std::size_t count,
-                  double originX, double originY, double minX, double minY, double maxX,
-                  double maxY);
+// writer computes it and the reader checks it against the block (whose vertices and index
+// ranges it trusts: call it on a validated block).
 bool outlineMoves(const Block& block);
 
 // The checks of a block's stored levels that need only the levels and the directory's counts

@@ -520,14 +520,16 @@ bool validateLevelTable(const std::vector<Level>& levels, std::uint32_t vertexCo
     return levelTableValid(levels, vertexCount, stepCount, fullTriangles, metrics, error);
 }
 
-bool outlineMoves(const Vertex* vertices, const Triangle* triangles, std::size_t count,
-                  double originX, double originY, double minX, double minY, double maxX,
-                  double maxY) {
-    // The directed edges of the triangles that no other triangle has reversed: the outline.
+bool outlineMoves(const Block& b) {
+    if (b.levels.empty()) return false;
+    const Level& last = b.levels.back();
+    assert(std::size_t(last.triangleFirst) + last.triangleCount <= b.terrainIndices.size());
+    // The directed edges of the coarsest level's triangles that no other triangle has reversed:
+    // the outline.
     std::vector<std::pair<std::uint32_t, std::uint32_t>> directed;
-    directed.reserve(3 * count);
-    for (std::size_t i = 0; i < count; ++i) {
-        const Triangle& t = triangles[i];
+    directed.reserve(3 * std::size_t(last.triangleCount));
+    for (std::uint32_t i = 0; i < last.triangleCount; ++i) {
+        const Triangle& t = b.terrainIndices[last.triangleFirst + i];
         directed.push_back({t.a, t.b}), directed.push_back({t.b, t.c}), directed.push_back({t.c, t.a});
     }
     std::sort(directed.begin(), directed.end());
@@ -535,24 +537,16 @@ bool outlineMoves(const Vertex* vertices, const Triangle* triangles, std::size_t
     auto on = [](double v, double side) {
         return std::fabs(v - side) <= kFloatSlack * std::fabs(side) + 2e-3;
     };
-    const double x0 = minX - originX, x1 = maxX - originX;
-    const double y0 = minY - originY, y1 = maxY - originY;
+    const double x0 = b.minX - b.originX, x1 = b.maxX - b.originX;
+    const double y0 = b.minY - b.originY, y1 = b.maxY - b.originY;
     for (const auto& [u, w] : directed) {
         if (std::binary_search(directed.begin(), directed.end(), std::make_pair(w, u))) continue;
-        const Vertex &a = vertices[u], &b = vertices[w];
-        const bool side = (on(a.x, x0) && on(b.x, x0)) || (on(a.x, x1) && on(b.x, x1)) ||
-                          (on(a.y, y0) && on(b.y, y0)) || (on(a.y, y1) && on(b.y, y1));
+        const Vertex &p = b.vertices[u], &q = b.vertices[w];
+        const bool side = (on(p.x, x0) && on(q.x, x0)) || (on(p.x, x1) && on(q.x, x1)) ||
+                          (on(p.y, y0) && on(q.y, y0)) || (on(p.y, y1) && on(q.y, y1));
         if (!side) return true;
     }
     return false;
-}
-
-bool outlineMoves(const Block& b) {
-    if (b.levels.empty()) return false;
-    const Level& last = b.levels.back();
-    assert(std::size_t(last.triangleFirst) + last.triangleCount <= b.terrainIndices.size());
-    return outlineMoves(b.vertices.data(), b.terrainIndices.data() + last.triangleFirst,
-                        last.triangleCount, b.originX, b.originY, b.minX, b.minY, b.maxX, b.maxY);
 }
 
 bool levelFits(const Level& level, std::uint32_t metric, double hLim, double hRiver) {
