@@ -81,10 +81,16 @@ bool buildLodIndex(const LodIndexInput& in, format::Block& block, std::string& e
     block.addedTriangleOffset = rec.addedTriangleOffset;
     block.removedEdgeOffset = rec.removedEdgeOffset;
     block.addedEdgeOffset = rec.addedEdgeOffset;
+    // Sized once: grown by push_back, the largest of these (a 256-cell block's records) was the
+    // build's largest allocation, up to twice its size plus the copy while it moved.
     block.removedTriangles.clear();
     block.addedTriangles.clear();
     block.removedEdges.clear();
     block.addedEdges.clear();
+    block.removedTriangles.reserve(rec.removedTriangles.size());
+    block.addedTriangles.reserve(rec.addedTriangles.size());
+    block.removedEdges.reserve(rec.removedEdges.size());
+    block.addedEdges.reserve(rec.addedEdges.size());
     for (const auto& t : rec.removedTriangles)
         block.removedTriangles.push_back(tri(t));
     for (const auto& t : rec.addedTriangles)
@@ -142,6 +148,8 @@ bool buildLodIndex(const LodIndexInput& in, format::Block& block, std::string& e
         block.levels[j].step = levelSteps[j];
     std::vector<format::Triangle> initialTriangles;
     std::vector<format::Edge> initialEdges;
+    initialTriangles.reserve(in.initialTriangles.size());
+    initialEdges.reserve(in.initialEdges.size());
     for (const auto& t : in.initialTriangles)
         initialTriangles.push_back(tri(t));
     for (const auto& e : in.initialEdges)
