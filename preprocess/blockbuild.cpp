@@ -52,7 +52,10 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
         del.riverFloor = node->riverFloor;
         del.riverCover = &node->riverCover;
         if (node->originals) {
-            extra.reserve(node->originalCount);  // a root's: every original point of the model
+            // A root's: every original point of the model. The pool takes this buffer over
+            // (modelerror.h ModelError::init), with room for a quarter more.
+            const std::size_t all = node->originalCount + set.points.size();
+            extra.reserve(all + all / 4 + 1024);
             node->originals([&](const Point& p) {
                 extra.push_back({std::int32_t(std::llround((p.x - cdt.originX) / cdt.gridUnit)),
                                  std::int32_t(std::llround((p.y - cdt.originY) / cdt.gridUnit)),

@@ -156,23 +156,52 @@ void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool 
         const std::size_t total = offset;
         // Room for the points re-appended by the deletions before a compaction (updateMax
         // compacts rather than grow the pool past its capacity).
-        pool_.reserve(total + total / 4 + 1024);
-        pool_.resize(total);
-        for (std::uint32_t s = 0; s < n; ++s) {
-            const std::uint32_t t = tri[s];
-            pool_[rangeStart_[t] + rangeCount_[t]++] = {samples_[s].gx, samples_[s].gy,
-                                                        samples_[s].z};
-        }
-        for (std::size_t i = 0; i < extraTri.size(); ++i) {
-            const std::uint32_t t = extraTri[i];
-            if (t == kNil) continue;
-            const ExtraSample& e = (*extra)[i];
-            pool_[rangeStart_[t] + rangeCount_[t]++] = {e.gx, e.gy, e.z};
-        }
-        if (releaseExtra != nullptr) {
+        const std::size_t room = total + total / 4 + 1024;
+        // Each point's place: per triangle the set's points, then the extra samples in order.
+        std::vector<std::uint32_t> setPlace(n);
+        for (std::uint32_t s = 0; s < n; ++s)
+            setPlace[s] = rangeStart_[tri[s]] + rangeCount_[tri[s]]++;
+        for (std::uint32_t& t : extraTri)
+            if (t != kNil) t = rangeStart_[t] + rangeCount_[t]++;  // now the sample's place
+        if (releaseExtra != nullptr && !extraTri.empty()) {
+            // The released samples' buffer becomes the pool: every sample moved to its place
+            // along the cycles of the permutation (a place below extraTri.size() holds the
+            // sample of that index until it moves on; kNil marks a moved or left-out one), then
+            // the set's points written into the places left.
             assert(releaseExtra == extra);
+            pool_.swap(*releaseExtra);
             std::vector<ExtraSample>().swap(*releaseExtra);
+            if (pool_.capacity() < room) pool_.reserve(room);
+            pool_.resize(std::max(total, extraTri.size()));
+            for (std::size_t i = 0; i < extraTri.size(); ++i) {
+                if (extraTri[i] == kNil || extraTri[i] == i) continue;
+                PoolPoint carried = pool_[i];
+                std::uint32_t to = extraTri[i];
+                extraTri[i] = kNil;
+                for (;;) {
+                    if (to < extraTri.size() && extraTri[to] != kNil) {
+                        // `to` holds a sample still to move: take its place, carry it on.
+                        std::swap(carried, pool_[to]);
+                        const std::uint32_t next = extraTri[to];
+                        extraTri[to] = kNil;
+                        assert(next != to);  // `to` was the place of the sample carried
+                        to = next;
+                    } else {
+                        pool_[to] = carried;
+                        break;
+                    }
+                }
+            }
+            pool_.resize(total);
+        } else {
+            pool_.reserve(room);
+            pool_.resize(total);
+            for (std::size_t i = 0; i < extraTri.size(); ++i)
+                if (extraTri[i] != kNil) pool_[extraTri[i]] = (*extra)[i];
+            if (releaseExtra != nullptr) std::vector<ExtraSample>().swap(*releaseExtra);
         }
+        for (std::uint32_t s = 0; s < n; ++s)
+            pool_[setPlace[s]] = {samples_[s].gx, samples_[s].gy, samples_[s].z};
         garbage_ = 0;
     }
     if (paperMetric_) {

@@ -50,9 +50,10 @@ public:
     // `cdt`: the full triangulation of `set` (before any deletion). `extra` (max metric only):
     // more original points, counted in M like the set's; each is located in the triangulation
     // (exact, closed), and one outside the domain has no vertical error. `releaseExtra` (null,
-    // or the same vector as `extra`): its memory is freed as soon as the samples are placed, before
-    // the pool that keeps them is allocated (the caller no longer needs them: a tree root holds
-    // every original point of the model).
+    // or the same vector as `extra`): the caller no longer needs them (a tree root holds every
+    // original point of the model): its buffer becomes the pool, the points permuted in place,
+    // so that they are never held twice; reserve it to about 1.25 x its size plus the set's
+    // points (the pool's room for re-appended points; less costs a reallocation).
     void init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool paperMetric,
               const std::vector<ExtraSample>* extra = nullptr,
               std::vector<ExtraSample>* releaseExtra = nullptr);
@@ -97,11 +98,9 @@ private:
         std::uint32_t nearNext;  // next sample with the same nearest vertex
     };
     static_assert(sizeof(Sample) == 24);
-    // One original point in the max metric's pool.
-    struct PoolPoint {
-        std::int32_t gx, gy;
-        double z;
-    };
+    // One original point in the max metric's pool: the extra samples' own type, so that a
+    // released `extra` vector becomes the pool, its points permuted in place (init).
+    using PoolPoint = ExtraSample;
     static_assert(sizeof(PoolPoint) == 16);
     // Alive vertices in grid cells, coordinates inline; a dead entry has id == kNone.
     struct Entry {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 
 #include "cdt.h"
 #include "cdt_fixtures.h"
@@ -174,6 +175,79 @@ TEST(ModelError, ExtraOriginalPointsCountInTheMaxMetric) {
     bad.extraSamples = &extra;
     EXPECT_FALSE(runGreedyDeletion(set, again, {}, bad, recBad, error));
     EXPECT_NE(error.find("paper"), std::string::npos) << error;
+}
+
+// A released sample vector (DeletionOptions::releaseExtraSamples, a tree root's every original
+// point) becomes the pool, its samples permuted in place (modelerror.h ModelError::init): the
+// records equal those of the copying path exactly, also with the samples in shuffled order (long
+// cycles) and with samples outside the hull (left out), and the vector is freed.
+TEST(ModelError, ReleasedExtraSamplesGiveTheSameRecordsAsCopiedOnes) {
+    BlockSpec spec;
+    spec.seed = 48;
+    spec.points = 600;
+    spec.rivers = 2;
+    const PointSet all = makeBlock(spec);
+    PointSet set;
+    std::vector<PointId> newId(all.points.size(), kNoPoint);
+    std::vector<PointId> extraIds;
+    for (PointId i = 0; i < all.points.size(); ++i) {
+        const Point& p = all.points[i];
+        if (p.kind == PointKind::Dem && !p.locked && i % 2 == 1) {
+            extraIds.push_back(i);
+            continue;
+        }
+        newId[i] = PointId(set.points.size());
+        set.points.push_back(p);
+    }
+    for (const Polyline& line : all.rivers) {
+        Polyline mapped;
+        for (PointId v : line) mapped.push_back(newId[v]);
+        set.rivers.push_back(mapped);
+    }
+    std::string error;
+    Cdt probe;
+    ASSERT_TRUE(buildCdt(set, {}, probe, error)) << error;
+    std::vector<ExtraSample> extra;
+    for (PointId i : extraIds) {
+        const Point& p = all.points[i];
+        extra.push_back({std::int32_t(std::llround((p.x - probe.originX) / probe.gridUnit)),
+                         std::int32_t(std::llround((p.y - probe.originY) / probe.gridUnit)), p.z});
+    }
+    // Outside the hull: left out by both paths.
+    for (int k = 1; k <= 5; ++k)
+        extra.push_back({-1000000 * k, 1000000 * k, 7.0 * k});
+    std::mt19937 rng(3);
+    std::shuffle(extra.begin(), extra.end(), rng);
+    ASSERT_GT(extra.size(), 150u);
+    auto run = [&](bool release, std::vector<ExtraSample>& samples, DeletionRecords& rec) {
+        Cdt cdt;
+        ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+        DeletionOptions options;
+        options.paperError = false;
+        options.extraSamples = &samples;
+        options.releaseExtraSamples = release;
+        ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, error)) << error;
+    };
+    std::vector<ExtraSample> copied = extra, released = extra;
+    released.reserve(released.size() * 2);  // the room the pool needs (no reallocation)
+    DeletionRecords a, b;
+    run(false, copied, a);
+    run(true, released, b);
+    EXPECT_EQ(copied.size(), extra.size());  // the copying path leaves them
+    EXPECT_EQ(released.capacity(), 0u);      // the released buffer became the pool
+    ASSERT_GT(a.steps.size(), 200u);
+    ASSERT_EQ(a.steps.size(), b.steps.size());
+    EXPECT_EQ(a.initialErrorMax, b.initialErrorMax);
+    EXPECT_EQ(a.errorMax, b.errorMax);
+    EXPECT_EQ(a.errorRiver, b.errorRiver);
+    for (std::size_t k = 0; k < a.steps.size(); ++k)
+        ASSERT_EQ(a.steps[k].vertex, b.steps[k].vertex) << "step " << k;
+    // Released without room: the pool reserves it (a reallocation), the same records.
+    std::vector<ExtraSample> tight = extra;
+    tight.shrink_to_fit();
+    DeletionRecords c;
+    run(true, tight, c);
+    EXPECT_EQ(a.errorMax, c.errorMax);
 }
 
 TEST(ModelError, MetricsCanBeSwitchedOff) {
