@@ -130,7 +130,7 @@ TEST_F(CliOutputs, FailingWriteFailsTheExportAndLeavesNothing) {
 // availableMemory, which reads the address-space limit), or, with --no-memory-check, when an
 // allocation fails. The limit is found first: the smallest multiple of 10 MB under which the
 // binary starts at all (`build --help`), plus 40 MB, far below what a 1M-point DEM needs (about
-// 45 B a point). AddressSanitizer reserves terabytes of address space, so not under it.
+// 30 B a point). AddressSanitizer reserves terabytes of address space, so not under it.
 TEST_F(CliOutputs, BuildOutOfMemoryFailsWithAClearErrorAndNoOutput) {
 #if defined(__SANITIZE_ADDRESS__)
     GTEST_SKIP() << "address space limits do not apply under AddressSanitizer";
