@@ -106,42 +106,57 @@ TEST(ModelError, SampledStepsOfALargerBlockEqualBruteForce) {
     EXPECT_GE(rec.errorMax.back() + 1e-9, bruteForceMaxError(set, cdt));
 }
 
-TEST(ModelError, ExtraOriginalPointsCountInTheMaxMetric) {
-    // A tree node's situation (issue 18): the triangulation holds a subset of the block's points
-    // (here every DEM point but one in three, plus every locked and river point); the others are
-    // extra original points. The recorded `max` error after every step equals the brute-force
-    // maximum over both.
+// A tree node's situation (issue 18): the triangulation holds a subset of a block's points (every
+// DEM point but those with i % modulo == 1, plus every locked and river point); the others are
+// extra original points, on the grid of the subset's triangulation.
+struct NodeCase {
+    PointSet set;
+    std::vector<ExtraSample> extra;
+};
+NodeCase splitBlock(std::uint64_t seed, int points, PointId modulo) {
     BlockSpec spec;
-    spec.seed = 47;
-    spec.points = 400;
+    spec.seed = seed;
+    spec.points = points;
     spec.rivers = 2;
     const PointSet all = makeBlock(spec);
-    PointSet set;
+    NodeCase c;
     std::vector<PointId> newId(all.points.size(), kNoPoint);
     std::vector<PointId> extraIds;
     for (PointId i = 0; i < all.points.size(); ++i) {
         const Point& p = all.points[i];
-        if (p.kind == PointKind::Dem && !p.locked && i % 3 == 1) {
+        if (p.kind == PointKind::Dem && !p.locked && i % modulo == 1) {
             extraIds.push_back(i);
             continue;
         }
-        newId[i] = PointId(set.points.size());
-        set.points.push_back(p);
+        newId[i] = PointId(c.set.points.size());
+        c.set.points.push_back(p);
     }
     for (const Polyline& line : all.rivers) {
         Polyline mapped;
         for (PointId v : line) mapped.push_back(newId[v]);
-        set.rivers.push_back(mapped);
+        c.set.rivers.push_back(mapped);
     }
     Cdt cdt;
     std::string error;
-    ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
-    std::vector<ExtraSample> extra;
+    EXPECT_TRUE(buildCdt(c.set, {}, cdt, error)) << error;
     for (PointId i : extraIds) {
         const Point& p = all.points[i];
-        extra.push_back({std::int32_t(std::llround((p.x - cdt.originX) / cdt.gridUnit)),
-                         std::int32_t(std::llround((p.y - cdt.originY) / cdt.gridUnit)), p.z});
+        c.extra.push_back({std::int32_t(std::llround((p.x - cdt.originX) / cdt.gridUnit)),
+                           std::int32_t(std::llround((p.y - cdt.originY) / cdt.gridUnit)), p.z});
     }
+    return c;
+}
+
+TEST(ModelError, ExtraOriginalPointsCountInTheMaxMetric) {
+    // splitBlock: every DEM point but one in three in the triangulation, the others extra
+    // original points. The recorded `max` error after every step equals the brute-force maximum
+    // over both.
+    NodeCase c = splitBlock(47, 400, 3);
+    const PointSet& set = c.set;
+    std::vector<ExtraSample>& extra = c.extra;
+    Cdt cdt;
+    std::string error;
+    ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
     ASSERT_GT(extra.size(), 80u);
     DeletionRecords rec;
     DeletionOptions options;
@@ -182,37 +197,10 @@ TEST(ModelError, ExtraOriginalPointsCountInTheMaxMetric) {
 // records equal those of the copying path exactly, also with the samples in shuffled order (long
 // cycles) and with samples outside the hull (left out), and the vector is freed.
 TEST(ModelError, ReleasedExtraSamplesGiveTheSameRecordsAsCopiedOnes) {
-    BlockSpec spec;
-    spec.seed = 48;
-    spec.points = 600;
-    spec.rivers = 2;
-    const PointSet all = makeBlock(spec);
-    PointSet set;
-    std::vector<PointId> newId(all.points.size(), kNoPoint);
-    std::vector<PointId> extraIds;
-    for (PointId i = 0; i < all.points.size(); ++i) {
-        const Point& p = all.points[i];
-        if (p.kind == PointKind::Dem && !p.locked && i % 2 == 1) {
-            extraIds.push_back(i);
-            continue;
-        }
-        newId[i] = PointId(set.points.size());
-        set.points.push_back(p);
-    }
-    for (const Polyline& line : all.rivers) {
-        Polyline mapped;
-        for (PointId v : line) mapped.push_back(newId[v]);
-        set.rivers.push_back(mapped);
-    }
+    const NodeCase node = splitBlock(48, 600, 2);
+    const PointSet& set = node.set;
+    std::vector<ExtraSample> extra = node.extra;
     std::string error;
-    Cdt probe;
-    ASSERT_TRUE(buildCdt(set, {}, probe, error)) << error;
-    std::vector<ExtraSample> extra;
-    for (PointId i : extraIds) {
-        const Point& p = all.points[i];
-        extra.push_back({std::int32_t(std::llround((p.x - probe.originX) / probe.gridUnit)),
-                         std::int32_t(std::llround((p.y - probe.originY) / probe.gridUnit)), p.z});
-    }
     // Outside the hull: left out by both paths.
     for (int k = 1; k <= 5; ++k)
         extra.push_back({-1000000 * k, 1000000 * k, 7.0 * k});
