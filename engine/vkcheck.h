@@ -23,12 +23,11 @@ public:
     using std::runtime_error::runtime_error;
 };
 
-// Throws OutOfMemory for the two out-of-memory results; false for any other failure.
-inline bool throwIfOutOfMemory(VkResult result, const char* call) {
+// Throws OutOfMemory for the two out-of-memory results; returns for any other.
+inline void throwIfOutOfMemory(VkResult result, const char* call) {
     if (result == VK_ERROR_OUT_OF_HOST_MEMORY || result == VK_ERROR_OUT_OF_DEVICE_MEMORY)
         throw OutOfMemory(std::string(call) + " failed: " + resultName(result) + " (out of " +
                           (result == VK_ERROR_OUT_OF_HOST_MEMORY ? "memory" : "GPU memory") + ")");
-    return false;
 }
 
 }  // namespace unilod::engine

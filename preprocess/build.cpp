@@ -115,6 +115,8 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
         return false;
     summary.nodataCells = data.nodata.nodataCells;
     summary.filledNodataCells = data.nodata.filledCells;
+    // The block hierarchy: the greedy order without the paper metric (build.h BuildOptions::tree).
+    const bool tree = o.tree && o.order == DeletionOrderKind::Greedy && !blockOptions.paperError;
     if (o.memoryCheck) {
         // The DEM points the blocks sample (nodata cells that stay nodata hold none).
         const auto sampled = [&](int n) {
@@ -125,7 +127,6 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
             (data.nodata.nodataCells - std::min(data.nodata.nodataCells, data.nodata.filledCells)) /
             (std::uint64_t(o.stride) * std::uint64_t(o.stride));
         const std::uint64_t points = cells - std::min(cells, empty);
-        const bool tree = o.tree && o.order == DeletionOrderKind::Greedy && !recordsPaperMetric(o);
         const double need = buildMemoryEstimate(points, tree);
         std::string what = "--memory-limit";
         const double have =
@@ -225,7 +226,6 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
     // The tree (nodebuild.h): levels above the leaves until one root. The exact grid of a node
     // spans at most 2 * (2^28 - 1) grid units (cdt.h): a level whose nodes would be wider is not
     // built, and its children are the roots.
-    const bool tree = o.tree && o.order == DeletionOrderKind::Greedy && !blockOptions.paperError;
     const double gridLimit = 2.0 * double((1 << 28) - 1) * format::kGridUnit;
     std::size_t levelFirst = 0, levelCount = items.size();
     std::uint32_t levels = 0;
