@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
-
+#include <set>
 
 namespace unilod {
 
@@ -85,7 +85,28 @@ bool BlockSource::init(const DemGrid& dem, const RiverLines& rivers, const Block
     stats_.riverPieces = raw.size();
     drop_ = riverClearanceMask(dem, raw, options.riverClearance);
     pieces_.clear();
-    for (const RiverPiece& piece : raw) {
+    // A river vertex on a border line's grid column (or row) of the exact grid (points are
+    // quantised to format::kGridUnit in absolute coordinates, cdt.cpp) goes exactly onto the
+    // line. Left beside it, a segment from it across the line would get a crossing vertex on the
+    // same grid point: one block would hold the vertex, the neighbour the crossing, and the two
+    // would meet off each other's border (a sub-millimetre crack; a tree node above them could not
+    // merge them).
+    std::vector<double> snapX, snapY;  // interior border lines
+    for (std::size_t k = 1; k + 1 < borderCols_.size(); ++k)
+        snapX.push_back(dem.centreX(borderCols_[k]));
+    for (std::size_t k = 1; k + 1 < borderRows_.size(); ++k)
+        snapY.push_back(dem.centreY(borderRows_[k]));
+    const auto onGrid = [](double a, double b) {
+        return std::round(a / format::kGridUnit) == std::round(b / format::kGridUnit);
+    };
+    for (const RiverPiece& rawPiece : raw) {
+        RiverPiece piece = rawPiece;
+        for (RiverVertex& v : piece) {
+            for (double x : snapX)
+                if (onGrid(v.x, x)) v.x = x;
+            for (double y : snapY)
+                if (onGrid(v.y, y)) v.y = y;
+        }
         RiverPiece out{piece.front()};
         for (std::size_t i = 0; i + 1 < piece.size(); ++i) {
             const RiverVertex a = piece[i], b = piece[i + 1];
@@ -304,11 +325,73 @@ PointSet BlockSource::points(std::size_t b) const {
         Point& p = set.points[k];
         if (p.x == x0 || p.x == x1 || p.y == y0 || p.y == y1) p.locked = true;
     }
+    addNeighbourBorderVertices(b, set);
     // Heights on the file's z quantum (format/blockcodec.h): the compact block encoding stores
     // them as integers; every stored error includes the quantum (lodindex.h).
     for (Point& p : set.points)
         p.z = format::quantizeZ(p.z, format::kDefaultZQuantum);
     return set;
+}
+
+void BlockSource::addNeighbourBorderVertices(std::size_t b, PointSet& set) const {
+    // A river vertex ON a border line belongs to the blocks its segments run in; where the river
+    // only touches the line there (it turns back, or ends on it) the block across the line would
+    // not hold it, and its border edge would pass the vertex by: a T-junction, a crack wherever
+    // the river's height differs from the edge's, and no common border for a tree node above the
+    // two. So every river vertex on this block's border between two DEM nodes of a border edge in
+    // its domain is a locked point of this block too (a plain terrain vertex here).
+    const DemGrid& dem = *dem_;
+    const BlockRect& r = rects_[b];
+    const int s = options_.stride;
+    const double x0 = dem.centreX(r.cellCol0), x1 = dem.centreX(r.cellCol1);
+    const double y0 = dem.centreY(r.cellRow0), y1 = dem.centreY(r.cellRow1);
+    const double loX = std::min(x0, x1), hiX = std::max(x0, x1);
+    const double loY = std::min(y0, y1), hiY = std::max(y0, y1);
+    // Lattice position t (in strides) along a border line at coordinate c, origin o, spacing d.
+    auto between = [&](double c, double o, double d, int& k) {
+        const double t = (c - o) / (d * s);
+        k = int(std::floor(t));
+        const auto q = [](double v) { return std::round(v / format::kGridUnit); };
+        // On (the grid point of) a DEM node: that node is the vertex in both blocks.
+        return q(c) != q(o + k * d * s) && q(c) != q(o + (k + 1) * d * s);
+    };
+    // The border edge between lattice nodes n and n+1 of a line is in this block's domain when
+    // both nodes are valid and the square on this block's side is covered (>= 3 valid corners).
+    auto inDomain = [&](int ia, int ja, int ib, int jb, int si, int sj) {
+        return nodeValid(ia, ja) && nodeValid(ib, jb) && validCorners(si, sj) >= 3;
+    };
+    std::set<std::pair<double, double>> have;  // this block's river points
+    for (const Point& p : set.points)
+        if (p.kind == PointKind::River) have.insert({p.x, p.y});
+    const long bx = long(r.col), by = long(r.row);
+    for (long ny = by - 1; ny <= by + 1; ++ny) {
+        for (long nx = bx - 1; nx <= bx + 1; ++nx) {
+            if ((nx == bx && ny == by) || nx < 0 || ny < 0 || nx >= long(blocksX_) ||
+                ny >= long(blocksY_))
+                continue;
+            for (const Run& run : runs_[std::size_t(ny) * blocksX_ + std::size_t(nx)]) {
+                const RiverPiece& piece = pieces_[run.piece];
+                for (std::uint32_t i = run.first; i <= run.last; ++i) {
+                    const RiverVertex& v = piece[i];
+                    if (v.x < loX || v.x > hiX || v.y < loY || v.y > hiY) continue;
+                    if (have.count({v.x, v.y})) continue;
+                    bool add = false;
+                    int k = 0;
+                    if ((v.x == x0 || v.x == x1) && between(v.y, dem.originY, dem.cellY, k)) {
+                        const int i0 = (v.x == x0 ? r.cellCol0 : r.cellCol1) / s;
+                        add = inDomain(i0, k, i0, k + 1, v.x == x0 ? i0 : i0 - 1, k);
+                    } else if ((v.y == y0 || v.y == y1) &&
+                               between(v.x, dem.originX, dem.cellX, k)) {
+                        const int j0 = (v.y == y0 ? r.cellRow0 : r.cellRow1) / s;
+                        add = inDomain(k, j0, k + 1, j0, k, v.y == y0 ? j0 : j0 - 1);
+                    }
+                    if (!add) continue;
+                    set.points.push_back({v.x, v.y, v.z, PointKind::Dem, true});
+                    have.insert({v.x, v.y});
+                }
+            }
+        }
+    }
 }
 
 bool BlockSource::nodeValid(int i, int j) const {

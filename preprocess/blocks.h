@@ -101,6 +101,7 @@ private:
         std::uint32_t piece, first, last;
     };
     std::vector<std::vector<Run>> runs_;
+    void addNeighbourBorderVertices(std::size_t b, PointSet& set) const;
     BlockSourceStats stats_;
 };
 

@@ -99,7 +99,7 @@ bool ingest(const IngestOptions& o, Ingested& data, std::string& error) {
         warn("rivers '" + o.riversPath + "': no line features: building a terrain-only model");
     } else if (!anyVertexOnDem(rivers, dem)) {
         error = "rivers '" + o.riversPath + "': no river vertex lies on the DEM '" + o.demPath +
-                "' (a CRS mistake? try --assume-crs or check the data)";
+                "' (a CRS mistake? try --s-srs or check the data)";
         return false;
     }
     // River cleaning (DESIGN.md "Point set"): clip to the DEM, snap, split at crossings, drop

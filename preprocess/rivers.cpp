@@ -115,13 +115,13 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
             src = *declared;
         } else if (!options.assumeSrs.empty()) {
             if (!parseSrs(options.assumeSrs, src)) {
-                error = what + ": cannot parse the assumed CRS '" + options.assumeSrs +
-                        "' (--assume-crs)";
+                error =
+                    what + ": cannot parse the assumed CRS '" + options.assumeSrs + "' (--s-srs)";
                 return false;
             }
         } else {
             error = what + ": layer '" + layerName +
-                    "' has no CRS while the DEM has one; name it with --assume-crs";
+                    "' has no CRS while the DEM has one; name it with --s-srs";
             return false;
         }
         OGRSpatialReference dst;

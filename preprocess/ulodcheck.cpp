@@ -2,8 +2,11 @@
 #include "ulodcheck.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <map>
 #include <set>
+#include <tuple>
 
 #include "checker.h"
 #include "errorcheck.h"
@@ -339,6 +342,138 @@ bool checkNodeOriginals(format::Reader& reader, std::size_t index, const format:
     return true;
 }
 
+// Neighbouring blocks (and tree nodes of one tree level) must meet edge to edge: every outline
+// edge of a block's full-resolution mesh on a border it shares with another block of its tree
+// level is an outline edge of that block too, reversed, with the same heights at both ends and
+// both ends locked (never deleted, so the edge stays at every level). What breaks this is a
+// vertex on the border that one side holds and the other passes by (a T-junction: the two sides'
+// outline edges overlap along the border line, a crack wherever the vertex's height differs
+// from the edge's), or a border vertex that one side may delete. Positions are compared on the
+// exact grid, in absolute grid units (a block's origin is a grid point, cdt.cpp).
+class SharedBorders {
+public:
+    void add(std::size_t entry, const format::Block& b) {
+        const format::Level& l0 = b.levels.front();
+        std::set<std::pair<std::uint32_t, std::uint32_t>> directed;
+        for (std::uint32_t i = 0; i < l0.triangleCount; ++i) {
+            const format::Triangle& t = b.terrainIndices[l0.triangleFirst + i];
+            directed.insert({t.a, t.b});
+            directed.insert({t.b, t.c});
+            directed.insert({t.c, t.a});
+        }
+        const std::int64_t ox = std::llround(b.originX / format::kGridUnit);
+        const std::int64_t oy = std::llround(b.originY / format::kGridUnit);
+        for (const auto& [u, w] : directed) {
+            if (directed.count({w, u})) continue;
+            Edge e;
+            e.entry = entry;
+            e.col = b.col;
+            e.row = b.row;
+            e.level = b.level;
+            const std::uint32_t ends[2] = {u, w};
+            for (int k = 0; k < 2; ++k) {
+                e.x[k] = ox + b.grid[ends[k]].x;
+                e.y[k] = oy + b.grid[ends[k]].y;
+                e.z[k] = b.vertices[ends[k]].z;
+                e.locked[k] = (b.vertices[ends[k]].flags & format::kVertexLocked) != 0;
+            }
+            edges_.push_back(e);
+        }
+    }
+
+    bool check(std::string& error) {
+        // Shared edges: the same two grid points in two entries of one tree level.
+        auto key = [](const Edge& e) {
+            const bool swap = std::make_pair(e.x[1], e.y[1]) < std::make_pair(e.x[0], e.y[0]);
+            const int a = swap ? 1 : 0, c = 1 - a;
+            return std::make_tuple(e.level, e.x[a], e.y[a], e.x[c], e.y[c]);
+        };
+        std::sort(edges_.begin(), edges_.end(), [&](const Edge& l, const Edge& r) {
+            return std::make_pair(key(l), l.entry) < std::make_pair(key(r), r.entry);
+        });
+        std::vector<Edge> single;
+        for (std::size_t i = 0; i < edges_.size();) {
+            std::size_t j = i + 1;
+            while (j < edges_.size() && key(edges_[j]) == key(edges_[i]))
+                ++j;
+            const Edge& e = edges_[i];
+            if (j - i == 1) {
+                single.push_back(e);
+            } else {
+                const Edge& f = edges_[i + 1];
+                const bool reversed = e.x[0] == f.x[1] && e.y[0] == f.y[1];
+                std::string why;
+                if (j - i > 2)
+                    why = "more than two blocks hold it";
+                else if (!reversed)
+                    why = "both blocks lie on the same side of it";
+                else if (e.z[0] != f.z[1] || e.z[1] != f.z[0])
+                    why = "its ends' heights differ";
+                else if (!(e.locked[0] && e.locked[1] && f.locked[0] && f.locked[1]))
+                    why = "an end is not locked, so a coarser level may delete it";
+                if (!why.empty()) {
+                    error = fail(e, f, e.x[0], e.y[0]) + ": the border edge to " +
+                            at(e.x[1], e.y[1]) + ": " + why;
+                    return false;
+                }
+            }
+            i = j;
+        }
+        // Edges held by one block only (the domain's outline) must not overlap another block's
+        // along a border line: that is a vertex one side holds and the other passes by.
+        struct Span {
+            std::int64_t lo, hi;
+            const Edge* e;
+        };
+        std::map<std::tuple<std::uint32_t, int, std::int64_t>, std::vector<Span>> lines;
+        for (const Edge& e : single) {
+            if (e.x[0] == e.x[1])
+                lines[{e.level, 0, e.x[0]}].push_back(
+                    {std::min(e.y[0], e.y[1]), std::max(e.y[0], e.y[1]), &e});
+            else if (e.y[0] == e.y[1])
+                lines[{e.level, 1, e.y[0]}].push_back(
+                    {std::min(e.x[0], e.x[1]), std::max(e.x[0], e.x[1]), &e});
+        }
+        for (auto& [line, spans] : lines) {
+            std::sort(spans.begin(), spans.end(),
+                      [](const Span& l, const Span& r) { return l.lo < r.lo; });
+            const Span* reach = nullptr;  // the span reaching farthest so far
+            for (const Span& sp : spans) {
+                if (reach && sp.lo < reach->hi && sp.e->entry != reach->e->entry) {
+                    const std::int64_t c = std::get<2>(line), p = std::max(sp.lo, reach->lo);
+                    const bool vertical = std::get<1>(line) == 0;
+                    error = fail(*reach->e, *sp.e, vertical ? c : p, vertical ? p : c) +
+                            ": their outline edges overlap along the border (a vertex one of "
+                            "them holds there, the other passes by: a crack)";
+                    return false;
+                }
+                if (!reach || sp.hi > reach->hi) reach = &sp;
+            }
+        }
+        return true;
+    }
+
+private:
+    struct Edge {
+        std::size_t entry = 0;
+        std::uint32_t col = 0, row = 0, level = 0;
+        std::int64_t x[2] = {0, 0}, y[2] = {0, 0};
+        float z[2] = {0, 0};
+        bool locked[2] = {false, false};
+    };
+    static std::string at(std::int64_t x, std::int64_t y) {
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "(%.3f, %.3f)", double(x) * format::kGridUnit,
+                      double(y) * format::kGridUnit);
+        return buf;
+    }
+    static std::string fail(const Edge& a, const Edge& b, std::int64_t x, std::int64_t y) {
+        return format::blockName(a.col, a.row, a.level) + " and " +
+               format::blockName(b.col, b.row, b.level) + " do not meet at " + at(x, y);
+    }
+    std::vector<Edge> edges_;
+};
+
 }  // namespace
 
 bool checkUlod(const std::string& path, const UlodCheckOptions& options, UlodCheckSummary& summary,
@@ -351,6 +486,7 @@ bool checkUlod(const std::string& path, const UlodCheckOptions& options, UlodChe
         return false;
     }
     const auto& blocks = reader.blocks();
+    SharedBorders borders;
     for (std::size_t i = 0; i < blocks.size(); ++i) {
         format::Block b;
         if (!reader.readBlock(i, b, error)) return false;
@@ -364,10 +500,15 @@ bool checkUlod(const std::string& path, const UlodCheckOptions& options, UlodChe
             error = path + ": " + format::blockName(b.col, b.row, b.level) + ": " + error;
             return false;
         }
+        borders.add(i, b);
         ++summary.blocks;
         summary.levels += b.levels.size();
         summary.steps += b.steps.size();
         if (progress) progress(i + 1, blocks.size());
+    }
+    if (!borders.check(error)) {
+        error = path + ": " + error;
+        return false;
     }
     return true;
 }

@@ -3,9 +3,11 @@
 // reader path runs, engine included), then the topology invariants (checker.h) at EVERY stored
 // level of every block, on the exact grid coordinates
 // stored in the file; the records replayed from full resolution must reproduce every stored
-// level's triangles and river edges. With `errors` (`--errors`), also the TRUE `max` model error
-// at every stored level, recomputed from the file's own data (errorcheck.h): a stored bound below
-// it beyond the documented tolerance is a failure.
+// level's triangles and river edges. Across blocks: neighbours of one tree level meet edge to edge
+// (ulodcheck.cpp SharedBorders: the same border edges, heights and locked ends on both sides). With
+// `errors` (`--errors`), also the TRUE `max` model error at every stored level, recomputed from the
+// file's own data (errorcheck.h): a stored bound below it beyond the documented tolerance is a
+// failure.
 #pragma once
 
 #include <cmath>

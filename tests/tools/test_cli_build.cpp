@@ -395,7 +395,7 @@ TEST(CliBuildBad, RiversWithoutCrs) {
         ASSERT_EQ(layer->CreateFeature(&feature), OGRERR_NONE);
     }
     ASSERT_FALSE(fs::exists(c.in("rivers.prj")));
-    expectRejected(c, run(build(c, c.in("dem.tif"), rivers)), 1, rivers, "--assume-crs");
+    expectRejected(c, run(build(c, c.in("dem.tif"), rivers)), 1, rivers, "--s-srs");
     expectAcceptedAndChecked(
         c, run(build(c, c.in("dem.tif"), rivers, "--assume-crs EPSG:" + std::to_string(kEpsg))));
 }
@@ -808,6 +808,31 @@ TEST(CliBuildAnyDem, DefaultBlockSizeFitsTheExactGrid) {
     expectAcceptedAndChecked(c, r);
     EXPECT_NE(r.out.find("block size 178 cells"), std::string::npos) << r.out;
     expectBlockGrid(c.out(), 2, 1);
+}
+
+// Rivers that meet a block border line without crossing it (found by a random build fuzzer):
+// one touches the vertical border at a vertex and turns back, one touches the horizontal border,
+// one ends on the border, one has a vertex 0.3 mm before the border (the same point of the exact
+// 1 mm grid as the border crossing after it). Each block beside the line must hold the vertex,
+// so that neighbours meet edge to edge (`check` compares their shared borders) and a tree node
+// above them can merge their borders: the build used to fail there ("boundary ring 1 edge 2:
+// river segments overlap") and the flat grid passed a T-junction.
+TEST(CliBuildAnyDem, RiversTouchingABlockBorderMeetTheNeighbourEdgeToEdge) {
+    Case c("border_touch");
+    writeTiff(c.in("dem.tif"), kSize, kSize, 1, terrain);
+    const double beforeBorder = 16 - 0.3e-3 / kCell;
+    writeText(c.in("rivers.geojson"),
+              geoJson({lineString({{10.3, 5.2}, {16, 8.5}, {11.2, 12.7}}),
+                       lineString({{4.2, 10.1}, {8.5, 16}, {11.3, 10.4}}),
+                       lineString({{20.7, 30.1}, {16, 27.5}}),
+                       lineString({{12.1, 20.3}, {beforeBorder, 22.5}, {20.4, 24.1}})}));
+    for (const std::string tree : {"", "--no-tree"}) {
+        SCOPED_TRACE(tree);
+        fs::remove(c.out());
+        expectAcceptedAndChecked(c, run(build(c, c.in("dem.tif"), c.in("rivers.geojson"), tree)));
+        const Result errors = run("check -q --errors " + q(c.out()));
+        EXPECT_EQ(errors.code, 0) << errors.err;
+    }
 }
 
 // `order` ingests exactly as `build` does: on a DEM that is one block, it ranks the points of

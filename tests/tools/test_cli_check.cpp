@@ -251,4 +251,52 @@ TEST_F(CheckErrors, LoweredRiverPartFails) {
     }
 }
 
+// Neighbouring leaves must meet edge to edge with the same heights (`check` compares their shared
+// borders on the exact grid): one border vertex of a leaf raised or lowered by a few z quanta
+// (towards the middle of the block's height range, so that the block itself stays valid: its
+// box, its topology) is a crack, named with both blocks and the place.
+TEST_F(CheckErrors, BorderHeightThatDiffersFromTheNeighbourFails) {
+    const Built& m = models.front();
+    test::Model model;
+    std::string error;
+    ASSERT_TRUE(test::readModel(m.path, model, error)) << error;
+    // A leaf with an east neighbour, and a locked vertex on its east border line.
+    format::Block* b = nullptr;
+    std::uint32_t vertex = 0;
+    for (format::Block& candidate : model.blocks) {
+        if (candidate.level != 0 || b != nullptr) continue;
+        const bool east = std::any_of(model.blocks.begin(), model.blocks.end(), [&](auto& o) {
+            return o.level == 0 && o.row == candidate.row && o.col == candidate.col + 1;
+        });
+        if (!east) continue;
+        std::int32_t maxX = candidate.grid.front().x;
+        for (const format::GridXY& g : candidate.grid)
+            maxX = std::max(maxX, g.x);
+        const float mid = float((candidate.minZ + candidate.maxZ) / 2);
+        for (std::uint32_t i = 0; i < candidate.vertices.size(); ++i) {
+            const format::Vertex& v = candidate.vertices[i];
+            if (candidate.grid[i].x == maxX && (v.flags & format::kVertexLocked) &&
+                std::fabs(v.z - mid) > 1) {
+                b = &candidate;
+                vertex = i;
+                break;
+            }
+        }
+    }
+    ASSERT_NE(b, nullptr) << "no leaf with a locked vertex on a shared east border";
+    format::Vertex& v = b->vertices[vertex];
+    const float mid = float((b->minZ + b->maxZ) / 2);
+    v.z += float(4 * model.header.zQuantum) * (v.z < mid ? 1.0f : -1.0f);
+    const std::string tampered = (dir / "border_height.ulod").string();
+    ASSERT_TRUE(format::writeUlod(tampered, model.header, model.blocks, error)) << error;
+    const test::CliResult r = test::runCli("check -q " + q(tampered));
+    EXPECT_EQ(r.code, 1) << r.out;
+    EXPECT_NE(r.err.find(format::blockName(b->col, b->row) + " and " +
+                         format::blockName(b->col + 1, b->row)),
+              std::string::npos)
+        << r.err;
+    EXPECT_NE(r.err.find("do not meet at"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("its ends' heights differ"), std::string::npos) << r.err;
+}
+
 }  // namespace
