@@ -182,6 +182,7 @@ private:
     // Scratch.
     std::vector<PointId> link_;
     std::vector<std::uint32_t> tris_, added_, plan_, starSlots_;
+    std::vector<std::uint32_t> errorRemoved_, errorAdded_;  // apply(): the model error's change
     std::vector<PointId> corners_;
     std::vector<std::pair<std::uint32_t, std::uint32_t>> planOrder_;
     std::vector<PointId> path_, touched_, woken_;
@@ -494,6 +495,29 @@ void Sequence::apply(PointId x, PointId a, PointId c) {
         if (cdt_.triangleAlive(t) && cdt_.stamp[t] == step_ + 1 && !cdt_.isGhost(t))
             added_.push_back(t);
     }
+    // The change as the model error sees it: the destroyed and created slots, and for a ring step
+    // whose new outline edge A-C was an edge already (the triangle (A, x, C) was in x's star),
+    // the old triangle across A-C as destroyed and re-created. A point ON A-C is in the domain
+    // now (closed; modelerror.h) and must sit in the domain triangle beside A-C, so that its
+    // error counts now and whenever that triangle changes; it may be in the old triangle's
+    // bucket, which the step did not touch: an exterior one (the outline moved out over the
+    // point, whose error was 0 outside) or the domain one (the outline moved in to A-C and the
+    // point would go to the exterior side). Re-located with both sides at hand, it goes to the
+    // domain side (its value, |z - the heights interpolated along A-C|, depends on A, C and the
+    // point only, so the greedy key stays local to x's star).
+    errorRemoved_ = cdt_.journalRemovedSlots;
+    errorAdded_ = added_;
+    if (boundaryStep_) {
+        const std::uint32_t h = cdt_.findEdge(a, c);
+        assert(h != Cdt::kNone);
+        for (const std::uint32_t e : {h, cdt_.tn[h]}) {
+            const std::uint32_t t = e / 3;
+            if (cdt_.isGhost(t) || std::find(added_.begin(), added_.end(), t) != added_.end())
+                continue;
+            errorRemoved_.push_back(t);
+            errorAdded_.push_back(t);
+        }
+    }
 }
 
 void Sequence::setBoundary(PointId x, PointId a, PointId c, bool deleted) {
@@ -623,7 +647,7 @@ void Sequence::record(PointId x, PointId a, PointId c) {
     rec_.removedEdgeOffset.push_back(std::uint32_t(rec_.removedEdges.size()));
     rec_.addedEdgeOffset.push_back(std::uint32_t(rec_.addedEdges.size()));
     if (options_.maxError) {
-        const double vertical = error_.updateMax(cdt_, cdt_.journalRemovedSlots, added_);
+        const double vertical = error_.updateMax(cdt_, errorRemoved_, errorAdded_);
         const double river = chainDeviation(x);
         const double stepError = std::max(vertical, river);
         runningMax_ = std::max(runningMax_, stepError);
@@ -649,7 +673,7 @@ void Sequence::record(PointId x, PointId a, PointId c) {
 double Sequence::trialError(PointId x, PointId a, PointId c) {
     cdt_.beginTrial();
     apply(x, a, c);
-    const double vertical = error_.evaluateMax(cdt_, cdt_.journalRemovedSlots, added_);
+    const double vertical = error_.evaluateMax(cdt_, errorRemoved_, errorAdded_);
     // Only x's star changed (no flip outside it for A-C): the key depends on nothing else, and
     // every change to the star evaluates x again.
     local_[x] = cdt_.journalRemovedSlots.size() == tris_.size() ? 1 : 0;
@@ -776,8 +800,8 @@ bool Sequence::runGreedy(const BaiKeys& keys, std::string& error) {
             // delete for real on a trial and keep it only when it causes exactly the key.
             cdt_.beginTrial();
             apply(x, a, c);
-            const double realised = std::max(
-                error_.evaluateMax(cdt_, cdt_.journalRemovedSlots, added_), chainDeviation(x));
+            const double realised =
+                std::max(error_.evaluateMax(cdt_, errorRemoved_, errorAdded_), chainDeviation(x));
             const double now =
                 a != kNil && !boundaryStep_ && keys_ != nullptr ? keys_->key(x, realised) : realised;
             if (now != key) {

@@ -134,10 +134,22 @@ void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool 
             extraTri.reserve(extra->size());
             std::uint32_t at = realTriangleAt(cdt, cdt.representative[keys[0].second]);
             for (const ExtraSample& e : *extra) {
-                const std::uint32_t t = cdt.locateGridFrom(e.gx, e.gy, at);
+                std::uint32_t t = cdt.locateGridFrom(e.gx, e.gy, at);
                 if (cdt.isGhost(t)) {
                     extraTri.push_back(kNil);
                     continue;
+                }
+                if (!cdt.inDomain(t)) {
+                    // On the outline the point is in the domain (closed, as locateError decides
+                    // later): the domain triangle across the edge it lies on holds it.
+                    for (std::uint32_t h = 3 * t; h < 3 * t + 3; ++h) {
+                        const PointId u = cdt.origin(h), w = cdt.destination(h);
+                        if (orient2d(cdt.gx[u], cdt.gy[u], cdt.gx[w], cdt.gy[w], e.gx, e.gy) == 0 &&
+                            cdt.inDomain(cdt.tn[h] / 3)) {
+                            t = cdt.tn[h] / 3;
+                            break;
+                        }
+                    }
                 }
                 at = t;
                 extraTri.push_back(t);

@@ -5,7 +5,9 @@
 // `max`: max over m in M of |z_m - S(x_m, y_m)|, S the current triangulated surface (linear on
 //   each triangle, heights of the vertices' own points). Maintained incrementally: every original
 //   point sits in the bucket of one triangle that covers it (exact integer point-in-triangle
-//   test); after a step only the points of the destroyed triangles are re-located among the
+//   test; a point on the outline in a domain triangle's: the domain is closed, and a ring step
+//   hands the triangle across its new outline edge over as changed, deletion.cpp apply); after
+//   a step only the points of the destroyed triangles are re-located among the
 //   created triangles and re-evaluated. Points outside the step's region keep their value, so the
 //   running maximum over steps is max(previous running maximum, the re-evaluated values). Each
 //   triangle's points are one contiguous range of a pool (the step appends the created
