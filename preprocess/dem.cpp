@@ -161,6 +161,9 @@ double metresPerUnit(const std::string& unit) {
 }
 
 int utmEpsgFor(double lon, double lat) {
+    // Beyond UTM's latitudes (84 N, 80 S) the polar stereographic UPS grids.
+    if (lat > 84) return 32661;
+    if (lat < -80) return 32761;
     // Normalise 0..360 longitudes; zones are 6 degrees wide starting at -180.
     double l = std::fmod(lon + 180.0, 360.0);
     if (l < 0) l += 360.0;
@@ -257,6 +260,26 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
         assumed.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
         srcSrs = &assumed;
         assumedWkt = toWkt(assumed);
+    }
+    if (srcSrs != nullptr && srcSrs->IsGeographic()) {
+        // Degrees: latitudes beyond the poles are a georeferencing mistake (a projected grid
+        // labelled as geographic, swapped axes), which would otherwise surface later as "no
+        // valid data" or rivers that "cannot be transformed".
+        const double lat0 = gt[3], lat1 = gt[3] + ds->GetRasterYSize() * gt[5];
+        const double lon0 = gt[0], lon1 = gt[0] + ds->GetRasterXSize() * gt[1];
+        const double eps = 1e-9;
+        if (std::max(std::fabs(lat0), std::fabs(lat1)) > 90 + eps ||
+            std::max(std::fabs(lon0), std::fabs(lon1)) > 540 + eps) {
+            char buf[200];
+            std::snprintf(buf, sizeof buf,
+                          "': a geographic raster (degrees) spanning latitudes %.6g to %.6g and "
+                          "longitudes %.6g to %.6g, beyond the poles: its georeferencing is wrong",
+                          std::min(lat0, lat1), std::max(lat0, lat1), std::min(lon0, lon1),
+                          std::max(lon0, lon1));
+            error = "DEM '" + path + buf +
+                    " (a projected grid labelled as geographic? give its CRS with --s-srs)";
+            return false;
+        }
     }
     OGRSpatialReference target;
     bool warp = false;

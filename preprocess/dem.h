@@ -63,7 +63,8 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
 // A short display name of a CRS given as WKT: "name (AUTH:CODE)", "none" for an empty WKT.
 std::string crsDisplayName(const std::string& wkt);
 
-// EPSG code of the WGS 84 UTM zone containing (lon, lat) in degrees.
+// EPSG code of the WGS 84 UTM zone containing (lon, lat) in degrees; beyond UTM's latitudes
+// (84 N, 80 S) the polar stereographic UPS North (32661) or South (32761).
 int utmEpsgFor(double lon, double lat);
 
 }  // namespace unilod

@@ -295,9 +295,35 @@ TEST(Dem, Errors) {
     EXPECT_NE(error.find("nodata"), std::string::npos) << error;
     EXPECT_TRUE(dem.z.empty());
 
+    // Degrees beyond the poles: a wrong georeferencing, named as such.
+    const std::string pole = dir.file("beyond_pole.tif");
+    const double beyond[6] = {-54.0, 1.0, 0.0, 116.5, 0.0, -1.0};
+    writeTiff(pole, 4, 54, {std::vector<double>(4 * 54, 100.0)}, GDT_Float32, beyond, 4326);
+    EXPECT_FALSE(loadDem(pole, {}, dem, error));
+    EXPECT_NE(error.find(pole), std::string::npos) << error;
+    EXPECT_NE(error.find("latitudes 62.5 to 116.5"), std::string::npos) << error;
+    EXPECT_NE(error.find("beyond the poles"), std::string::npos) << error;
+
     // A vector file is not a raster either.
     EXPECT_FALSE(loadDem(kAssets + "/jacksboro_rivers_grass.geojson", {}, dem, error));
     EXPECT_NE(error.find("jacksboro_rivers_grass.geojson"), std::string::npos) << error;
+}
+
+// Near a pole a geographic DEM goes to the polar stereographic grid (UPS), not to a UTM zone
+// stretched far beyond its latitudes.
+TEST(Dem, PolarDemIsWarpedToUps) {
+    TempDir dir("polar");
+    const std::string path = dir.file("antarctic.tif");
+    const double gt[6] = {10.0, 0.01, 0.0, -84.0, 0.0, -0.01};
+    writeTiff(path, 20, 20, {std::vector<double>(400, 2500.0)}, GDT_Float32, gt, 4326);
+    DemGrid dem;
+    std::string error;
+    ASSERT_TRUE(loadDem(path, {}, dem, error)) << error;
+    OGRSpatialReference srs;
+    ASSERT_EQ(srs.importFromWkt(dem.wkt.c_str()), OGRERR_NONE);
+    const char* code = srs.GetAuthorityCode(nullptr);
+    ASSERT_NE(code, nullptr);
+    EXPECT_STREQ(code, "32761");
 }
 
 TEST(Dem, UtmZoneChoice) {
@@ -307,6 +333,10 @@ TEST(Dem, UtmZoneChoice) {
     EXPECT_EQ(utmEpsgFor(-180.0, 0.0), 32601);
     EXPECT_EQ(utmEpsgFor(179.9, 1.0), 32660);
     EXPECT_EQ(utmEpsgFor(181.0, 1.0), 32601);  // wraps
+    EXPECT_EQ(utmEpsgFor(10.0, 84.5), 32661);  // beyond UTM: UPS North
+    EXPECT_EQ(utmEpsgFor(10.0, 84.0), 32632);
+    EXPECT_EQ(utmEpsgFor(-60.0, -80.5), 32761);  // UPS South
+    EXPECT_EQ(utmEpsgFor(-60.0, -80.0), 32721);
 }
 
 TEST(Dem, ElevationUnitNames) {
