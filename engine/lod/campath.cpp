@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <sstream>
 
 #include "atomicfile.h"
@@ -127,6 +128,26 @@ CameraPath defaultFlyOver(const format::Header& h) {
     a.pitchDegrees = b.pitchDegrees = -25;
     p.keyframes = {a, b};
     return p;
+}
+
+Camera defaultOverview(const format::Header& h) {
+    const double cx = (h.minX + h.maxX) / 2, cy = (h.minY + h.maxY) / 2, cz = (h.minZ + h.maxZ) / 2;
+    const double dx = h.maxX - h.minX, dy = h.maxY - h.minY, dz = h.maxZ - h.minZ;
+    const double radius = 0.5 * std::sqrt(dx * dx + dy * dy + dz * dz);
+    Camera c;
+    c.fovDegrees = 60;
+    // The bounding sphere would fit the vertical field of view at 1 / sin(fov / 2); a flat model
+    // seen from 35 degrees fills less, so 0.8 of that still leaves a margin (tests/engine
+    // test_capture: every image corner is background).
+    const double distance =
+        0.8 * std::max(radius, 1.0) / std::sin(c.fovDegrees * std::numbers::pi / 360);
+    const double elevation = 35 * std::numbers::pi / 180;
+    c.eye[0] = cx;
+    c.eye[1] = cy - distance * std::cos(elevation);
+    c.eye[2] = cz + distance * std::sin(elevation);
+    c.yawDegrees = 0;
+    c.pitchDegrees = -35;
+    return c;
 }
 
 }  // namespace unilod::engine

@@ -31,4 +31,8 @@ bool validCamera(const Camera& camera);
 // south-west corner to the north-east one.
 CameraPath defaultFlyOver(const format::Header& header);
 
+// `unilod capture`'s camera without --camera or --path: the whole model in view, seen from the
+// south 35 degrees above the horizon, looking at its centre (60 degree field of view).
+Camera defaultOverview(const format::Header& header);
+
 }  // namespace unilod::engine

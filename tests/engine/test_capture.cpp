@@ -256,6 +256,42 @@ TEST_F(Capture, BadInputExitsNonZeroWithoutOutput) {
     EXPECT_FALSE(fs::exists(frame));
 }
 
+// Without --camera or --path a capture renders one overview of the whole model: every corner of
+// the image is background (the model fits) and the middle is terrain; both options at once are a
+// usage error.
+TEST_F(Capture, WithoutACameraOneOverviewFrame) {
+    const fs::path out = dir_ / "default";
+    auto r =
+        runCli("capture " + q(file_) + " --validation --size 160x120 --out " + q(out.string()));
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.err.find("validation"), std::string::npos) << r.err;
+    Image image;
+    ASSERT_TRUE(readPng((out / "frame_0000.png").string(), image));
+    ASSERT_EQ(image.width, 160u);
+    auto pixel = [&](std::uint32_t x, std::uint32_t y) {
+        const std::size_t i = 4 * (std::size_t(y) * image.width + x);
+        return std::uint32_t(image.rgba[i]) << 16 | std::uint32_t(image.rgba[i + 1]) << 8 |
+               image.rgba[i + 2];
+    };
+    const std::uint32_t background = pixel(0, 0);
+    EXPECT_EQ(pixel(159, 0), background);
+    EXPECT_EQ(pixel(0, 119), background);
+    EXPECT_EQ(pixel(159, 119), background);
+    std::set<std::uint32_t> colours;
+    for (std::uint32_t y = 50; y < 70; ++y)
+        for (std::uint32_t x = 70; x < 90; ++x)
+            colours.insert(pixel(x, y));
+    EXPECT_FALSE(colours.count(background)) << "the middle of the image is terrain";
+    EXPECT_GT(colours.size(), 20u);
+    EXPECT_FALSE(fs::exists(out / "frame_0001.png"));
+    const fs::path both = dir_ / "both";
+    r = runCli("capture " + q(file_) + " --camera 0,0,1000,0,-45 --path x.json --out " +
+               q(both.string()));
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.err.find("not both"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(both / "frame_0000.png"));
+}
+
 }  // namespace
 
 // Issue 17: a DEM with a round nodata hole in its middle that covers the middle block of a 3 x 3

@@ -1,4 +1,4 @@
-// `unilod capture FILE (--camera x,y,z,yaw,pitch | --path PATH.json) [--frames N] [--size WxH]
+// `unilod capture FILE [--camera x,y,z,yaw,pitch | --path PATH.json] [--frames N] [--size WxH]
 // [--pixels P] ... -o DIR`: headless frames of a .ulod file with the streamed per-block LOD
 // (engine/capture.h), written as DIR/frame_NNNN.png + .json. Malformed options are usage errors
 // (exit 2); an unreadable file, a camera out of range or no Vulkan device are data errors (1), and
@@ -35,8 +35,8 @@ struct CaptureCli {
 
 int run(CaptureCli& c) {
     if (!c.engine.apply(c.o.scene, c.o.device, c.o.width, c.o.height, "capture")) return 2;
-    if (c.camera.empty() == c.cameraPath.empty()) {
-        std::fprintf(stderr, "unilod capture: error: give exactly one of --camera and --path\n");
+    if (!c.camera.empty() && !c.cameraPath.empty()) {
+        std::fprintf(stderr, "unilod capture: error: give one of --camera and --path, not both\n");
         return 2;
     }
     std::string error;
@@ -53,6 +53,15 @@ int run(CaptureCli& c) {
         cam.pitchDegrees = c.camera[4];
         cam.fovDegrees = c.fov;
         path.keyframes.push_back(cam);
+    } else if (c.cameraPath.empty()) {
+        // Neither: an overview of the whole model (engine::defaultOverview).
+        format::Reader reader;
+        if (!reader.open(c.o.path, error)) {
+            std::fprintf(stderr, "unilod capture: error: %s\n",
+                         errorForFile(c.o.path, error).c_str());
+            return 1;
+        }
+        path.keyframes.push_back(engine::defaultOverview(reader.header()));
     } else if (!engine::loadCameraPath(c.cameraPath, path, error)) {
         std::fprintf(stderr, "unilod capture: error: %s\n", error.c_str());
         return 1;
@@ -104,7 +113,7 @@ void addCaptureCommand(CLI::App& app, int& exitCode) {
     sub->add_option("FILE", c->o.path, ".ulod file")->required();
     sub->add_option("--camera", c->camera,
                     "eye x,y,z (file CRS, metres), yaw (0 = north, 90 = east), pitch (< 0 down) "
-                    "in degrees")
+                    "in degrees (default, without --path: the whole model seen from the south)")
         ->delimiter(',')
         ->expected(5);
     sub->add_option("--path", c->cameraPath,
