@@ -8,6 +8,8 @@
 #include <ogr_spatialref.h>
 #include <ogrsf_frmts.h>
 
+#include <cmath>
+#include <cstdio>
 #include <memory>
 
 #include "atomicfile.h"
@@ -141,9 +143,11 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
         }
     }
 
-    // Appends one line, transformed. False on a transformation failure.
+    // Appends one line, transformed. False on a transformation failure (`failedAt`: the first
+    // vertex that failed, in the layer's coordinates).
     std::vector<double> xs, ys;
     std::vector<int> ok;
+    double failedAt[2] = {NAN, NAN};
     auto addLine = [&](const OGRLineString& line) {
         const int n = line.getNumPoints();
         xs.resize(n);
@@ -154,9 +158,14 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
         }
         if (ct && n > 0) {
             ok.assign(n, 0);
-            if (!ct->Transform(n, xs.data(), ys.data(), nullptr, ok.data())) return false;
-            for (int v : ok) {
-                if (!v) return false;
+            const bool all = ct->Transform(n, xs.data(), ys.data(), nullptr, ok.data());
+            for (int i = 0; i < n; ++i) {
+                if (!all || !ok[i]) {
+                    const int at = ok[i] ? 0 : i;
+                    failedAt[0] = line.getX(at);
+                    failedAt[1] = line.getY(at);
+                    return false;
+                }
             }
         }
         RiverLine& l = out.emplace_back();
@@ -186,8 +195,19 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
                 break;  // points, polygons: not rivers
         }
         if (!good) {
-            error = what + ": feature " + std::to_string(feature->GetFID()) +
+            const OGRSpatialReference* declared = layer->GetSpatialRef();
+            char at[96];
+            std::snprintf(at, sizeof at, " (vertex %.10g, %.10g)", failedAt[0], failedAt[1]);
+            error = what + ": feature " + std::to_string(feature->GetFID()) + at +
                     " cannot be transformed to the DEM's CRS" + gdalErrorSuffix();
+            // Projected numbers in a layer that says degrees (a GeoJSON file without a "crs"
+            // member is WGS 84 longitude / latitude by definition).
+            if (declared != nullptr && declared->IsGeographic() &&
+                (std::fabs(failedAt[0]) > 360 || std::fabs(failedAt[1]) > 90))
+                error +=
+                    "; the layer's CRS is geographic (degrees) but this vertex is not a "
+                    "longitude / latitude: assign the right CRS (ogr2ogr -a_srs EPSG:...), "
+                    "a GeoJSON file without a \"crs\" member is WGS 84 by definition";
             out.clear();
             return false;
         }

@@ -373,6 +373,26 @@ TEST(CliBuildBad, RiversOutsideTheDem) {
     expectRejected(c, run(build(c, c.in("dem.tif"), rivers)), 1, rivers, "no river vertex lies");
 }
 
+// A GeoJSON file without a "crs" member is WGS 84 by definition; projected numbers in it (a common
+// export mistake) cannot be transformed: the message names the vertex and the likely cause.
+TEST(CliBuildBad, ProjectedNumbersInADegreesLayer) {
+    Case c("rivers_degrees");
+    c.writeGood();
+    const std::string rivers = c.in("utm_numbers.geojson");
+    std::string text = geoJson({lineString(Case::mainRiver())});
+    const std::string crs =
+        "\"crs\":{\"type\":\"name\",\"properties\":"
+        "{\"name\":\"urn:ogc:def:crs:EPSG::32616\"}},";
+    ASSERT_NE(text.find(crs), std::string::npos);
+    text.erase(text.find(crs), crs.size());
+    writeText(rivers, text);
+    const Result r = run(build(c, c.in("dem.tif"), rivers));
+    expectRejected(c, r, 1, rivers, "cannot be transformed to the DEM's CRS");
+    EXPECT_NE(r.err.find("(vertex 300"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("not a longitude / latitude"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("without a \"crs\" member is WGS 84"), std::string::npos) << r.err;
+}
+
 TEST(CliBuildBad, RiversWithoutCrs) {
     Case c("rivers_nocrs");
     c.writeGood();
