@@ -453,10 +453,14 @@ std::vector<RiverPiece> BlockSource::cutAtOutline(const std::vector<RiverPiece>&
         out[0] = dem.centreX(i * s);
         out[1] = dem.centreY(j * s);
     };
-    // Inside a full lattice square (the square below-left of the vertex, clamped).
+    // Inside a full lattice square (the square below-left of the vertex, clamped), and within
+    // the lattice: with --stride the DEM's last rows and columns may lie beyond it (1e-9 for the
+    // rounding of a vertex on the lattice's outer edge).
     auto vertexInside = [&](const RiverVertex& v) {
         double fi, fj;
         lattice(v, fi, fj);
+        if (!(fi >= -1e-9 && fi <= nodesX_ - 1 + 1e-9 && fj >= -1e-9 && fj <= nodesY_ - 1 + 1e-9))
+            return false;
         const int i = std::clamp(int(std::floor(fi)), 0, std::max(0, nodesX_ - 2));
         const int j = std::clamp(int(std::floor(fj)), 0, std::max(0, nodesY_ - 2));
         return validCorners(i, j) == 4;

@@ -507,7 +507,8 @@ void Cdt::traceSegment(PointId a, PointId b, Trace& trace) const {
     }
 }
 
-bool Cdt::insertSegment(PointId a, PointId b, std::vector<PointId>& path, std::string& error) {
+bool Cdt::insertSegment(PointId a, PointId b, std::vector<PointId>& path, std::string& error,
+                        bool river) {
     assert(a != b);
     path.clear();
     path.push_back(a);
@@ -528,6 +529,15 @@ bool Cdt::insertSegment(PointId a, PointId b, std::vector<PointId>& path, std::s
             if (trace_.crossed.empty()) h = findEdge(cur, end);
         }
         if (h != kNone) {
+            if (isConstrained(h) && river && isBoundaryEdge(cur, end)) {
+                // A river along a ring edge: the edge is both (locked ends: never removed).
+                riverOnBoundary.insert(edgeKey(std::min(cur, end), std::max(cur, end)));
+                locked[cur] = 1;
+                locked[end] = 1;
+                path.push_back(end);
+                cur = end;
+                continue;
+            }
             if (isConstrained(h)) {
                 error = "river segments overlap: " + std::to_string(a) + "-" + std::to_string(b) +
                         " runs along the river edge " + std::to_string(cur) + "-" +
@@ -1098,7 +1108,7 @@ bool buildCdt(const PointSet& set, const CdtOptions& options, Cdt& cdt, std::str
                 continue;
             }
             std::string why;
-            if (!cdt.insertSegment(out.back(), v, path, why)) {
+            if (!cdt.insertSegment(out.back(), v, path, why, true)) {
                 error =
                     "river " + std::to_string(r) + " segment " + std::to_string(s - 1) + ": " + why;
                 return false;
@@ -1157,7 +1167,8 @@ std::vector<RiverEdge> collectRiverEdges(const Cdt& cdt) {
     for (std::uint32_t h = 0; h < cdt.tv.size(); ++h) {
         if (!cdt.triangleAlive(h / 3) || !cdt.isConstrained(h)) continue;
         const PointId u = cdt.origin(h), w = cdt.destination(h);
-        if (u < w && !cdt.isBoundaryEdge(u, w)) out.push_back({u, w});
+        if (u < w && (!cdt.isBoundaryEdge(u, w) || cdt.isRiverOnBoundary(u, w)))
+            out.push_back({u, w});
     }
     std::sort(out.begin(), out.end());
     return out;

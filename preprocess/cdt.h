@@ -90,6 +90,14 @@ public:
 
     // --- Domain (above). Directed ring edges u -> w (the domain on the left) as edgeKey(u, w).
     std::unordered_set<std::uint64_t> boundary;
+    // Ring edges a river runs along (a river on a block border line, the DEM's edge or a nodata
+    // outline: streams traced along a raster row do), as edgeKey(min, max): river edges as well
+    // (collectRiverEdges). Their ends are locked, so no step ever removes such an edge.
+    std::unordered_set<std::uint64_t> riverOnBoundary;
+    bool isRiverOnBoundary(PointId u, PointId w) const {
+        return !riverOnBoundary.empty() &&
+               riverOnBoundary.count(edgeKey(std::min(u, w), std::max(u, w))) != 0;
+    }
     PointId frameFirst = kGhost;  // first frame vertex id; kGhost: no frame
     static std::uint64_t edgeKey(PointId u, PointId w) { return (std::uint64_t(u) << 32) | w; }
     bool boundaryDirected(PointId u, PointId w) const {
@@ -194,8 +202,10 @@ public:
 
     // Inserts the constraint a-b (a != b). Vertices on the segment split it: `path` receives
     // a, the vertices met, b. Returns false with `error` set when the segment crosses a
-    // constraint or overlaps one.
-    bool insertSegment(PointId a, PointId b, std::vector<PointId>& path, std::string& error);
+    // constraint or overlaps one. `river`: a river segment, which may run along ring edges
+    // (riverOnBoundary; their ends are locked).
+    bool insertSegment(PointId a, PointId b, std::vector<PointId>& path, std::string& error,
+                       bool river = false);
 
     // Removes the interior vertex v (no ghost triangle at v) and re-triangulates its star so that
     // the mesh is again constrained Delaunay. Constraint edges at v disappear (the caller keeps

@@ -318,7 +318,10 @@ bool checkCdt(const Cdt& cdt, const CheckReference& ref, const std::vector<River
             ringEdges += cdt.isBoundaryEdge(u, w);
         }
     }
-    if (constrained != edges.size() + ringEdges) {
+    std::uint32_t shared = 0;  // river edges along ring edges (Cdt::riverOnBoundary)
+    for (const RiverEdge& e : edges)
+        shared += cdt.isBoundaryEdge(e.a, e.b);
+    if (constrained + shared != edges.size() + ringEdges) {
         return fail("the mesh has " + std::to_string(constrained) + " constraint edges but " +
                     std::to_string(edges.size()) + " river edges and " +
                     std::to_string(ringEdges) + " boundary edges are expected");

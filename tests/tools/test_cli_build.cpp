@@ -855,6 +855,48 @@ TEST(CliBuildAnyDem, RiversTouchingABlockBorderMeetTheNeighbourEdgeToEdge) {
     }
 }
 
+// Rivers traced along raster rows and columns (streams vectorised from a DEM run along cell
+// centres): one along a block border row, one along the DEM's west edge, one along a nodata hole's
+// side. A river edge along a ring edge (a block's border, the domain's outline) is both; the build
+// used to refuse it ("river segments overlap: ... runs along the river edge"). Now the model holds
+// those river edges (locked ends) and passes `check --errors`; also with --stride 2, where the
+// DEM's last row lies beyond the sampled lattice (a river vertex there is off the domain).
+TEST(CliBuildAnyDem, RiversAlongBlockBordersAndTheOutline) {
+    Case c("rivers_along");
+    writeTiff(c.in("dem.tif"), kSize, kSize + 1, 1, [](int col, int row) {
+        return col >= 24 && col <= 28 && row >= 30 && row <= 36 ? std::nan("") : terrain(col, row);
+    });
+    writeText(c.in("rivers.geojson"),
+              geoJson({lineString({{3, 16}, {7, 16}, {12, 16}, {20, 16}, {30, 16}, {33, 19.5}}),
+                       lineString({{0, 5}, {0, 9}, {0, 20}, {4.5, 23.2}}),
+                       lineString({{23, 31}, {23, 33}, {23, 35}, {20.2, 38.3}}),
+                       lineString({{10, 37.5}, {10, 40}, {12, 40}})}));
+    for (const std::string extra : {"", "--no-tree", "--order 3ddp", "--stride 2"}) {
+        SCOPED_TRACE(extra);
+        fs::remove(c.out());
+        const Result r = run(build(c, c.in("dem.tif"), c.in("rivers.geojson"), extra));
+        expectAcceptedAndChecked(c, r);
+        const Result errors = run("check -q --errors " + q(c.out()));
+        EXPECT_EQ(errors.code, 0) << errors.err;
+        if (!extra.empty()) continue;
+        // River edges along the border row y = wy(16), in the blocks beside it.
+        test::Model model;
+        std::string error;
+        ASSERT_TRUE(test::readModel(c.out(), model, error)) << error;
+        std::size_t along = 0;
+        for (const format::Block& b : model.blocks) {
+            if (b.level != 0) continue;
+            const format::Level& l0 = b.levels.front();
+            for (std::uint32_t i = 0; i < l0.riverCount; ++i) {
+                const format::Edge& e = b.riverIndices[l0.riverFirst + i];
+                const double ya = b.originY + b.vertices[e.a].y, yb = b.originY + b.vertices[e.b].y;
+                along += std::fabs(ya - wy(16)) < 1e-3 && std::fabs(yb - wy(16)) < 1e-3;
+            }
+        }
+        EXPECT_GE(along, 2u * 27u) << "every cell of the border run, in both blocks beside it";
+    }
+}
+
 // `order` ingests exactly as `build` does: on a DEM that is one block, it ranks the points of
 // the `build --order 3ddp` model, in the same order.
 TEST(CliBuildAnyDem, OrderRanksThePointsBuildRanks) {
