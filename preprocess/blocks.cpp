@@ -91,21 +91,27 @@ bool BlockSource::init(const DemGrid& dem, const RiverLines& rivers, const Block
     // same grid point: one block would hold the vertex, the neighbour the crossing, and the two
     // would meet off each other's border (a sub-millimetre crack; a tree node above them could not
     // merge them).
-    std::vector<double> snapX, snapY;  // interior border lines
+    std::vector<double> snapX, snapY;  // interior border lines, ascending
     for (std::size_t k = 1; k + 1 < borderCols_.size(); ++k)
         snapX.push_back(dem.centreX(borderCols_[k]));
     for (std::size_t k = 1; k + 1 < borderRows_.size(); ++k)
         snapY.push_back(dem.centreY(borderRows_[k]));
-    const auto onGrid = [](double a, double b) {
-        return std::round(a / format::kGridUnit) == std::round(b / format::kGridUnit);
+    std::sort(snapX.begin(), snapX.end());
+    std::sort(snapY.begin(), snapY.end());
+    const auto snap = [](double& c, const std::vector<double>& lines) {
+        // The lines either side of c (blocks are wider than the grid unit: at most one matches).
+        const auto at = std::lower_bound(lines.begin(), lines.end(), c);
+        const double q = std::round(c / format::kGridUnit);
+        if (at != lines.end() && std::round(*at / format::kGridUnit) == q)
+            c = *at;
+        else if (at != lines.begin() && std::round(*(at - 1) / format::kGridUnit) == q)
+            c = *(at - 1);
     };
     for (const RiverPiece& rawPiece : raw) {
         RiverPiece piece = rawPiece;
         for (RiverVertex& v : piece) {
-            for (double x : snapX)
-                if (onGrid(v.x, x)) v.x = x;
-            for (double y : snapY)
-                if (onGrid(v.y, y)) v.y = y;
+            snap(v.x, snapX);
+            snap(v.y, snapY);
         }
         RiverPiece out{piece.front()};
         for (std::size_t i = 0; i + 1 < piece.size(); ++i) {
