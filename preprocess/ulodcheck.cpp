@@ -354,17 +354,20 @@ class SharedBorders {
 public:
     void add(std::size_t entry, const format::Block& b) {
         const format::Level& l0 = b.levels.front();
-        std::set<std::pair<std::uint32_t, std::uint32_t>> directed;
+        std::vector<std::pair<std::uint32_t, std::uint32_t>> directed;  // sorted, then searched
+        directed.reserve(3 * std::size_t(l0.triangleCount));
         for (std::uint32_t i = 0; i < l0.triangleCount; ++i) {
             const format::Triangle& t = b.terrainIndices[l0.triangleFirst + i];
-            directed.insert({t.a, t.b});
-            directed.insert({t.b, t.c});
-            directed.insert({t.c, t.a});
+            directed.push_back({t.a, t.b});
+            directed.push_back({t.b, t.c});
+            directed.push_back({t.c, t.a});
         }
+        std::sort(directed.begin(), directed.end());
         const std::int64_t ox = std::llround(b.originX / format::kGridUnit);
         const std::int64_t oy = std::llround(b.originY / format::kGridUnit);
         for (const auto& [u, w] : directed) {
-            if (directed.count({w, u})) continue;
+            if (std::binary_search(directed.begin(), directed.end(), std::make_pair(w, u)))
+                continue;
             Edge e;
             e.entry = entry;
             e.col = b.col;
