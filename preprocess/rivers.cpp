@@ -8,6 +8,7 @@
 #include <ogr_spatialref.h>
 #include <ogrsf_frmts.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -159,13 +160,12 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
         if (ct && n > 0) {
             ok.assign(n, 0);
             const bool all = ct->Transform(n, xs.data(), ys.data(), nullptr, ok.data());
-            for (int i = 0; i < n; ++i) {
-                if (!all || !ok[i]) {
-                    const int at = ok[i] ? 0 : i;
-                    failedAt[0] = line.getX(at);
-                    failedAt[1] = line.getY(at);
-                    return false;
-                }
+            const int bad = int(std::find(ok.begin(), ok.end(), 0) - ok.begin());
+            if (!all || bad < n) {
+                const int at = bad < n ? bad : 0;  // the first that failed (else the line's)
+                failedAt[0] = line.getX(at);
+                failedAt[1] = line.getY(at);
+                return false;
             }
         }
         RiverLine& l = out.emplace_back();
