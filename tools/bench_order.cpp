@@ -36,19 +36,22 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "benchbuild.h"
+#include "benchutil.h"
 #include "campath.h"
 #include "cut.h"
-#include "benchutil.h"
 #include "dem.h"
 #include "greedytin.h"
 #include "jsontext.h"
 #include "modelerror.h"
+#include "refine.h"
 #include "stats.h"
 #include "synthetic.h"
 #include "ulod.h"
@@ -315,6 +318,9 @@ json treeBenchmark(const std::string& path, const std::vector<double>& errors) {
 //   h_lim(p) = lod.h blockTolerance for a box that is the point alone (S = |p - eye|, the same
 //   P-pixel bound the cut applies per box: the tightest a per-point method can use), points off
 //   screen need nothing (weight 0; greedytin.h setWeights); its triangles that meet the frustum.
+// - the cut with every drawn leaf selectively refined from its deletion records instead of drawn
+//   at a stored level (lod/refine.h; tree nodes keep their stored level): `refined_triangles`,
+//   `refined_triangles_in_view`, `refine_seconds` (the CPU time of the refinements).
 // The TIN is the Garland-Heckbert method with the engine's own screen-space criterion at point
 // granularity: what a view-dependent simplification of the same DEM needs, rivers aside (run it
 // on a model built without rivers for the like-for-like ratio).
@@ -344,6 +350,21 @@ json viewBenchmark(const std::string& path, const std::string& cameraPath, std::
         return unilod::engine::boxInFrustum(c, aspect, lo, hi);
     };
     json rows = json::array();
+    std::map<std::uint32_t, std::unique_ptr<unilod::engine::Refinement>> refinements;
+    std::map<std::uint32_t, std::vector<unilod::format::Vertex>> refinedVertexCache;
+    const auto refineVertices =
+        [&](std::uint32_t block) -> const std::vector<unilod::format::Vertex>& {
+        auto it = refinedVertexCache.find(block);
+        if (it == refinedVertexCache.end()) {
+            unilod::format::BlockGeometry g;
+            if (!reader.readGeometry(block, unilod::format::kAllLevels, g, error)) fail(error);
+            it = refinedVertexCache.emplace(block, std::move(g.vertices)).first;
+        }
+        return it->second;
+    };
+    unilod::engine::RefinedMesh mesh;
+    double refineSeconds = 0;
+    std::uint64_t sumRefined = 0, sumRefinedInView = 0;
     std::vector<double> ratios;
     std::uint64_t sumCut = 0, sumCutInView = 0, sumTin = 0, sumBlockTin = 0;
     double tinSeconds = 0;
@@ -378,9 +399,42 @@ json viewBenchmark(const std::string& path, const std::string& cameraPath, std::
         v.pixels = pixels;
         std::vector<unilod::engine::NodeChoice> cut;
         unilod::engine::selectCut(v, nodes, unilod::format::kMetricMax, cut);
-        std::uint64_t drawn = 0, drawnInView = 0;
+        std::uint64_t drawn = 0, drawnInView = 0, refined = 0, refinedInView = 0, refinedLeaves = 0;
         for (const unilod::engine::NodeChoice& n : cut) {
             drawn += (*nodes[n.block].levels)[n.wanted.level].triangleCount;
+            std::uint64_t levelInView = 0;
+            // Selective refinement of a leaf's records (lod/refine.h) instead of its stored
+            // level, where the leaf can be refined.
+            auto known = refinements.find(n.block);
+            if (known == refinements.end()) {
+                unilod::format::Block b;
+                if (!reader.readBlock(n.block, b, error)) fail(error);
+                auto r = std::make_unique<unilod::engine::Refinement>();
+                std::string why;
+                if (!r->init(b, why)) r.reset();
+                known = refinements.emplace(n.block, std::move(r)).first;
+            }
+            const bool useMt = known->second != nullptr;
+            if (useMt) {
+                const auto t0 = std::chrono::steady_clock::now();
+                known->second->refine(v, mesh);
+                refineSeconds +=
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+                refined += mesh.triangles.size();
+                const unilod::format::BlockInfo& info = reader.blocks()[n.block];
+                for (const unilod::format::Triangle& t : mesh.triangles) {
+                    double p[3][3];
+                    const std::uint32_t corner[3] = {t.a, t.b, t.c};
+                    for (int k = 0; k < 3; ++k) {
+                        const unilod::format::Vertex& q = refineVertices(n.block)[corner[k]];
+                        p[k][0] = info.originX + q.x;
+                        p[k][1] = info.originY + q.y;
+                        p[k][2] = q.z;
+                    }
+                    refinedInView += inView(c, p[0], p[1], p[2]);
+                }
+                ++refinedLeaves;
+            }
             unilod::format::BlockGeometry g;
             if (!reader.readGeometry(n.block, int(n.wanted.level), g, error)) fail(error);
             for (const unilod::format::Triangle& t : g.terrainIndices) {
@@ -392,7 +446,12 @@ json viewBenchmark(const std::string& path, const std::string& cameraPath, std::
                     p[k][1] = g.originY + q.y;
                     p[k][2] = q.z;
                 }
-                drawnInView += inView(c, p[0], p[1], p[2]);
+                levelInView += inView(c, p[0], p[1], p[2]);
+            }
+            drawnInView += levelInView;
+            if (!useMt) {
+                refined += (*nodes[n.block].levels)[n.wanted.level].triangleCount;
+                refinedInView += levelInView;
             }
         }
         // Each point's own tolerance (a box of one point), 0 weight off screen.
@@ -439,12 +498,17 @@ json viewBenchmark(const std::string& path, const std::string& cameraPath, std::
         if (tinInView > 0) ratios.push_back(ratio);
         sumCut += drawn;
         sumCutInView += drawnInView;
+        sumRefined += refined;
+        sumRefinedInView += refinedInView;
         sumTin += tinInView;
         sumBlockTin += blockTinInView;
         rows.push_back({{"frame", f},
                         {"cut_draws", cut.size()},
                         {"cut_triangles", drawn},
                         {"cut_triangles_in_view", drawnInView},
+                        {"refined_triangles", refined},
+                        {"refined_triangles_in_view", refinedInView},
+                        {"refined_leaves", refinedLeaves},
                         {"points_on_screen", onScreen},
                         {"view_tin_vertices", tinVertices},
                         {"node_tolerance_tin_triangles_in_view", blockTinInView},
@@ -465,8 +529,10 @@ json viewBenchmark(const std::string& path, const std::string& cameraPath, std::
             {"sum_cut_triangles", sumCut},
             {"sum_cut_triangles_in_view", sumCutInView},
             {"sum_view_tin_triangles_in_view", sumTin},
-            {"ratio_of_sums_in_view",
-             sumTin > 0 ? double(sumCutInView) / double(sumTin) : 0.0},
+            {"sum_refined_triangles", sumRefined},
+            {"refine_seconds", refineSeconds},
+            {"sum_refined_triangles_in_view", sumRefinedInView},
+            {"ratio_of_sums_in_view", sumTin > 0 ? double(sumCutInView) / double(sumTin) : 0.0},
             {"sum_node_tolerance_tin_triangles_in_view", sumBlockTin},
             {"median_ratio_in_view", ratios.empty() ? 0.0 : ratios[ratios.size() / 2]}};
 }

@@ -1,0 +1,385 @@
+#include "refine.h"
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+#include <utility>
+
+#include "predicates.h"
+
+namespace unilod::engine {
+
+namespace {
+
+// A triangle's identity: its vertices rotated to start at the smallest (orientation kept).
+std::uint64_t triangleKey(const format::Triangle& t) {
+    const std::uint32_t v[3] = {t.a, t.b, t.c};
+    int r = 0;
+    if (v[1] < v[r]) r = 1;
+    if (v[2] < v[r]) r = 2;
+    return (std::uint64_t(v[r]) << 42) | (std::uint64_t(v[(r + 1) % 3]) << 21) |
+           std::uint64_t(v[(r + 2) % 3]);
+}
+
+std::uint64_t edgeKey(const format::Edge& e) {
+    return (std::uint64_t(e.a) << 32) | e.b;
+}
+
+void grow(double lo[3], double hi[3], double x, double y, double z) {
+    lo[0] = std::min(lo[0], x), hi[0] = std::max(hi[0], x);
+    lo[1] = std::min(lo[1], y), hi[1] = std::max(hi[1], y);
+    lo[2] = std::min(lo[2], z), hi[2] = std::max(hi[2], z);
+}
+
+// The block's vertices (its original points) in a uniform grid of buckets over their grid
+// positions, about one point per bucket.
+class PointBuckets {
+public:
+    explicit PointBuckets(const format::Block& b) : b_(b) {
+        lo_[0] = lo_[1] = INT64_MAX;
+        std::int64_t hi[2] = {INT64_MIN, INT64_MIN};
+        for (const format::GridXY& g : b.grid) {
+            lo_[0] = std::min<std::int64_t>(lo_[0], g.x),
+            hi[0] = std::max<std::int64_t>(hi[0], g.x);
+            lo_[1] = std::min<std::int64_t>(lo_[1], g.y),
+            hi[1] = std::max<std::int64_t>(hi[1], g.y);
+        }
+        // side_: grid units a bucket, about sqrt(n) buckets a row.
+        const std::int64_t cells =
+            std::max<std::int64_t>(1, std::int64_t(std::sqrt(double(b.grid.size()))));
+        side_ = std::max<std::int64_t>(1, std::max(hi[0] - lo_[0], hi[1] - lo_[1]) / cells + 1);
+        size_[0] = (hi[0] - lo_[0]) / side_ + 1;
+        size_[1] = (hi[1] - lo_[1]) / side_ + 1;
+        first_.assign(std::size_t(size_[0] * size_[1]) + 1, 0);
+        for (const format::GridXY& g : b.grid)
+            ++first_[cell(g.x, g.y) + 1];
+        for (std::size_t c = 1; c < first_.size(); ++c)
+            first_[c] += first_[c - 1];
+        points_.resize(b.grid.size());
+        std::vector<std::uint32_t> at(first_.begin(), first_.end() - 1);
+        for (std::uint32_t v = 0; v < b.grid.size(); ++v)
+            points_[at[cell(b.grid[v].x, b.grid[v].y)]++] = v;
+    }
+
+    // Whether vertex v lies in the closed triangle t (grid positions, exact).
+    bool contains(const format::Triangle& t, std::uint32_t v) const {
+        const format::GridXY a = b_.grid[t.a], b = b_.grid[t.b], c = b_.grid[t.c], p = b_.grid[v];
+        return unilod::orient2d(a.x, a.y, b.x, b.y, p.x, p.y) >= 0 &&
+               unilod::orient2d(b.x, b.y, c.x, c.y, p.x, p.y) >= 0 &&
+               unilod::orient2d(c.x, c.y, a.x, a.y, p.x, p.y) >= 0;
+    }
+
+    // Calls f(v) for every vertex v in the closed triangle t (grid positions, exact).
+    template <typename F>
+    void inTriangle(const format::Triangle& t, F&& f) const {
+        const format::GridXY a = b_.grid[t.a], b = b_.grid[t.b], c = b_.grid[t.c];
+        const std::int64_t x0 = std::min({a.x, b.x, c.x}), x1 = std::max({a.x, b.x, c.x});
+        const std::int64_t y0 = std::min({a.y, b.y, c.y}), y1 = std::max({a.y, b.y, c.y});
+        for (std::int64_t j = (y0 - lo_[1]) / side_; j <= (y1 - lo_[1]) / side_; ++j)
+            for (std::int64_t i = (x0 - lo_[0]) / side_; i <= (x1 - lo_[0]) / side_; ++i) {
+                const std::size_t k = std::size_t(j * size_[0] + i);
+                for (std::uint32_t n = first_[k]; n < first_[k + 1]; ++n) {
+                    const std::uint32_t v = points_[n];
+                    const format::GridXY p = b_.grid[v];
+                    if (p.x < x0 || p.x > x1 || p.y < y0 || p.y > y1) continue;
+                    if (unilod::orient2d(a.x, a.y, b.x, b.y, p.x, p.y) < 0 ||
+                        unilod::orient2d(b.x, b.y, c.x, c.y, p.x, p.y) < 0 ||
+                        unilod::orient2d(c.x, c.y, a.x, a.y, p.x, p.y) < 0)
+                        continue;
+                    f(v);
+                }
+            }
+    }
+
+private:
+    std::size_t cell(std::int64_t x, std::int64_t y) const {
+        return std::size_t(((y - lo_[1]) / side_) * size_[0] + (x - lo_[0]) / side_);
+    }
+    const format::Block& b_;
+    std::int64_t lo_[2] = {}, size_[2] = {}, side_ = 1;
+    std::vector<std::uint32_t> first_, points_;
+};
+
+// The outer boundary of a set of triangles: its directed edges whose reverse is not in the set,
+// sorted.
+void outerBoundary(const format::Triangle* first, const format::Triangle* last,
+                   std::vector<std::uint64_t>& all, std::vector<std::uint64_t>& out) {
+    all.clear();
+    for (const format::Triangle* t = first; t != last; ++t) {
+        all.push_back((std::uint64_t(t->a) << 32) | t->b);
+        all.push_back((std::uint64_t(t->b) << 32) | t->c);
+        all.push_back((std::uint64_t(t->c) << 32) | t->a);
+    }
+    std::sort(all.begin(), all.end());
+    out.clear();
+    for (const std::uint64_t e : all) {
+        const std::uint64_t reverse = (e << 32) | (e >> 32);
+        if (!std::binary_search(all.begin(), all.end(), reverse)) out.push_back(e);
+    }
+}
+
+}  // namespace
+
+bool Refinement::init(const format::Block& b, std::string& why) {
+    *this = Refinement{};
+    const std::size_t n = b.vertices.size();
+    if (b.firstChild != format::kNoChild || b.level != 0) {
+        why = "a tree node (its original points are its leaves')";
+        return false;
+    }
+    if (b.grid.size() != n || n == 0 || b.levels.empty()) {
+        why = "no grid positions";
+        return false;
+    }
+    if (n >= (std::size_t{1} << 21)) {
+        why = "more than 2^21 vertices";
+        return false;
+    }
+    const double unit = format::kGridUnit;
+    // A vertex in metres from the block origin (exact grid x, y; the file's z).
+    const auto px = [&](std::uint32_t v) { return b.grid[v].x * unit; };
+    const auto py = [&](std::uint32_t v) { return b.grid[v].y * unit; };
+    const auto pz = [&](std::uint32_t v) { return double(b.vertices[v].z); };
+
+    std::unordered_map<std::uint64_t, std::uint32_t> triangleId, edgeId;
+    const format::Level& full = b.levels.front();
+    for (std::uint32_t t = full.triangleFirst; t < full.triangleFirst + full.triangleCount; ++t) {
+        triangleId[triangleKey(b.terrainIndices[t])] = std::uint32_t(triangles_.size());
+        triangles_.push_back(b.terrainIndices[t]);
+        triangleCreator_.push_back(0);
+        triangleDestroyer_.push_back(0);
+    }
+    fullTriangles_ = full.triangleCount;
+    // What each river edge alive stands for: the original river vertices strictly between its
+    // ends (full resolution: none).
+    std::vector<std::vector<std::uint32_t>> cover;
+    for (std::uint32_t e = full.riverFirst; e < full.riverFirst + full.riverCount; ++e) {
+        edgeId[edgeKey(b.riverIndices[e])] = std::uint32_t(edges_.size());
+        edges_.push_back(b.riverIndices[e]);
+        edgeCreator_.push_back(0);
+        edgeDestroyer_.push_back(0);
+        cover.emplace_back();
+    }
+    horizontal_ = full.riverCount > 0 || format::outlineMoves(b);
+
+    const PointBuckets buckets(b);
+    steps_.reserve(b.steps.size());
+    std::vector<std::uint32_t> merged;
+    std::vector<std::uint64_t> removedOuter, addedOuter, scratch, newOutline;
+    std::vector<std::uint32_t> outside;
+    // The original points outside the domain each outline edge (directed, as its triangle has
+    // it) stands for; full resolution: none.
+    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> outlineCover;
+    outerBoundary(b.terrainIndices.data() + full.triangleFirst,
+                  b.terrainIndices.data() + full.triangleFirst + full.triangleCount, scratch,
+                  removedOuter);
+    for (const std::uint64_t e : removedOuter)
+        outlineCover[e] = {};
+    for (std::size_t s = 0; s < b.steps.size(); ++s) {
+        Step step;
+        for (int k = 0; k < 3; ++k)
+            step.boxMin[k] = INFINITY, step.boxMax[k] = -INFINITY;
+        step.parentFirst = std::uint32_t(parents_.size());
+        const std::uint32_t self = std::uint32_t(s + 1);
+        for (std::uint32_t r = b.removedTriangleOffset[s]; r < b.removedTriangleOffset[s + 1];
+             ++r) {
+            const auto it = triangleId.find(triangleKey(b.removedTriangles[r]));
+            if (it == triangleId.end() || triangleDestroyer_[it->second] != 0) {
+                *this = Refinement{};
+                why = "step " + std::to_string(s) + " removes a triangle that is not alive";
+                return false;
+            }
+            triangleDestroyer_[it->second] = self;
+            const std::uint32_t creator = triangleCreator_[it->second];
+            if (creator != 0 && std::find(parents_.begin() + step.parentFirst, parents_.end(),
+                                          creator) == parents_.end())
+                parents_.push_back(creator);
+        }
+        double vertical = 0;
+        for (std::uint32_t a = b.addedTriangleOffset[s]; a < b.addedTriangleOffset[s + 1]; ++a) {
+            const format::Triangle& t = b.addedTriangles[a];
+            triangleId[triangleKey(t)] = std::uint32_t(triangles_.size());
+            triangles_.push_back(t);
+            triangleCreator_.push_back(self);
+            triangleDestroyer_.push_back(0);
+            // The plane through the triangle: z = z_a + gx (x - x_a) + gy (y - y_a).
+            const double ux = px(t.b) - px(t.a), uy = py(t.b) - py(t.a), uz = pz(t.b) - pz(t.a);
+            const double wx = px(t.c) - px(t.a), wy = py(t.c) - py(t.a), wz = pz(t.c) - pz(t.a);
+            const double d = ux * wy - uy * wx;  // > 0: counter-clockwise, non-degenerate
+            const double gx = (uz * wy - uy * wz) / d, gy = (ux * wz - uz * wx) / d;
+            for (std::uint32_t v : {t.a, t.b, t.c})
+                grow(step.boxMin, step.boxMax, px(v), py(v), pz(v));
+            buckets.inTriangle(t, [&](std::uint32_t v) {
+                const double surface = pz(t.a) + gx * (px(v) - px(t.a)) + gy * (py(v) - py(t.a));
+                vertical = std::max(vertical, std::abs(surface - pz(v)));
+                grow(step.boxMin, step.boxMax, px(v), py(v), pz(v));
+            });
+        }
+        step.parentCount = std::uint32_t(parents_.size()) - step.parentFirst;
+        // The outline (blocks.h "Domain"): a step whose created triangles do not have the outer
+        // boundary of those it removes deleted an outline vertex. Its new outline edges stand
+        // for the original points outside the domain there: those the outline edges it ends
+        // stood for and those it leaves outside (in a removed triangle, in no created one). Their
+        // horizontal distance to the nearest new outline edge bounds their distance to the drawn
+        // outline, a horizontal displacement (the river part, as the build's outline deviation).
+        outerBoundary(b.removedTriangles.data() + b.removedTriangleOffset[s],
+                      b.removedTriangles.data() + b.removedTriangleOffset[s + 1], scratch,
+                      removedOuter);
+        outerBoundary(b.addedTriangles.data() + b.addedTriangleOffset[s],
+                      b.addedTriangles.data() + b.addedTriangleOffset[s + 1], scratch, addedOuter);
+        double outline = 0;
+        step.movesOutline = removedOuter != addedOuter;
+        if (step.movesOutline) {
+            // The outline edges this step ends (their points are reassigned) and starts: a
+            // boundary edge of the removed region that was outline goes; one that was not
+            // (a neighbour on its other side) now faces the exterior from that neighbour; a
+            // boundary edge of the created region faces the exterior unless a triangle across it
+            // had it as outline (the region grew into a notch).
+            outside.clear();
+            newOutline.clear();
+            const auto reverse = [](std::uint64_t e) { return (e << 32) | (e >> 32); };
+            const auto end = [&](std::uint64_t e) {
+                const auto it = outlineCover.find(e);
+                outside.insert(outside.end(), it->second.begin(), it->second.end());
+                outlineCover.erase(it);
+            };
+            for (const std::uint64_t e : removedOuter) {
+                if (std::binary_search(addedOuter.begin(), addedOuter.end(), e)) continue;
+                if (outlineCover.count(e) != 0)
+                    end(e);
+                else
+                    newOutline.push_back(reverse(e));
+            }
+            for (const std::uint64_t e : addedOuter) {
+                if (std::binary_search(removedOuter.begin(), removedOuter.end(), e)) continue;
+                if (outlineCover.count(reverse(e)) != 0)
+                    end(reverse(e));
+                else
+                    newOutline.push_back(e);
+            }
+            // The points the step leaves outside: in a removed triangle, in no created one.
+            const format::Triangle* added = b.addedTriangles.data() + b.addedTriangleOffset[s];
+            const format::Triangle* addedEnd =
+                b.addedTriangles.data() + b.addedTriangleOffset[s + 1];
+            for (std::uint32_t r = b.removedTriangleOffset[s]; r < b.removedTriangleOffset[s + 1];
+                 ++r)
+                buckets.inTriangle(b.removedTriangles[r],
+                                   [&](std::uint32_t v) { outside.push_back(v); });
+            std::sort(outside.begin(), outside.end());
+            outside.erase(std::unique(outside.begin(), outside.end()), outside.end());
+            // A point inside a created triangle is in the domain again (its vertical error
+            // counts above); the others stand with the new outline edges.
+            std::size_t kept = 0;
+            for (const std::uint32_t v : outside) {
+                bool inside = false;
+                for (const format::Triangle* t = added; t != addedEnd && !inside; ++t)
+                    inside = buckets.contains(*t, v);
+                if (!inside) outside[kept++] = v;
+            }
+            outside.resize(kept);
+            for (const std::uint32_t v : outside) {
+                double nearest = INFINITY;
+                for (const std::uint64_t e : newOutline) {
+                    const std::uint32_t a = std::uint32_t(e >> 32), c = std::uint32_t(e);
+                    const double dx = px(c) - px(a), dy = py(c) - py(a);
+                    const double qx = px(v) - px(a), qy = py(v) - py(a);
+                    const double length2 = dx * dx + dy * dy;
+                    const double f =
+                        length2 > 0 ? std::clamp((qx * dx + qy * dy) / length2, 0.0, 1.0) : 0.0;
+                    nearest = std::min(nearest, std::hypot(qx - f * dx, qy - f * dy));
+                }
+                outline = std::max(outline, nearest);
+                grow(step.boxMin, step.boxMax, px(v), py(v), pz(v));
+            }
+            for (const std::uint64_t e : newOutline)
+                outlineCover[e] = outside;
+        }
+        // River edges: the added edge stands for every original vertex its removed edges stood
+        // for, and for the removed vertex.
+        merged.clear();
+        for (std::uint32_t r = b.removedEdgeOffset[s]; r < b.removedEdgeOffset[s + 1]; ++r) {
+            const auto it = edgeId.find(edgeKey(b.removedEdges[r]));
+            if (it == edgeId.end() || edgeDestroyer_[it->second] != 0) {
+                *this = Refinement{};
+                why = "step " + std::to_string(s) + " removes a river edge that is not alive";
+                return false;
+            }
+            edgeDestroyer_[it->second] = self;
+            merged.insert(merged.end(), cover[it->second].begin(), cover[it->second].end());
+        }
+        if (b.removedEdgeOffset[s + 1] > b.removedEdgeOffset[s])
+            merged.push_back(b.steps[s].vertex);
+        double river = 0;
+        for (std::uint32_t a = b.addedEdgeOffset[s]; a < b.addedEdgeOffset[s + 1]; ++a) {
+            const format::Edge& e = b.addedEdges[a];
+            edgeId[edgeKey(e)] = std::uint32_t(edges_.size());
+            edges_.push_back(e);
+            edgeCreator_.push_back(self);
+            edgeDestroyer_.push_back(0);
+            const double dx = px(e.b) - px(e.a), dy = py(e.b) - py(e.a), dz = pz(e.b) - pz(e.a);
+            const double length2 = dx * dx + dy * dy + dz * dz;
+            for (std::uint32_t v : merged) {
+                const double qx = px(v) - px(e.a), qy = py(v) - py(e.a), qz = pz(v) - pz(e.a);
+                const double f = length2 > 0
+                                     ? std::clamp((qx * dx + qy * dy + qz * dz) / length2, 0.0, 1.0)
+                                     : 0.0;
+                const double rx = qx - f * dx, ry = qy - f * dy, rz = qz - f * dz;
+                river = std::max(river, std::sqrt(rx * rx + ry * ry + rz * rz));
+                grow(step.boxMin, step.boxMax, px(v), py(v), pz(v));
+            }
+            cover.push_back(merged);
+        }
+        river = std::max(river, outline);
+        // Rounded up to float: a stored bound never below the double value.
+        step.river = float(river);
+        if (double(step.river) < river) step.river = std::nextafter(step.river, INFINITY);
+        const double error = std::max(vertical, river);
+        step.error = float(error);
+        if (double(step.error) < error) step.error = std::nextafter(step.error, INFINITY);
+        if (!(step.boxMin[0] <= step.boxMax[0])) {  // nothing created: the vertex's own place
+            const std::uint32_t v = b.steps[s].vertex;
+            grow(step.boxMin, step.boxMax, px(v), py(v), pz(v));
+        }
+        for (int k = 0; k < 2; ++k) {  // world coordinates
+            const double origin = k == 0 ? b.originX : b.originY;
+            step.boxMin[k] += origin;
+            step.boxMax[k] += origin;
+        }
+        steps_.push_back(step);
+    }
+    return true;
+}
+
+void Refinement::refine(const ViewSpec& view, RefinedMesh& out) const {
+    std::vector<std::uint8_t> done(steps_.size() + 1, 0);
+    done[0] = 1;
+    LodNode node;
+    node.horizontal = horizontal_;
+    out.stepsDone = 0;
+    for (std::size_t s = 0; s < steps_.size(); ++s) {
+        const Step& step = steps_[s];
+        bool ready = true;
+        for (std::uint32_t p = 0; p < step.parentCount && ready; ++p)
+            ready = done[parents_[step.parentFirst + p]] != 0;
+        if (!ready) continue;
+        if (nodeVisible(view, step.boxMin, step.boxMax)) {
+            std::copy(step.boxMin, step.boxMin + 3, node.boxMin);
+            std::copy(step.boxMax, step.boxMax + 3, node.boxMax);
+            const NodeTolerance t = nodeTolerances(view, node);
+            if (!(double(step.error) <= t.vertical && double(step.river) <= t.river)) continue;
+        }
+        done[s + 1] = 1;
+        ++out.stepsDone;
+    }
+    out.triangles.clear();
+    for (std::size_t t = 0; t < triangles_.size(); ++t)
+        if (done[triangleCreator_[t]] &&
+            (triangleDestroyer_[t] == 0 || !done[triangleDestroyer_[t]]))
+            out.triangles.push_back(triangles_[t]);
+    out.riverEdges.clear();
+    for (std::size_t e = 0; e < edges_.size(); ++e)
+        if (done[edgeCreator_[e]] && (edgeDestroyer_[e] == 0 || !done[edgeDestroyer_[e]]))
+            out.riverEdges.push_back(edges_[e]);
+}
+
+}  // namespace unilod::engine

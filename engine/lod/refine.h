@@ -1,0 +1,96 @@
+// View-dependent selective refinement of one leaf block's deletion records (issues 15 and 18:
+// the per-entry tolerance of a stored level holds a whole 64-cell leaf to the tolerance of its
+// nearest column; bench_order --view measured that granularity at 1.5-1.9x the triangles of a
+// per-point view-dependent TIN on the bundled fly-over).
+//
+// The paper records every deletion step's topology change (removed and added triangles and river
+// edges). Read as a Multi-Triangulation (De Floriani, Magillo and Puppo, "Efficient
+// implementation of multi-triangulations", IEEE Visualization 1998; the same idea as Hoppe's
+// view-dependent progressive meshes, SIGGRAPH 1997), step k depends on step j < k when k removes a
+// triangle that j created. Any set D of steps closed under that relation gives a conforming
+// triangulation of the block: apply D's steps in ascending order; each finds every triangle it
+// removes alive (their creators are in D, their destroyer is the step itself) and replaces them by
+// triangles with the same outer boundary. The alive triangles are those whose creator is in D (or
+// that are at full resolution) and whose destroyer is not. The block's outer border and its
+// locked points never change, so a refined block meets its neighbours as its stored levels do.
+//
+// The error of a step is its OWN realised error, not the running maximum the stored levels keep:
+// computed here from the block's own data (the original points are the block's vertices, as
+// `unilod check --errors` takes them): vertical, the largest |z - plane| of an original point in
+// (or on) one of the created triangles (located exactly on the grid positions); river, the largest
+// 3D distance from the original river vertices an added river edge stands for to that edge. A
+// triangle alive in a refined mesh was created by a step of D (or is original), so every original
+// point's vertical deviation, and every original river vertex's distance to its drawn river edge,
+// is bounded by the error of a step in D: refine() takes a step only when its error fits the
+// tolerance of the step's own box (lod/cut.h nodeTolerances of a box holding its created
+// triangles, the original points under them and the river vertices its edges stand for), or the
+// box is off screen. So the P-pixel bound of the cut holds for every original point on screen,
+// with per-step instead of per-entry granularity.
+//
+// A step that moves the block's outline (blocks.h "Domain": an outline vertex deleted, its
+// created triangles do not have the outer boundary of those it removes) also has a horizontal
+// error: the largest distance from the original points outside the domain there (those the
+// removed outline edges stood for, and those it leaves outside) to its new outline edges, part of
+// the river part as in the build (both are horizontal displacements, bounded without sin(phi)).
+//
+// Not refined (init() says why; the engine keeps the stored levels for them): tree nodes (their
+// original points are the leaves', not their own vertices), blocks without grid positions, and
+// records that are not pure replacements.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "cut.h"
+#include "ulod.h"
+
+namespace unilod::engine {
+
+struct RefinedMesh {
+    std::vector<format::Triangle> triangles;  // counter-clockwise, vertex indices of the block
+    std::vector<format::Edge> riverEdges;     // a < b
+    std::uint32_t stepsDone = 0;
+};
+
+class Refinement {
+public:
+    // From a whole block (Reader::readBlock: validated). False with the reason when the block is
+    // not refined (above); the object is then empty.
+    bool init(const format::Block& block, std::string& why);
+
+    // The refined mesh for `view`: step k is done when every step it depends on is done and its
+    // box is off screen (nodeVisible false) or its errors fit nodeTolerances(view, box) (vertical
+    // part against `vertical`, river part against `river`; a block with rivers is `horizontal`,
+    // as lod/cut.h LodNode). `out` is overwritten.
+    void refine(const ViewSpec& view, RefinedMesh& out) const;
+
+    std::size_t steps() const { return steps_.size(); }
+    std::uint32_t fullTriangles() const { return fullTriangles_; }
+    // The realised errors of step k (metres): vertical (with the river part: max of both) and
+    // river part.
+    float stepError(std::size_t k) const { return steps_[k].error; }
+    float stepRiverError(std::size_t k) const { return steps_[k].river; }
+    // Whether step k moves the outline (an outline vertex deleted).
+    bool stepMovesOutline(std::size_t k) const { return steps_[k].movesOutline; }
+
+private:
+    struct Step {
+        double boxMin[3], boxMax[3];
+        float error = 0, river = 0;
+        bool movesOutline = false;
+        std::uint32_t parentFirst = 0, parentCount = 0;
+    };
+    std::vector<Step> steps_;
+    std::vector<std::uint32_t> parents_;  // step index + 1
+    // Every triangle and river edge of the records, with its creator and destroyer (step index
+    // + 1; 0: full resolution / never destroyed).
+    std::vector<format::Triangle> triangles_;
+    std::vector<std::uint32_t> triangleCreator_, triangleDestroyer_;
+    std::vector<format::Edge> edges_;
+    std::vector<std::uint32_t> edgeCreator_, edgeDestroyer_;
+    std::uint32_t fullTriangles_ = 0;
+    bool horizontal_ = false;
+};
+
+}  // namespace unilod::engine
