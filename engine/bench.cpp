@@ -35,7 +35,9 @@ nlohmann::json summary(std::vector<double> v) {
 struct RunData {
     std::vector<double> frameMs, cpuMs, gpuMs;
     std::vector<FrameStats> stats;
-    std::vector<std::vector<DrawBlock>> drawLists;  // "resident" keeps them for "bare"
+    // "resident" keeps its draw lists for "bare", with their refined index data.
+    std::vector<std::vector<DrawBlock>> drawLists;
+    std::vector<std::vector<std::uint32_t>> refinedIndices;
     double seconds = 0;
     // The renderer's open: device, pipelines and the scene (the directory, level table and roots;
     // for the preloaded runs every entry too). 0 for `bare`, which uses the resident run's.
@@ -133,9 +135,10 @@ nlohmann::json runJson(const RunData& r, bool perFrame) {
     return j;
 }
 
-// One run over the path. `bareLists`: replay these instead of selecting (the bare run).
+// One run over the path. `bareLists`: the resident run whose draw lists (and their refined index
+// data) are replayed instead of selecting (the bare run).
 bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
-         const std::vector<std::vector<DrawBlock>>* bareLists, RunData& data, std::string& error) {
+         const RunData* bareLists, RunData& data, std::string& error) {
     const std::size_t n = o.cameras.size();
     // Warm-up on the first camera (pipelines, caches, the GPU's clock), not measured: at least
     // o.warmup frames and o.warmupMs of wall time.
@@ -147,7 +150,7 @@ bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
         ++data.warmupFrames;
         const FrameView view = renderer.view(o.cameras.front());
         if (bareLists)
-            renderer.renderBareFrame(view, (*bareLists)[0]);
+            renderer.renderBareFrame(view, bareLists->drawLists[0], bareLists->refinedIndices[0]);
         else if (!renderer.renderFrame(view, true, nullptr, error))
             return false;
         else
@@ -171,18 +174,21 @@ bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
         }
         const FrameView view = renderer.view(o.cameras[i]);
         if (bareLists) {
-            renderer.renderBareFrame(view, (*bareLists)[i]);
+            renderer.renderBareFrame(view, bareLists->drawLists[i], bareLists->refinedIndices[i]);
             FrameStats s;
-            for (const DrawBlock& d : (*bareLists)[i])
+            for (const DrawBlock& d : bareLists->drawLists[i])
                 s.triangles += d.terrainCount / 3;
-            s.visibleBlocks = std::uint32_t((*bareLists)[i].size());
+            s.visibleBlocks = std::uint32_t(bareLists->drawLists[i].size());
             s.loaderBytesRead = renderer.scene().stats().loaderBytesRead;
             s.loaderSeconds = renderer.scene().stats().loaderSeconds;
             stats.push_back(s);
         } else {
             if (!renderer.renderFrame(view, true, nullptr, error)) return false;
             stats.push_back(renderer.scene().stats());
-            if (keepLists) data.drawLists.push_back(renderer.scene().drawList());
+            if (keepLists) {
+                data.drawLists.push_back(renderer.scene().drawList());
+                data.refinedIndices.push_back(renderer.scene().refinedIndices());
+            }
         }
         if (paced) {
             // The frame's own cost: wait for it (the next one starts at its tick anyway).
@@ -298,11 +304,12 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
             }
             if (ok && has("bare")) {
                 say("bare: the resident run's draws replayed");
-                ok = run(r, o, false, &resident.drawLists, bare, error);
+                ok = run(r, o, false, &resident, bare, error);
             }
             closeRenderer(r);
             if (!ok) return false;
             resident.drawLists.clear();
+            resident.refinedIndices.clear();
         }
         if (has("full")) {
             SceneOptions scene = o.scene;

@@ -73,6 +73,8 @@ nlohmann::json frameJson(const CaptureOptions& options, const Camera& c, const C
              {"h_s_river", b.wanted.riverError},
              {"next_level_error",
               b.wanted.nextError < 0 ? nlohmann::json() : nlohmann::json(b.wanted.nextError)},
+             {"refined", b.refined},
+             {"steps_done", b.stepsDone},
              {"triangles", b.triangles},
              {"river_edges", b.riverEdges}});
     }

@@ -22,6 +22,7 @@ struct HeadlessRenderer::Impl {
         VkFence fence = VK_NULL_HANDLE;
         bool pending = false;
         FrameTiming timing;
+        DynamicIndices bareIndices;  // renderBareFrame's refined index data
     } slots[kFramesInFlight];
     std::uint64_t nextFrame = 0;
     std::int64_t completed = -1;
@@ -91,8 +92,10 @@ std::vector<std::string> HeadlessRenderer::close() {
     if (!h.deviceOpen) return {};
     VK_CHECK(vkDeviceWaitIdle(h.device.device));
     if (h.queries) vkDestroyQueryPool(h.device.device, h.queries, nullptr);
-    for (auto& slot : h.slots)
+    for (auto& slot : h.slots) {
         if (slot.fence) vkDestroyFence(h.device.device, slot.fence, nullptr);
+        slot.bareIndices.destroy(h.device);
+    }
     if (h.pool) vkDestroyCommandPool(h.device.device, h.pool, nullptr);
     destroyPipelines(h.device, h.pipelines);
     destroyOffscreen(h.device, h.offscreen);
@@ -109,17 +112,18 @@ std::vector<std::string> HeadlessRenderer::close() {
 
 bool HeadlessRenderer::renderFrame(const FrameView& view, bool draw,
                                    std::vector<std::uint8_t>* rgba, std::string& error) {
-    return record(view, draw, nullptr, rgba, error);
+    return record(view, draw, nullptr, nullptr, rgba, error);
 }
 
-void HeadlessRenderer::renderBareFrame(const FrameView& view, const std::vector<DrawBlock>& draws) {
+void HeadlessRenderer::renderBareFrame(const FrameView& view, const std::vector<DrawBlock>& draws,
+                                       const std::vector<std::uint32_t>& indices) {
     std::string error;
-    record(view, true, &draws, nullptr, error);
+    record(view, true, &draws, &indices, nullptr, error);
 }
 
-bool HeadlessRenderer::record(const FrameView& view, bool draw,
-                              const std::vector<DrawBlock>* bare, std::vector<std::uint8_t>* rgba,
-                              std::string& error) {
+bool HeadlessRenderer::record(const FrameView& view, bool draw, const std::vector<DrawBlock>* bare,
+                              const std::vector<std::uint32_t>* bareIndices,
+                              std::vector<std::uint8_t>* rgba, std::string& error) {
     Impl& h = *impl_;
     const std::uint64_t frame = h.nextFrame++;
     const std::uint32_t index = std::uint32_t(frame % kFramesInFlight);
@@ -150,9 +154,11 @@ bool HeadlessRenderer::record(const FrameView& view, bool draw,
         pass.clearValueCount = 2;
         pass.pClearValues = clears;
         vkCmdBeginRenderPass(slot.cmd, &pass, VK_SUBPASS_CONTENTS_INLINE);
-        if (bare)
-            recordDraws(slot.cmd, h.pipelines, h.scene.geometryBuffer(), view, *bare);
-        else
+        if (bare) {
+            slot.bareIndices.write(h.device, *bareIndices);
+            recordDraws(slot.cmd, h.pipelines, h.scene.geometryBuffer(), view, *bare,
+                        slot.bareIndices.buffer.buffer);
+        } else
             h.scene.draw(slot.cmd, h.pipelines, view);
         vkCmdEndRenderPass(slot.cmd);
         if (rgba) recordReadback(slot.cmd, h.offscreen);

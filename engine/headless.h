@@ -47,9 +47,11 @@ public:
     // message on a scene data error.
     bool renderFrame(const FrameView& view, bool draw, std::vector<std::uint8_t>* rgba,
                      std::string& error);
-    // A bare frame: `draws` (in the scene's geometry buffer) recorded as they are, with no
-    // level selection and no streaming (the benchmark's baseline).
-    void renderBareFrame(const FrameView& view, const std::vector<DrawBlock>& draws);
+    // A bare frame: `draws` (in the scene's geometry buffer; the `dynamic` ones in `indices`,
+    // as StreamingScene::refinedIndices gave them) recorded as they are, with no level
+    // selection and no streaming (the benchmark's baseline).
+    void renderBareFrame(const FrameView& view, const std::vector<DrawBlock>& draws,
+                         const std::vector<std::uint32_t>& indices);
     // Waits for every submitted frame; their timings in submission order since the last call.
     std::vector<FrameTiming> finish();
 
@@ -62,7 +64,8 @@ public:
 
 private:
     bool record(const FrameView& view, bool draw, const std::vector<DrawBlock>* bare,
-                std::vector<std::uint8_t>* rgba, std::string& error);
+                const std::vector<std::uint32_t>* bareIndices, std::vector<std::uint8_t>* rgba,
+                std::string& error);
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };

@@ -429,7 +429,8 @@ void destroyPipelines(const Device& device, Pipelines& pipelines) {
 }
 
 void recordDraws(VkCommandBuffer cmd, const Pipelines& pipelines, VkBuffer geometry,
-                 const FrameView& view, const std::vector<DrawBlock>& blocks) {
+                 const FrameView& view, const std::vector<DrawBlock>& blocks,
+                 VkBuffer dynamicIndices) {
     const VkViewport viewport{0, 0, float(view.width), float(view.height), 0, 1};
     const VkRect2D scissor{{0, 0}, {view.width, view.height}};
     vkCmdSetViewport(cmd, 0, 1, &viewport);
@@ -443,13 +444,19 @@ void recordDraws(VkCommandBuffer cmd, const Pipelines& pipelines, VkBuffer geome
                               : perspectiveViewProjection(camera, aspect);
     constants.zRange = shader::vec4(float(view.minZ), float(view.maxZ), grid ? 1.0f : 0.0f,
                                     grid ? 0.0f : shader::kRiverDepthBias);
-    vkCmdBindIndexBuffer(cmd, geometry, 0, VK_INDEX_TYPE_UINT32);
     for (int pass = 0; pass < (view.rivers ? 2 : 1); ++pass) {
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
                           pass == 1 ? pipelines.river : grid ? pipelines.wire : pipelines.terrain);
+        VkBuffer bound = VK_NULL_HANDLE;
         for (const DrawBlock& b : blocks) {
             const std::uint32_t count = pass == 0 ? b.terrainCount : b.riverCount;
             if (count == 0) continue;
+            const VkBuffer indices = b.dynamic ? dynamicIndices : geometry;
+            assert(indices != VK_NULL_HANDLE);
+            if (indices != bound) {
+                vkCmdBindIndexBuffer(cmd, indices, 0, VK_INDEX_TYPE_UINT32);
+                bound = indices;
+            }
             vkCmdBindVertexBuffers(cmd, 0, 1, &geometry, &b.vertexOffset);
             // Offsets in double, then float: block-relative floats stay precise.
             constants.blockOffset =
@@ -461,6 +468,20 @@ void recordDraws(VkCommandBuffer cmd, const Pipelines& pipelines, VkBuffer geome
             vkCmdDrawIndexed(cmd, count, 1, pass == 0 ? b.terrainFirst : b.riverFirst, 0, 0);
         }
     }
+}
+
+void DynamicIndices::write(const Device& device, const std::vector<std::uint32_t>& words) {
+    const VkDeviceSize bytes = words.size() * sizeof(std::uint32_t);
+    if (bytes == 0) return;
+    if (buffer.size < bytes) {
+        destroyBuffer(device, buffer);
+        // Room to grow: a view that refines a little more next frame does not reallocate.
+        createBuffer(device, std::max<VkDeviceSize>(bytes + bytes / 2, 1 << 16),
+                     VK_BUFFER_USAGE_INDEX_BUFFER_BIT,
+                     VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                     buffer);
+    }
+    std::memcpy(buffer.mapped, words.data(), bytes);
 }
 
 void recordReadback(VkCommandBuffer cmd, const Offscreen& offscreen) {

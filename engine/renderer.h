@@ -99,17 +99,31 @@ struct FrameView {
 
 // One block's draw: vertices at byte `vertexOffset` of the geometry buffer, index ranges in
 // units of uint32 from the start of the same buffer (terrain: triangle lists, rivers: lines).
+// `dynamic`: the index ranges are in the frame's dynamic index buffer instead (a block refined
+// for the view, scene.h SceneOptions::refine), from its start.
 struct DrawBlock {
     VkDeviceSize vertexOffset = 0;
     std::uint32_t terrainFirst = 0, terrainCount = 0;  // indices
     std::uint32_t riverFirst = 0, riverCount = 0;      // indices
     double originX = 0, originY = 0;                   // block origin (world)
+    bool dynamic = false;
 };
 
 // Records, inside a render pass of the pipelines' kind, the terrain of every block, then the
 // rivers (their depth test needs the terrain's depth). Sets viewport and scissor to the view.
+// `dynamicIndices`: the buffer of the `dynamic` draws' indices (needed when one is).
 void recordDraws(VkCommandBuffer cmd, const Pipelines& pipelines, VkBuffer geometry,
-                 const FrameView& view, const std::vector<DrawBlock>& blocks);
+                 const FrameView& view, const std::vector<DrawBlock>& blocks,
+                 VkBuffer dynamicIndices = VK_NULL_HANDLE);
+
+// A host-visible index buffer rewritten every frame (one per frame in flight): the refined
+// blocks' indices, which the GPU reads once (a few hundred KB a frame). write() grows it as
+// needed (the caller has waited for the frame that last used it) and copies the words.
+struct DynamicIndices {
+    Buffer buffer;
+    void write(const Device& device, const std::vector<std::uint32_t>& words);
+    void destroy(const Device& device) { destroyBuffer(device, buffer); }
+};
 
 // Records into a one-shot command buffer, submits it and waits (startup uploads).
 void submitAndWait(const Device& device, const std::function<void(VkCommandBuffer)>& record);

@@ -13,6 +13,7 @@
 #include <deque>
 #include <exception>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <new>
 #include <set>
@@ -99,8 +100,9 @@ struct Packed {
     std::uint64_t vertexBytes = 0, terrainBytes = 0;
 };
 
-void pack(const format::BlockGeometry& g, std::uint64_t terrainTriangles, std::uint64_t riverEdges,
-          Packed& out) {
+// `g`: a format::BlockGeometry or a whole format::Block (the same three arrays).
+template <typename G>
+void pack(const G& g, std::uint64_t terrainTriangles, std::uint64_t riverEdges, Packed& out) {
     out.vertexBytes = g.vertices.size() * sizeof(format::Vertex);
     out.terrainBytes = terrainTriangles * sizeof(format::Triangle);
     const std::uint64_t riverBytes = riverEdges * sizeof(format::Edge);
@@ -159,6 +161,9 @@ struct BlockState {
     // coarse: the last level only, always resident, for a root (an entry with no tree parent:
     // every block of a file without a tree); full: every level, streamed.
     Allocation coarse, full;
+    // With `full`: the entry's deletion records for refinement (SceneOptions::refine; null for a
+    // tree node or a leaf refine.h does not refine).
+    std::shared_ptr<const Refinement> refinement;
     std::uint32_t parent = kNoParent;
     std::uint32_t treeLevel = 0;
     std::uint64_t lastUsedFrame = 0;
@@ -168,6 +173,7 @@ struct BlockState {
 struct Loaded {
     std::uint32_t block = 0;
     Packed packed;
+    std::shared_ptr<const Refinement> refinement;
     std::string error;
 };
 
@@ -178,6 +184,7 @@ struct Release {
 
 struct Staging {
     Buffer buffer;
+    DynamicIndices refined;  // the frame's refined index data (SceneOptions::refine)
 };
 
 }  // namespace
@@ -199,6 +206,9 @@ struct StreamingScene::Impl {
     std::uint64_t spaceEpoch = 0;
     std::vector<BlockSelection> selection;
     std::vector<DrawBlock> draws;
+    std::vector<std::uint32_t> refinedWords;  // the last prepare()'s refined index data
+    std::uint32_t slot = 0;                   // the last prepare()'s frame slot
+    RefinedMesh mesh;                         // scratch
     FrameStats stats;
 
     // Loader thread state, under `mutex`.
@@ -263,6 +273,34 @@ struct StreamingScene::Impl {
         return true;
     }
 
+    // Reads, validates and packs an entry's full geometry (every level); with
+    // SceneOptions::refine a leaf is read whole and its records prepared for refinement
+    // (refine.h; left null where it does not apply). Thread-safe (pread).
+    bool readEntry(std::uint32_t index, Packed& packed,
+                   std::shared_ptr<const Refinement>& refinement, std::string& error) const {
+        const BlockState& b = blocks[index];
+        const auto fits = [&](const auto& g) {
+            if (g.terrainIndices.size() >= b.terrainTriangles &&
+                g.riverIndices.size() >= b.riverEdges)
+                return true;
+            error = reader.path() + ": block arrays shorter than its levels";
+            return false;
+        };
+        if (options.refine && b.info.level == 0 && b.info.childCount == 0) {
+            format::Block block;
+            if (!reader.readBlock(index, block, error) || !fits(block)) return false;
+            pack(block, b.terrainTriangles, b.riverEdges, packed);
+            auto r = std::make_shared<Refinement>();
+            std::string why;
+            if (r->init(block, why)) refinement = std::move(r);
+            return true;
+        }
+        format::BlockGeometry g;
+        if (!reader.readGeometry(index, format::kAllLevels, g, error) || !fits(g)) return false;
+        pack(g, b.terrainTriangles, b.riverEdges, packed);
+        return true;
+    }
+
     void loaderMain() {
         for (;;) {
             std::uint32_t index;
@@ -278,20 +316,13 @@ struct StreamingScene::Impl {
             item.block = index;
             const auto t0 = std::chrono::steady_clock::now();
             try {
-                format::BlockGeometry g;
-                if (reader.readGeometry(index, format::kAllLevels, g, item.error)) {
-                    const BlockState& b = blocks[index];
-                    if (g.terrainIndices.size() < b.terrainTriangles ||
-                        g.riverIndices.size() < b.riverEdges)
-                        item.error = reader.path() + ": block arrays shorter than its levels";
-                    else
-                        pack(g, b.terrainTriangles, b.riverEdges, item.packed);
-                }
+                readEntry(index, item.packed, item.refinement, item.error);
             } catch (const std::bad_alloc&) {
                 // A memory limit (the entry's sizes are bounded by its bytes at open): the frame
                 // that needs it fails with this message, as for a damaged entry.
                 const format::BlockInfo& info = reader.blocks()[index];
                 item.packed = Packed{};
+                item.refinement.reset();
                 item.error = reader.path() + ": " +
                              format::blockName(info.col, info.row, info.level) +
                              ": out of memory reading it";
@@ -328,6 +359,7 @@ struct StreamingScene::Impl {
         // Frames up to lastUsedFrame may still read it.
         Release r{std::int64_t(victim->lastUsedFrame), victim->full.offset, victim->full.size};
         victim->full = Allocation{};
+        victim->refinement.reset();
         if (r.afterFrame <= completedFrame) {
             allocator.release(r.offset, r.size);
             ++spaceEpoch;
@@ -514,16 +546,15 @@ bool StreamingScene::open(const Device& device, const std::string& path,
                 todo.push_back(i);  // not a root whose coarse level is all there is
         constexpr std::size_t kBatch = 32;
         std::vector<Packed> packed(kBatch);
+        std::vector<std::shared_ptr<const Refinement>> refinements(kBatch);
         std::vector<std::string> batchErrors(kBatch);
         std::vector<char> batchFailed(kBatch);
         for (std::size_t from = 0; from < todo.size(); from += kBatch) {
             const std::size_t count = std::min(kBatch, todo.size() - from);
             forEachIndexInParallel(count, [&](std::size_t k) {
-                const std::uint32_t i = todo[from + k];
-                format::BlockGeometry g;
-                batchFailed[k] = !s.reader.readGeometry(i, format::kAllLevels, g, batchErrors[k]);
-                if (!batchFailed[k])
-                    pack(g, s.blocks[i].terrainTriangles, s.blocks[i].riverEdges, packed[k]);
+                refinements[k].reset();
+                batchFailed[k] =
+                    !s.readEntry(todo[from + k], packed[k], refinements[k], batchErrors[k]);
             });
             for (std::size_t k = 0; k < count; ++k) {
                 if (batchFailed[k]) {
@@ -538,6 +569,7 @@ bool StreamingScene::open(const Device& device, const std::string& path,
                 assert(fits);
                 (void)fits;
                 b.full = {offset, p.bytes.size(), p.vertexBytes, p.terrainBytes, true};
+                b.refinement = std::move(refinements[k]);
                 std::memcpy(s.staging[0].buffer.mapped, p.bytes.data(), p.bytes.size());
                 submitAndWait(device, [&](VkCommandBuffer cmd) {
                     const VkBufferCopy copy{0, offset, p.bytes.size()};
@@ -575,7 +607,10 @@ void StreamingScene::close() {
         s.loader.join();
     }
     if (!s.device) return;
-    for (Staging& st : s.staging) destroyBuffer(*s.device, st.buffer);
+    for (Staging& st : s.staging) {
+        destroyBuffer(*s.device, st.buffer);
+        st.refined.destroy(*s.device);
+    }
     destroyBuffer(*s.device, s.arena);
     s.device = nullptr;
 }
@@ -656,6 +691,7 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
             continue;
         }
         b.full = {offset, size, item.packed.vertexBytes, item.packed.terrainBytes, true};
+        b.refinement = std::move(item.refinement);
         std::memcpy(stagingBytes + stagingAt, item.packed.bytes.data(), size);
         copies.push_back({stagingAt, offset, size});
         stagingAt += alignUp(size);
@@ -673,8 +709,11 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
     // so the frame never shows a hole or draws an area twice. Requests: the entry and the
     // entries between it and what is drawn for it, coarsest first.
     s.draws.clear();
+    s.refinedWords.clear();
     st.visibleBlocks = std::uint32_t(s.selection.size());
     st.fallbackBlocks = 0;
+    st.refinedBlocks = 0;
+    st.refineMs = 0;
     st.triangles = st.riverEdges = 0;
     std::vector<std::uint32_t> requests;
     auto requestable = [&](const BlockState& b) {
@@ -745,11 +784,45 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
         // Resident as wanted, or a root at its coarse level (wanted, or a fallback).
         const bool full = s.needsFull(b, sel.wanted.level) && b.full.valid;
         sel.drawnLevel = full ? sel.wanted.level : b.info.levels.size() - 1;
+        if (full && b.refinement && s.options.refine && !spec.finest) {
+            // Refined for the view: the records' steps whose own error fits their own box's
+            // tolerance, instead of the stored level (refine.h).
+            const auto t0 = std::chrono::steady_clock::now();
+            b.refinement->refine(spec, s.mesh);
+            st.refineMs +=
+                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                    .count();
+            DrawBlock d;
+            d.originX = b.originX;
+            d.originY = b.originY;
+            d.vertexOffset = b.full.offset;
+            d.dynamic = true;
+            d.terrainFirst = std::uint32_t(s.refinedWords.size());
+            d.terrainCount = std::uint32_t(s.mesh.triangles.size() * 3);
+            for (const format::Triangle& t : s.mesh.triangles)
+                s.refinedWords.insert(s.refinedWords.end(), {t.a, t.b, t.c});
+            d.riverFirst = std::uint32_t(s.refinedWords.size());
+            d.riverCount = std::uint32_t(s.mesh.riverEdges.size() * 2);
+            for (const format::Edge& e : s.mesh.riverEdges)
+                s.refinedWords.insert(s.refinedWords.end(), {e.a, e.b});
+            sel.refined = true;
+            sel.stepsDone = s.mesh.stepsDone;
+            sel.triangles = std::uint32_t(s.mesh.triangles.size());
+            sel.riverEdges = std::uint32_t(s.mesh.riverEdges.size());
+            st.triangles += sel.triangles;
+            st.riverEdges += sel.riverEdges;
+            ++st.refinedBlocks;
+            s.draws.push_back(d);
+            continue;
+        }
         const format::Level& l = b.info.levels[sel.drawnLevel];
         sel.triangles = l.triangleCount;
         sel.riverEdges = l.riverCount;
         addDraw(b, full, sel.drawnLevel);
     }
+    // The refined index data goes to this frame's slot (its previous frame has completed).
+    s.slot = std::uint32_t(frame % kFramesInFlight);
+    s.staging[s.slot].refined.write(*s.device, s.refinedWords);
     // Coarsest first (nearest first within a tree level), each once.
     std::stable_sort(requests.begin(), requests.end(), [&](std::uint32_t x, std::uint32_t y) {
         return s.blocks[x].treeLevel > s.blocks[y].treeLevel;
@@ -786,10 +859,14 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
 
 void StreamingScene::draw(VkCommandBuffer cmd, const Pipelines& pipelines,
                           const FrameView& view) const {
-    recordDraws(cmd, pipelines, impl_->arena.buffer, view, impl_->draws);
+    recordDraws(cmd, pipelines, impl_->arena.buffer, view, impl_->draws,
+                impl_->staging[impl_->slot].refined.buffer.buffer);
 }
 
 const std::vector<DrawBlock>& StreamingScene::drawList() const { return impl_->draws; }
+const std::vector<std::uint32_t>& StreamingScene::refinedIndices() const {
+    return impl_->refinedWords;
+}
 VkBuffer StreamingScene::geometryBuffer() const { return impl_->arena.buffer; }
 
 bool StreamingScene::settled() const {

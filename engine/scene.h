@@ -35,6 +35,7 @@
 #include "cut.h"
 #include "device.h"
 #include "lod.h"
+#include "refine.h"
 #include "renderer.h"
 #include "ulod.h"
 
@@ -58,6 +59,12 @@ struct SceneOptions {
     DistanceMode distance = DistanceMode::Nearest;
     LodPolicy policy = LodPolicy::Adaptive;
     bool cull = true;  // frustum culling (off: every block is drawn)
+    // Selective refinement (lod/refine.h): a leaf drawn from its full geometry is drawn as its
+    // deletion records refined for the view (every step whose own error fits the tolerance of
+    // its own box) instead of its stored level; each frame's refined index data is uploaded
+    // with the frame. Off: stored levels only (the paper's per-entry levels). A leaf that
+    // cannot be refined (refine.h) keeps its stored level; so does every tree node.
+    bool refine = true;
     // Everything resident: open() also uploads every block's full LOD geometry (the budget
     // is raised to what that needs) and nothing is streamed: the benchmark's baseline.
     bool preloadAll = false;
@@ -76,6 +83,10 @@ struct BlockSelection : NodeChoice {
     std::uint32_t drawnBlock = 0;
     std::size_t drawnLevel = 0;     // the level drawn of drawnBlock
     bool fallback = false;          // drawn coarser than wanted: not resident yet
+    // Drawn as its deletion records refined for the view (SceneOptions::refine) instead of
+    // drawnLevel; stepsDone: the steps of its records the refinement took.
+    bool refined = false;
+    std::uint32_t stepsDone = 0;
     std::uint32_t triangles = 0, riverEdges = 0;
 };
 
@@ -85,6 +96,8 @@ struct FrameStats {
     std::uint32_t visibleBlocks = 0;   // after culling
     std::uint32_t residentBlocks = 0;  // full LOD geometry on the GPU
     std::uint32_t fallbackBlocks = 0;  // visible, drawn coarser than wanted
+    std::uint32_t refinedBlocks = 0;   // drawn refined (SceneOptions::refine)
+    double refineMs = 0;               // CPU time of this frame's refinements
     std::uint64_t triangles = 0, riverEdges = 0;
     std::uint64_t bytesUploaded = 0;   // this frame
     std::uint64_t gpuBytesUsed = 0;    // allocated in the budget (incl. memory awaiting release)
@@ -133,6 +146,8 @@ public:
     // it in a bare pipeline).
     const std::vector<DrawBlock>& drawList() const;
     VkBuffer geometryBuffer() const;
+    // The index data of the list's `dynamic` draws (refined blocks), from its start.
+    const std::vector<std::uint32_t>& refinedIndices() const;
 
     // True when no load is queued, in flight or waiting for upload: the selection of the last
     // prepare() is then final for its view (captures wait for this, frames do not).

@@ -51,13 +51,19 @@ bool nodeVisible(const ViewSpec& view, const double boxMin[3], const double boxM
 
 NodeTolerance nodeTolerances(const ViewSpec& view, const LodNode& node, double* distance,
                              BoxView* box) {
+    return nodeTolerances(view, cameraBasis(view.camera), node, distance, box);
+}
+
+NodeTolerance nodeTolerances(const ViewSpec& view, const CameraBasis& basis, const LodNode& node,
+                             double* distance, BoxView* box) {
     if (distance != nullptr) *distance = 0;
     if (box != nullptr) *box = BoxView{};
     if (view.kind == ViewSpec::Kind::Uniform) return {view.hLim, INFINITY};
     // The grid mode shows, top-down, the levels the perspective view from the same eye selects
     // (the paper's 2D grid diagrams at a view distance).
     const double s = blockDistance(view.distance, view.camera.eye, node.boxMin, node.boxMax);
-    BoxView place = view.direction ? boxView(view.camera, node.boxMin, node.boxMax) : BoxView{};
+    BoxView place =
+        view.direction ? boxView(view.camera, basis, node.boxMin, node.boxMax) : BoxView{};
     place.horizontal = node.horizontal;
     if (distance != nullptr) *distance = s;
     if (box != nullptr) *box = place;
@@ -85,7 +91,6 @@ NodeTolerance nodeTolerances(const ViewSpec& view, const LodNode& node, double* 
     const double aspect = view.widthPixels / view.heightPixels;
     const double cornerCos = std::sqrt(frustumEdgeFactor(tolerance.fovRadians, aspect));
     const double focal = view.heightPixels / (2.0 * std::tan(tolerance.fovRadians / 2.0));
-    const CameraBasis basis = cameraBasis(view.camera);
     const double dx = (node.boxMax[0] - node.boxMin[0]) / kToleranceColumns;
     const double dy = (node.boxMax[1] - node.boxMin[1]) / kToleranceColumns;
     struct Column {

@@ -114,6 +114,10 @@ struct NodeTolerance {
 };
 NodeTolerance nodeTolerances(const ViewSpec& view, const LodNode& node, double* distance = nullptr,
                              BoxView* box = nullptr);
+// The same with the camera's basis already computed (cameraBasis(view.camera)): per-step loops
+// (refine.h).
+NodeTolerance nodeTolerances(const ViewSpec& view, const CameraBasis& basis, const LodNode& node,
+                             double* distance = nullptr, BoxView* box = nullptr);
 // The single tolerance (above): S and h_lim of a node for the view.
 double nodeTolerance(const ViewSpec& view, const LodNode& node, double* distance = nullptr,
                      BoxView* box = nullptr);

@@ -5,6 +5,7 @@
 #include <unordered_map>
 #include <utility>
 
+#include "lod.h"
 #include "predicates.h"
 
 namespace unilod::engine {
@@ -164,6 +165,10 @@ bool Refinement::init(const format::Block& b, std::string& why) {
 
     const PointBuckets buckets(b);
     steps_.reserve(b.steps.size());
+    createdTriangles_.assign(1, 0);
+    createdTriangles_.push_back(std::uint32_t(triangles_.size()));
+    createdEdges_.assign(1, 0);
+    createdEdges_.push_back(std::uint32_t(edges_.size()));
     std::vector<std::uint32_t> merged;
     std::vector<std::uint64_t> removedOuter, addedOuter, scratch, newOutline;
     std::vector<std::uint32_t> outside;
@@ -173,8 +178,13 @@ bool Refinement::init(const format::Block& b, std::string& why) {
     outerBoundary(b.terrainIndices.data() + full.triangleFirst,
                   b.terrainIndices.data() + full.triangleFirst + full.triangleCount, scratch,
                   removedOuter);
-    for (const std::uint64_t e : removedOuter)
+    // How many outline edges each vertex has.
+    std::vector<std::uint32_t> outlineDegree(n, 0);
+    for (const std::uint64_t e : removedOuter) {
         outlineCover[e] = {};
+        for (const std::uint32_t v : {std::uint32_t(e >> 32), std::uint32_t(e)})
+            ++outlineDegree[v];
+    }
     for (std::size_t s = 0; s < b.steps.size(); ++s) {
         Step step;
         for (int k = 0; k < 3; ++k)
@@ -238,10 +248,16 @@ bool Refinement::init(const format::Block& b, std::string& why) {
             outside.clear();
             newOutline.clear();
             const auto reverse = [](std::uint64_t e) { return (e << 32) | (e >> 32); };
+            // An ended edge hands on the points it stood for and its own ends (unless they are
+            // still on the outline, below).
             const auto end = [&](std::uint64_t e) {
                 const auto it = outlineCover.find(e);
                 outside.insert(outside.end(), it->second.begin(), it->second.end());
                 outlineCover.erase(it);
+                for (const std::uint32_t v : {std::uint32_t(e >> 32), std::uint32_t(e)}) {
+                    --outlineDegree[v];
+                    outside.push_back(v);
+                }
             };
             for (const std::uint64_t e : removedOuter) {
                 if (std::binary_search(addedOuter.begin(), addedOuter.end(), e)) continue;
@@ -257,26 +273,30 @@ bool Refinement::init(const format::Block& b, std::string& why) {
                 else
                     newOutline.push_back(e);
             }
-            // The points the step leaves outside: in a removed triangle, in no created one.
+            for (const std::uint64_t e : newOutline) {
+                ++outlineDegree[std::uint32_t(e >> 32)];
+                ++outlineDegree[std::uint32_t(e)];
+            }
+            // Ends no longer on the outline (the deleted vertex: the outline's own deviation, in
+            // or out, as the build measures a ring's) stand with the new edges too.
+            std::size_t kept = 0;
+            for (const std::uint32_t v : outside)
+                if (outlineDegree[v] == 0) outside[kept++] = v;
+            outside.resize(kept);
+            // So does every point the step leaves outside: in a removed triangle, in no created
+            // one.
             const format::Triangle* added = b.addedTriangles.data() + b.addedTriangleOffset[s];
             const format::Triangle* addedEnd =
                 b.addedTriangles.data() + b.addedTriangleOffset[s + 1];
             for (std::uint32_t r = b.removedTriangleOffset[s]; r < b.removedTriangleOffset[s + 1];
                  ++r)
-                buckets.inTriangle(b.removedTriangles[r],
-                                   [&](std::uint32_t v) { outside.push_back(v); });
+                buckets.inTriangle(b.removedTriangles[r], [&](std::uint32_t v) {
+                    for (const format::Triangle* t = added; t != addedEnd; ++t)
+                        if (buckets.contains(*t, v)) return;
+                    if (outlineDegree[v] == 0) outside.push_back(v);
+                });
             std::sort(outside.begin(), outside.end());
             outside.erase(std::unique(outside.begin(), outside.end()), outside.end());
-            // A point inside a created triangle is in the domain again (its vertical error
-            // counts above); the others stand with the new outline edges.
-            std::size_t kept = 0;
-            for (const std::uint32_t v : outside) {
-                bool inside = false;
-                for (const format::Triangle* t = added; t != addedEnd && !inside; ++t)
-                    inside = buckets.contains(*t, v);
-                if (!inside) outside[kept++] = v;
-            }
-            outside.resize(kept);
             for (const std::uint32_t v : outside) {
                 double nearest = INFINITY;
                 for (const std::uint64_t e : newOutline) {
@@ -346,40 +366,113 @@ bool Refinement::init(const format::Block& b, std::string& why) {
             step.boxMax[k] += origin;
         }
         steps_.push_back(step);
+        createdTriangles_.push_back(std::uint32_t(triangles_.size()));
+        createdEdges_.push_back(std::uint32_t(edges_.size()));
     }
+    const std::uint32_t sentinel = std::uint32_t(steps_.size() + 1);
+    for (std::uint32_t& d : triangleDestroyer_)
+        if (d == 0) d = sentinel;
+    for (std::uint32_t& d : edgeDestroyer_)
+        if (d == 0) d = sentinel;
     return true;
 }
 
 void Refinement::refine(const ViewSpec& view, RefinedMesh& out) const {
-    std::vector<std::uint8_t> done(steps_.size() + 1, 0);
+    std::vector<std::uint8_t>& done = out.done;
+    done.assign(steps_.size() + 2, 0);  // the last: the sentinel step (never destroyed)
     done[0] = 1;
     LodNode node;
     node.horizontal = horizontal_;
     out.stepsDone = 0;
+    // A camera view in Nearest mode bounds every tolerance from below (lod.h effectiveDistance,
+    // cut.cpp nodeTolerances: S' >= cos(theta_c) max(zMin, S cos(theta_c)) with c >=
+    // cos(theta_c) and verticalSin <= 1; the river factor f / (f + P c) >= f / (f + P)) by
+    //   P cos(theta_c) max(zMin, S cos(theta_c)) / (f + P),
+    // zMin the box's smallest depth, S its nearest distance: a step whose error fits that is
+    // taken without the full evaluation.
+    const bool camera = view.kind == ViewSpec::Kind::Camera && view.direction;
+    const bool quick = camera && view.distance == DistanceMode::Nearest;
+    const CameraBasis basis = cameraBasis(view.camera);
+    const double aspect = view.widthPixels / view.heightPixels;
+    double cornerCos = 0, factor = 0;
+    if (quick) {
+        const double fov = view.camera.fovDegrees * (3.14159265358979323846 / 180.0);
+        const double focal = view.heightPixels / (2.0 * std::tan(fov / 2.0));
+        cornerCos = std::sqrt(frustumEdgeFactor(fov, aspect));
+        factor = view.pixels * cornerCos / (focal + view.pixels) * (1 - 1e-12);
+    }
+    const auto visible = [&](const Step& step) {
+        if (camera && view.cull)  // nodeVisible's test, the basis computed once
+            return boxInFrustum(view.camera, basis, aspect, step.boxMin, step.boxMax);
+        return nodeVisible(view, step.boxMin, step.boxMax);
+    };
+    const double* eye = view.camera.eye;
     for (std::size_t s = 0; s < steps_.size(); ++s) {
         const Step& step = steps_[s];
         bool ready = true;
         for (std::uint32_t p = 0; p < step.parentCount && ready; ++p)
             ready = done[parents_[step.parentFirst + p]] != 0;
         if (!ready) continue;
-        if (nodeVisible(view, step.boxMin, step.boxMax)) {
+        bool take = false;
+        if (quick) {
+            double d2 = 0, depth = 0;  // squared nearest distance, smallest depth
+            for (int k = 0; k < 3; ++k) {
+                const double lo = step.boxMin[k] - eye[k], hi = step.boxMax[k] - eye[k];
+                const double d = std::max({lo, 0.0, -hi});
+                d2 += d * d;
+                depth += basis.forward[k] * (basis.forward[k] >= 0 ? lo : hi);
+            }
+            take = double(step.error) <= factor * std::max(depth, std::sqrt(d2) * cornerCos);
+        }
+        if (!take && visible(step)) {
             std::copy(step.boxMin, step.boxMin + 3, node.boxMin);
             std::copy(step.boxMax, step.boxMax + 3, node.boxMax);
-            const NodeTolerance t = nodeTolerances(view, node);
-            if (!(double(step.error) <= t.vertical && double(step.river) <= t.river)) continue;
+            const NodeTolerance t = nodeTolerances(view, basis, node);
+            take = double(step.error) <= t.vertical && double(step.river) <= t.river;
+        } else if (!take) {
+            take = true;  // off screen
         }
+        if (!take) continue;
         done[s + 1] = 1;
         ++out.stepsDone;
     }
+    // The alive triangles and river edges: created at full resolution or by a step taken, not
+    // destroyed by one (a never destroyed one names the sentinel step, never taken).
     out.triangles.clear();
-    for (std::size_t t = 0; t < triangles_.size(); ++t)
-        if (done[triangleCreator_[t]] &&
-            (triangleDestroyer_[t] == 0 || !done[triangleDestroyer_[t]]))
-            out.triangles.push_back(triangles_[t]);
     out.riverEdges.clear();
-    for (std::size_t e = 0; e < edges_.size(); ++e)
-        if (done[edgeCreator_[e]] && (edgeDestroyer_[e] == 0 || !done[edgeDestroyer_[e]]))
-            out.riverEdges.push_back(edges_[e]);
+    for (std::size_t s = 0; s <= steps_.size(); ++s) {
+        if (!done[s]) continue;
+        for (std::uint32_t t = createdTriangles_[s]; t < createdTriangles_[s + 1]; ++t)
+            if (!done[triangleDestroyer_[t]]) out.triangles.push_back(triangles_[t]);
+        for (std::uint32_t e = createdEdges_[s]; e < createdEdges_[s + 1]; ++e)
+            if (!done[edgeDestroyer_[e]]) out.riverEdges.push_back(edges_[e]);
+    }
+}
+
+std::size_t Refinement::appendAsLevel(const RefinedMesh& mesh, format::Block& block) const {
+    format::Level l{};
+    l.vertexCount = std::uint32_t(block.vertices.size());
+    l.triangleFirst = std::uint32_t(block.terrainIndices.size());
+    l.triangleCount = std::uint32_t(mesh.triangles.size());
+    block.terrainIndices.insert(block.terrainIndices.end(), mesh.triangles.begin(),
+                                mesh.triangles.end());
+    l.riverFirst = std::uint32_t(block.riverIndices.size());
+    l.riverCount = std::uint32_t(mesh.riverEdges.size());
+    block.riverIndices.insert(block.riverIndices.end(), mesh.riverEdges.begin(),
+                              mesh.riverEdges.end());
+    float error = 0, river = 0;
+    for (std::size_t k = 0; k < steps_.size() && k + 1 < mesh.done.size(); ++k) {
+        if (!mesh.done[k + 1]) continue;
+        error = std::max(error, steps_[k].error);
+        river = std::max(river, steps_[k].river);
+    }
+    l.step = std::uint32_t(block.errorMax.size());
+    l.errorMax = error;
+    l.errorRiver = river;
+    block.errorMax.push_back(error);
+    block.errorRiver.push_back(river);
+    block.levels.push_back(l);
+    return block.levels.size() - 1;
 }
 
 }  // namespace unilod::engine

@@ -51,6 +51,7 @@ struct RefinedMesh {
     std::vector<format::Triangle> triangles;  // counter-clockwise, vertex indices of the block
     std::vector<format::Edge> riverEdges;     // a < b
     std::uint32_t stepsDone = 0;
+    std::vector<std::uint8_t> done;  // scratch: which steps were taken (index step + 1)
 };
 
 class Refinement {
@@ -64,6 +65,13 @@ public:
     // part against `vertical`, river part against `river`; a block with rivers is `horizontal`,
     // as lod/cut.h LodNode). `out` is overwritten.
     void refine(const ViewSpec& view, RefinedMesh& out) const;
+
+    // `block` (the one init() read) with the refined mesh appended as one more stored level,
+    // for code that reads levels (export, tests): its triangles and river edges after the
+    // block's index data, vertexCount every vertex (the alive ones are no prefix), its step a
+    // new last entry of errorMax / errorRiver holding the largest own errors of the steps taken
+    // (which the appended entries need not be ordered with). Returns the level's index.
+    std::size_t appendAsLevel(const RefinedMesh& mesh, format::Block& block) const;
 
     std::size_t steps() const { return steps_.size(); }
     std::uint32_t fullTriangles() const { return fullTriangles_; }
@@ -83,12 +91,14 @@ private:
     };
     std::vector<Step> steps_;
     std::vector<std::uint32_t> parents_;  // step index + 1
-    // Every triangle and river edge of the records, with its creator and destroyer (step index
-    // + 1; 0: full resolution / never destroyed).
+    // Every triangle and river edge of the records, in the order they were created, with its
+    // creator and destroyer (step index + 1; creator 0: full resolution; destroyer steps + 1:
+    // never destroyed). Those created by step index + 1 = c are [created*_[c], created*_[c + 1]).
     std::vector<format::Triangle> triangles_;
     std::vector<std::uint32_t> triangleCreator_, triangleDestroyer_;
     std::vector<format::Edge> edges_;
     std::vector<std::uint32_t> edgeCreator_, edgeDestroyer_;
+    std::vector<std::uint32_t> createdTriangles_, createdEdges_;
     std::uint32_t fullTriangles_ = 0;
     bool horizontal_ = false;
 };

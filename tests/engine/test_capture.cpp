@@ -94,6 +94,7 @@ TEST_F(Capture, NearAndFarViews) {
     format::Reader reader;
     std::string error;
     ASSERT_TRUE(reader.open(file_, error)) << error;
+    std::size_t refined = 0;
     for (const nlohmann::json* view : {&nearView, &farView}) {
         // Frustum culling: only blocks in view are listed; none is drawn coarser than wanted
         // (a capture settles its residency first).
@@ -127,7 +128,17 @@ TEST_F(Capture, NearAndFarViews) {
                 EXPECT_TRUE(block.errorMax[next] > hLim || block.errorRiver[next] > hLimRiver)
                     << b.dump();
             }
-            EXPECT_EQ(b["triangles"].get<std::uint32_t>(), block.levels[level].triangleCount);
+            // A leaf is drawn refined from its records (scene.h SceneOptions::refine): between
+            // its coarsest state and full resolution, else exactly its stored level.
+            if (b["refined"].get<bool>()) {
+                EXPECT_EQ(block.level, 0u);
+                EXPECT_LE(b["triangles"].get<std::uint32_t>(), block.levels.front().triangleCount);
+                EXPECT_GT(b["triangles"].get<std::uint32_t>(), 0u);
+                EXPECT_LE(b["steps_done"].get<std::uint32_t>(), block.steps.size());
+                ++refined;
+            } else {
+                EXPECT_EQ(b["triangles"].get<std::uint32_t>(), block.levels[level].triangleCount);
+            }
             // h_lim by Eq. 11 with P = 1, 60 degrees, 480 px and S' = c max(zMin, S cos) / sin
             // (engine/lod/lod.h): cos of the frustum's corner angle from tan^2 = tan^2(30 deg) *
             // (1 + (4/3)^2); zMin the smallest view depth of the box's corners; c = the larger
@@ -196,6 +207,7 @@ TEST_F(Capture, NearAndFarViews) {
             }
         }
     }
+    EXPECT_GT(refined, 0u);  // the default refines the leaves it draws from their records
 
     // (c) not blank: many colours, terrain over most of the image (the near view looks at the
     // middle of a ~30 km data set from ~6 km: the whole frame is terrain).

@@ -22,8 +22,10 @@
 #include <string>
 #include <vector>
 
-#include "shared.h"
+#include "cut.h"
 #include "pngread.h"
+#include "refine.h"
+#include "shared.h"
 #include "tools/cliutil.h"
 #include "ulod.h"
 
@@ -179,11 +181,26 @@ private:
 };
 
 // A capture and what it drew: per block of the file, the chosen level and its surface.
+// A leaf drawn refined from its records (scene.h SceneOptions::refine) is rebuilt here with the
+// same CPU module and view (lod/refine.h; the capture's `steps_done` must agree) and stands as a
+// copy of the block with one more level: the refined triangles and river edges, its step an
+// extra error entry holding the largest own error of the steps taken; `alive` marks the
+// vertices those steps did not delete (the other levels' alive vertices are a prefix).
 struct Drawn {
     nlohmann::json json;
     Image image;
     std::vector<std::size_t> level;                  // per block index of the file
     std::vector<std::unique_ptr<Surface>> surfaces;  // per block index of the file
+    std::vector<std::unique_ptr<format::Block>> refined;  // per block index: a refined leaf
+    std::vector<std::vector<std::uint8_t>> alive;         // per block index: a refined leaf's
+    const std::vector<format::Block>* file = nullptr;
+    std::size_t refinedLeaves = 0;
+    const format::Block& block(std::size_t i) const {
+        return refined[i] ? *refined[i] : (*file)[i];
+    }
+    const std::vector<std::uint8_t>* aliveOf(std::size_t i) const {
+        return refined[i] ? &alive[i] : nullptr;
+    }
 };
 
 class Guarantee : public ::testing::Test {
@@ -248,6 +265,20 @@ protected:
         EXPECT_EQ(d.json["distance"], distance);
         d.level.assign(blocks_->size(), SIZE_MAX);
         d.surfaces.resize(blocks_->size());
+        d.refined.resize(blocks_->size());
+        d.alive.resize(blocks_->size());
+        d.file = blocks_;
+        // The view the engine refined for (capture's options above).
+        engine::ViewSpec view;
+        std::sscanf(cameraText.c_str(), "%lf,%lf,%lf,%lf,%lf", &view.camera.eye[0],
+                    &view.camera.eye[1], &view.camera.eye[2], &view.camera.yawDegrees,
+                    &view.camera.pitchDegrees);
+        view.camera.fovDegrees = 60;
+        view.widthPixels = 640;
+        view.heightPixels = 480;
+        view.pixels = pixels;
+        view.distance =
+            distance == "centre" ? engine::DistanceMode::Centre : engine::DistanceMode::Nearest;
         // Frustum culling lists only the blocks in view (the deviation check below makes sure
         // no culled block has a point on screen); a capture settles, so none is a fallback.
         EXPECT_GT(d.json["blocks"].size(), 0u);
@@ -268,7 +299,23 @@ protected:
             EXPECT_LT(d.level[i], block.levels.size());
             if (d.level[i] >= block.levels.size()) continue;
             EXPECT_EQ(b["step"].get<std::uint32_t>(), block.levels[d.level[i]].step);
-            d.surfaces[i] = std::make_unique<Surface>(block, block.levels[d.level[i]]);
+            if (b["refined"].get<bool>()) {
+                engine::Refinement refinement;
+                std::string why;
+                EXPECT_TRUE(refinement.init(block, why)) << why;
+                engine::RefinedMesh mesh;
+                refinement.refine(view, mesh);
+                EXPECT_EQ(b["steps_done"].get<std::uint32_t>(), mesh.stepsDone) << b.dump();
+                EXPECT_EQ(b["triangles"].get<std::size_t>(), mesh.triangles.size());
+                auto copy = std::make_unique<format::Block>(block);
+                d.level[i] = refinement.appendAsLevel(mesh, *copy);
+                d.alive[i].assign(block.vertices.size(), 1);
+                for (std::size_t k = 0; k < refinement.steps(); ++k)
+                    if (mesh.done[k + 1]) d.alive[i][block.steps[k].vertex] = 0;
+                d.refined[i] = std::move(copy);
+                ++d.refinedLeaves;
+            }
+            d.surfaces[i] = std::make_unique<Surface>(d.block(i), d.block(i).levels[d.level[i]]);
         }
         return d;
     }
@@ -300,12 +347,12 @@ protected:
         Deviation out;
         for (std::size_t i = 0; i < blocks_->size(); ++i) {
             if (!d.surfaces[i]) continue;
-            const format::Block& drawn = (*blocks_)[i];
+            const format::Block& drawn = d.block(i);
             const format::Level& level = drawn.levels[d.level[i]];
             if (level.step > 0 || drawn.level > 0) ++out.coarseBlocks;
             if (drawn.level > 0) ++out.nodes;
             // The drawn block's own river chains (a node's: its children's coarsest river edges).
-            riverDeviation(cam, drawn, level, pixels, out);
+            riverDeviation(cam, drawn, level, pixels, out, d.aliveOf(i));
         }
         for (std::size_t i = 0; i < blocks_->size(); ++i) {
             const format::Block& leaf = (*blocks_)[i];
@@ -323,7 +370,7 @@ protected:
                 }
                 continue;
             }
-            const format::Block& drawn = (*blocks_)[at];
+            const format::Block& drawn = d.block(at);
             const format::Level& level = drawn.levels[d.level[at]];
             const double hs = drawn.errorMax[level.step];
             const double hsRiver = drawn.errorRiver[level.step];  // the outline's part
@@ -480,8 +527,13 @@ protected:
     // that replaced it (A, C: the nearest alive vertices along the full-resolution river chain):
     // the segment from the vertex to the nearest point of A-C in 3D, projected, when one end is
     // on screen. Its length bounds the on-screen distance to the drawn river line.
+    // `alive`: the vertices alive (a refined leaf's); null: those below the level's vertexCount.
     static void riverDeviation(const Projector& cam, const format::Block& block,
-                               const format::Level& level, double pixels, Deviation& out) {
+                               const format::Level& level, double pixels, Deviation& out,
+                               const std::vector<std::uint8_t>* alive = nullptr) {
+        const auto isAlive = [&](std::uint32_t v) {
+            return alive ? (*alive)[v] != 0 : v < level.vertexCount;
+        };
         const format::Level& full = block.levels.front();
         std::vector<std::vector<std::uint32_t>> next(block.vertices.size());
         for (std::uint32_t e = full.riverFirst; e < full.riverFirst + full.riverCount; ++e) {
@@ -494,13 +546,14 @@ protected:
             w[1] = block.originY + double(block.grid[v].y) * format::kGridUnit;
             w[2] = block.vertices[v].z;
         };
-        for (std::uint32_t v = level.vertexCount; v < block.vertices.size(); ++v) {
+        for (std::uint32_t v = 0; v < block.vertices.size(); ++v) {
+            if (isAlive(v)) continue;
             if (next[v].size() != 2) continue;  // a DEM point (or a kept end / junction)
             ++out.riverTotal;
             std::uint32_t ends[2];
             for (int side = 0; side < 2; ++side) {
                 std::uint32_t prev = v, cur = next[v][std::size_t(side)];
-                while (cur >= level.vertexCount) {
+                while (!isAlive(cur)) {
                     const std::uint32_t n = next[cur][0] == prev ? next[cur][1] : next[cur][0];
                     prev = cur, cur = n;
                 }
@@ -558,6 +611,11 @@ protected:
         // nearest point, so its farther points keep a margin.
         EXPECT_GT(std::max(dev.maxPixels, dev.riverMaxPixels), 0.3 * pixels) << what;
         EXPECT_GT(dev.riverChecked, 100u) << what;
+        // The default draws the leaves refined from their records (lod/refine.h): the bound
+        // holds for those meshes too.
+        if (d.json["distance"] == "nearest") {
+            EXPECT_GT(d.refinedLeaves, 0u) << what;
+        }
     }
 
     // Oblique: 3 km south of the data, 3 km above its top, looking north 25 degrees down; the
@@ -714,7 +772,7 @@ TEST_F(Guarantee, RiversAreDrawn) {
     std::size_t samples = 0, hits = 0, shiftedHits = 0, occluded = 0;
     for (std::size_t i = 0; i < blocks_->size(); ++i) {
         if (!d.surfaces[i]) continue;
-        const format::Block& block = (*blocks_)[i];
+        const format::Block& block = d.block(i);
         const format::Level& level = block.levels[d.level[i]];
         for (std::uint32_t e = level.riverFirst; e < level.riverFirst + level.riverCount; ++e) {
             const format::Vertex& a = block.vertices[block.riverIndices[e].a];

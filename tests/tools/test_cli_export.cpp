@@ -296,7 +296,9 @@ TEST_F(ExportTest, CameraRoundTrip) {
     cam.precision(17);
     cam << eye[0] << "," << eye[1] << "," << eye[2];
     const std::string out = dir->file("cam.glb");
-    const auto r = runCli("export -q " + q(model) + " --camera " + cam.str() +
+    // The stored levels as they are (--no-refine; the refined leaves of the default are checked
+    // against the engine below).
+    const auto r = runCli("export -q --no-refine " + q(model) + " --camera " + cam.str() +
                           " --fov 45 --size 1200x800 --pixels 2 -o " + q(out));
     ASSERT_EQ(r.code, 0) << r.err;
     std::vector<double> hLim;
@@ -322,7 +324,7 @@ TEST_F(ExportTest, CameraRoundTrip) {
     // With yaw and pitch but --no-cull: every block, none finer than without the direction
     // (the depth bound of engine/lod/lod.h only ever raises h_lim).
     const std::string out2 = dir->file("cam2.glb");
-    ASSERT_EQ(runCli("export -q " + q(model) + " --camera " + cam.str() +
+    ASSERT_EQ(runCli("export -q --no-refine " + q(model) + " --camera " + cam.str() +
                      ",135,-30 --no-cull --fov 45 --size 1200x800 --pixels 2 -o " + q(out2))
                   .code,
               0);
@@ -347,7 +349,8 @@ TEST_F(ExportTest, CameraRoundTrip) {
 }
 
 // The export of a view is what the engine draws for it: `unilod capture` of the same camera
-// (settled, validation on) lists the same blocks at the same levels with the same counts.
+// (settled, validation on) lists the same blocks at the same levels with the same counts, and
+// refines the same leaves from their records (lod/refine.h) by the same steps.
 TEST_F(ExportTest, CameraEqualsEngineSelection) {
     // In the north-west corner block, looking out of the model to the north-west and down:
     // the blocks behind the eye are culled.
@@ -365,18 +368,26 @@ TEST_F(ExportTest, CameraEqualsEngineSelection) {
     ASSERT_EQ(c.code, 0) << c.err;
     const nlohmann::json j = nlohmann::json::parse(test::slurp(frames + "/frame_0000.json"));
 
-    std::set<std::tuple<int, int, int>> engine, exported;  // directory index, tree level, level
+    // directory index, tree level, level, steps done when refined (-1: a stored level)
+    std::set<std::tuple<int, int, int, int>> engine, exported;
+    std::size_t refined = 0;
     for (const auto& b : j.at("blocks")) {
         EXPECT_FALSE(b.at("fallback").get<bool>());
-        engine.insert(
-            {b.at("index").get<int>(), b.at("tree_level").get<int>(), b.at("level").get<int>()});
+        const bool isRefined = b.at("refined").get<bool>();
+        refined += isRefined;
+        engine.insert({b.at("index").get<int>(), b.at("tree_level").get<int>(),
+                       b.at("level").get<int>(), isRefined ? b.at("steps_done").get<int>() : -1});
     }
+    EXPECT_GT(refined, 0u);
     const tinygltf::Model m = load(out);
     std::uint64_t triangles = 0, edges = 0;
     for (const tinygltf::Node& node : m.nodes) {
         exported.insert({node.extras.Get("index").GetNumberAsInt(),
                          node.extras.Get("tree_level").GetNumberAsInt(),
-                         node.extras.Get("level").GetNumberAsInt()});
+                         node.extras.Get("level").GetNumberAsInt(),
+                         node.extras.Get("refined").Get<bool>()
+                             ? node.extras.Get("steps_done").GetNumberAsInt()
+                             : -1});
         for (const tinygltf::Primitive& p : m.meshes[std::size_t(node.mesh)].primitives) {
             const std::size_t n = m.accessors[std::size_t(p.indices)].count;
             (p.mode == TINYGLTF_MODE_TRIANGLES ? triangles : edges) +=

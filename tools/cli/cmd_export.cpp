@@ -32,6 +32,7 @@ struct ExportCli {
     std::string metric;
     std::string distance = "nearest";
     bool noCull = false;
+    bool noRefine = false;
     bool quiet = false;
     OutputFlags output;     // -o/--output, --overwrite
     std::string tilesDir;   // --3dtiles
@@ -96,6 +97,7 @@ int run(ExportCli& c) {
         return 2;
     }
     s.useCamera = !c.camera.empty();
+    s.refine = !c.noRefine;
     if (s.useCamera) {
         if (c.camera.size() != 3 && c.camera.size() != 5) {
             std::fprintf(stderr, "unilod export: error: --camera takes X,Y,Z[,YAW,PITCH]\n");
@@ -173,6 +175,9 @@ void addExportCommand(CLI::App& app, int& exitCode) {
                     "S: nearest point of a block's box (default) or its centre (the paper's)")
         ->check(CLI::IsMember({"nearest", "centre"}));
     sub->add_flag("--no-cull", c->noCull, "with yaw,pitch: keep the blocks outside the view");
+    sub->add_flag("--no-refine", c->noRefine,
+                  "with --camera: every block at a stored level instead of the leaves refined "
+                  "for the view from their deletion records (as the engine draws them)");
     sub->add_option("--metric", c->metric, "error metric (default: the file's)")
         ->check(CLI::IsMember({"max", "paper"}));
     CLI::Option* out = addOutputOptions(sub, c->output, "output .glb", false);

@@ -42,6 +42,9 @@ void EngineCli::add(CLI::App& sub, const std::string& defaultSize) {
                    "whole view so that the P-pixel bound holds; default) or centre (the paper's "
                    "block centre)")
         ->check(CLI::IsMember({"nearest", "centre"}));
+    sub.add_flag("--no-refine", noRefine,
+                 "draw every block at a stored level (the paper's per-block levels) instead of "
+                 "refining the leaves for the view from their deletion records");
     sub.add_option("--gpu-budget", gpuBudgetMiB,
                    "device memory for block geometry in MiB (default " +
                        std::to_string(engine::kDefaultGpuBudget >> 20) +
@@ -69,6 +72,7 @@ bool EngineCli::apply(engine::SceneOptions& scene, engine::DeviceOptions& dev, s
         return false;
     }
     scene.pixels = pixels;
+    scene.refine = !noRefine;
     scene.metric = metric;
     scene.distance =
         distance == "centre" ? engine::DistanceMode::Centre : engine::DistanceMode::Nearest;

@@ -19,6 +19,7 @@ struct EngineCli {
     double pixels = 1.0;
     std::string metric;
     bool validation = false, noValidation = false;
+    bool noRefine = false;
     int device = -1;
 
     void add(CLI::App& sub, const std::string& defaultSize);

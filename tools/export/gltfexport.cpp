@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "jsontext.h"
+#include "refine.h"
 
 namespace unilod::exporter {
 
@@ -17,9 +18,10 @@ namespace {
 using tinygltf::Value;
 
 // One block's mesh + node.
+// `drawn`: the level written (the cut's, or a refined mesh appended to `block`).
 void addBlock(tinygltf::Model& model, const format::Header& header, const format::Block& block,
-              const ExportedBlock& sel, const GltfMaterials& materials) {
-    const format::Level& level = block.levels[sel.wanted.level];
+              const ExportedBlock& sel, std::size_t drawn, const GltfMaterials& materials) {
+    const format::Level& level = block.levels[drawn];
     // The file's own block-relative floats, translated by the block origin (in double).
     std::vector<double> xyz(3 * std::size_t(level.vertexCount));
     for (std::size_t i = 0; i < level.vertexCount; ++i) {
@@ -29,11 +31,11 @@ void addBlock(tinygltf::Model& model, const format::Header& header, const format
         xyz[3 * i + 2] = v.z;
     }
     LevelCounts counts;
-    tinygltf::Node& node = model.nodes[std::size_t(addLevelMesh(
-        model, block, sel.wanted.level, xyz,
-        {block.originX - header.originX, block.originY - header.originY, 0.0},
-        "block_" + std::to_string(block.col) + "_" + std::to_string(block.row), materials,
-        counts))];
+    tinygltf::Node& node = model.nodes[std::size_t(
+        addLevelMesh(model, block, drawn, xyz,
+                     {block.originX - header.originX, block.originY - header.originY, 0.0},
+                     "block_" + std::to_string(block.col) + "_" + std::to_string(block.row),
+                     materials, counts))];
     Value::Object extras;
     extras["index"] = Value(int(sel.block));
     extras["col"] = Value(int(block.col));
@@ -41,6 +43,8 @@ void addBlock(tinygltf::Model& model, const format::Header& header, const format
     extras["tree_level"] = Value(int(block.level));
     extras["level"] = Value(int(sel.wanted.level));
     extras["step"] = Value(int(sel.wanted.step));
+    extras["refined"] = Value(sel.refined);
+    extras["steps_done"] = Value(int(sel.stepsDone));
     extras["h_lim"] = Value(sel.hLim);
     if (std::isfinite(sel.hLimRiver)) extras["h_lim_river"] = Value(sel.hLimRiver);
     extras["error"] = Value(sel.wanted.error);
@@ -119,8 +123,25 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
     for (std::size_t k = 0; k < drawn.size(); ++k) {
         const std::uint32_t i = drawn[k];
         if (!reader.readBlock(i, block, error)) return false;
-        const ExportedBlock s = selectLevel(block, i, so, metric);
-        addBlock(model, header, block, s, materials);
+        ExportedBlock s = selectLevel(block, i, so, metric);
+        std::size_t level = s.wanted.level;
+        // A leaf refined for the view from its records, as the engine draws it (scene.h
+        // SceneOptions::refine, lod/refine.h).
+        if (so.useCamera && so.refine && block.level == 0 && block.childCount == 0) {
+            engine::Refinement refinement;
+            std::string why;
+            if (refinement.init(block, why)) {
+                engine::RefinedMesh mesh;
+                refinement.refine(viewSpec(so), mesh);
+                level = refinement.appendAsLevel(mesh, block);
+                s.refined = true;
+                s.stepsDone = mesh.stepsDone;
+                s.vertexCount = block.levels[level].vertexCount;
+                s.triangles = block.levels[level].triangleCount;
+                s.riverEdges = block.levels[level].riverCount;
+            }
+        }
+        addBlock(model, header, block, s, level, materials);
         summary.blocks.push_back(s);
         summary.vertices += s.vertexCount;
         summary.triangles += s.triangles;

@@ -29,6 +29,9 @@ struct SelectionOptions {
     // ... or one h_lim (metres) for every block.
     double hLim = 0;
     std::uint32_t metric = 0;  // format::kMetricMax / kMetricPaper; 0 = the file's default
+    // With a camera: leaves refined for the view from their records, as the engine draws them
+    // (engine/scene.h SceneOptions::refine, engine/lod/refine.h).
+    bool refine = true;
 };
 
 // The view of the options (engine/lod/cut.h): a camera (with or without a direction) or one
@@ -38,6 +41,8 @@ engine::ViewSpec viewSpec(const SelectionOptions& options);
 // One exported block: the cut's choice and the counts of the chosen level.
 struct ExportedBlock : engine::NodeChoice {
     std::uint32_t vertexCount = 0, triangles = 0, riverEdges = 0;
+    bool refined = false;  // written refined (SelectionOptions::refine): the counts are its
+    std::uint32_t stepsDone = 0;
 };
 
 // Chooses the level of one block already read.
