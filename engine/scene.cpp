@@ -784,11 +784,13 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
         // Resident as wanted, or a root at its coarse level (wanted, or a fallback).
         const bool full = s.needsFull(b, sel.wanted.level) && b.full.valid;
         sel.drawnLevel = full ? sel.wanted.level : b.info.levels.size() - 1;
-        if (full && b.refinement && s.options.refine && !spec.finest) {
+        if (full && b.refinement && s.options.refine && !spec.finest &&
+            sel.wanted.step < b.info.stepCount) {
             // Refined for the view: the records' steps whose own error fits their own box's
-            // tolerance, instead of the stored level (refine.h).
+            // tolerance, instead of the stored level (refine.h), from that level's step on (a
+            // level at the last step is drawn as it is: nothing is left to take).
             const auto t0 = std::chrono::steady_clock::now();
-            b.refinement->refine(spec, s.mesh);
+            b.refinement->refine(spec, s.mesh, sel.wanted.step);
             st.refineMs +=
                 std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
                     .count();

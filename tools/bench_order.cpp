@@ -403,8 +403,9 @@ json viewBenchmark(const std::string& path, const std::string& cameraPath, std::
         for (const unilod::engine::NodeChoice& n : cut) {
             drawn += (*nodes[n.block].levels)[n.wanted.level].triangleCount;
             std::uint64_t levelInView = 0;
-            // Selective refinement of a leaf's records (lod/refine.h) instead of its stored
-            // level, where the leaf can be refined.
+            // Selective refinement of a leaf's records (lod/refine.h) from its stored level on,
+            // where the leaf can be refined and that level is not its last state (the engine's
+            // rule, scene.cpp).
             auto known = refinements.find(n.block);
             if (known == refinements.end()) {
                 unilod::format::Block b;
@@ -414,10 +415,11 @@ json viewBenchmark(const std::string& path, const std::string& cameraPath, std::
                 if (!r->init(b, why)) r.reset();
                 known = refinements.emplace(n.block, std::move(r)).first;
             }
-            const bool useMt = known->second != nullptr;
+            const bool useMt =
+                known->second != nullptr && n.wanted.step < reader.blocks()[n.block].stepCount;
             if (useMt) {
                 const auto t0 = std::chrono::steady_clock::now();
-                known->second->refine(v, mesh);
+                known->second->refine(v, mesh, n.wanted.step);
                 refineSeconds +=
                     std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
                 refined += mesh.triangles.size();

@@ -377,7 +377,7 @@ bool Refinement::init(const format::Block& b, std::string& why) {
     return true;
 }
 
-void Refinement::refine(const ViewSpec& view, RefinedMesh& out) const {
+void Refinement::refine(const ViewSpec& view, RefinedMesh& out, std::uint32_t prefix) const {
     std::vector<std::uint8_t>& done = out.done;
     done.assign(steps_.size() + 2, 0);  // the last: the sentinel step (never destroyed)
     done[0] = 1;
@@ -407,7 +407,10 @@ void Refinement::refine(const ViewSpec& view, RefinedMesh& out) const {
         return nodeVisible(view, step.boxMin, step.boxMax);
     };
     const double* eye = view.camera.eye;
-    for (std::size_t s = 0; s < steps_.size(); ++s) {
+    prefix = std::min<std::uint32_t>(prefix, std::uint32_t(steps_.size()));
+    std::fill(done.begin() + 1, done.begin() + 1 + prefix, 1);
+    out.stepsDone = prefix;
+    for (std::size_t s = prefix; s < steps_.size(); ++s) {
         const Step& step = steps_[s];
         bool ready = true;
         for (std::uint32_t p = 0; p < step.parentCount && ready; ++p)

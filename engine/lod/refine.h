@@ -64,7 +64,11 @@ public:
     // box is off screen (nodeVisible false) or its errors fit nodeTolerances(view, box) (vertical
     // part against `vertical`, river part against `river`; a block with rivers is `horizontal`,
     // as lod/cut.h LodNode). `out` is overwritten.
-    void refine(const ViewSpec& view, RefinedMesh& out) const;
+    // `prefix`: the steps [0, prefix) are taken without a test: the step of the stored level the
+    // cut chose for the block (its error fits the block's tolerance, which bounds every point
+    // of the block; a step box's tolerance is not below its block's, so those steps would be
+    // taken anyway). The engine passes it; with prefix = steps() the result is the last state.
+    void refine(const ViewSpec& view, RefinedMesh& out, std::uint32_t prefix = 0) const;
 
     // `block` (the one init() read) with the refined mesh appended as one more stored level,
     // for code that reads levels (export, tests): its triangles and river edges after the

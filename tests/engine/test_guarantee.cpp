@@ -304,7 +304,7 @@ protected:
                 std::string why;
                 EXPECT_TRUE(refinement.init(block, why)) << why;
                 engine::RefinedMesh mesh;
-                refinement.refine(view, mesh);
+                refinement.refine(view, mesh, b["step"].get<std::uint32_t>());
                 EXPECT_EQ(b["steps_done"].get<std::uint32_t>(), mesh.stepsDone) << b.dump();
                 EXPECT_EQ(b["triangles"].get<std::size_t>(), mesh.triangles.size());
                 auto copy = std::make_unique<format::Block>(block);

@@ -203,6 +203,11 @@ TEST_F(Refine, UniformToleranceMeetsItsBoundWithNoMoreTrianglesThanThePrefix) {
                                                       : leaf.steps[prefix - 1].trianglesAlive;
             EXPECT_LE(mesh.triangles.size(), prefixTriangles);
             EXPECT_GE(mesh.stepsDone, prefix);
+            // The engine starts from that prefix (the cut's stored level): the same mesh.
+            engine::RefinedMesh fromPrefix;
+            r.refine(view, fromPrefix, std::uint32_t(prefix));
+            EXPECT_EQ(fromPrefix.stepsDone, mesh.stepsDone);
+            EXPECT_EQ(fromPrefix.triangles.size(), mesh.triangles.size());
         }
     }
     EXPECT_GT(partial, 40u);        // not vacuous: most meshes are neither extreme

@@ -127,12 +127,13 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
         std::size_t level = s.wanted.level;
         // A leaf refined for the view from its records, as the engine draws it (scene.h
         // SceneOptions::refine, lod/refine.h).
-        if (so.useCamera && so.refine && block.level == 0 && block.childCount == 0) {
+        if (so.useCamera && so.refine && block.level == 0 && block.childCount == 0 &&
+            s.wanted.step < block.steps.size()) {
             engine::Refinement refinement;
             std::string why;
             if (refinement.init(block, why)) {
                 engine::RefinedMesh mesh;
-                refinement.refine(viewSpec(so), mesh);
+                refinement.refine(viewSpec(so), mesh, s.wanted.step);
                 level = refinement.appendAsLevel(mesh, block);
                 s.refined = true;
                 s.stepsDone = mesh.stepsDone;
