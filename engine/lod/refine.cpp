@@ -374,6 +374,17 @@ bool Refinement::init(const format::Block& b, std::string& why) {
         if (d == 0) d = sentinel;
     for (std::uint32_t& d : edgeDestroyer_)
         if (d == 0) d = sentinel;
+    // What each stored level draws, as indices into the tables: refine() starts from it.
+    for (const format::Level& l : b.levels) {
+        if (l.step > steps_.size()) continue;
+        levelSteps_.push_back(l.step);
+        auto& t = levelTriangles_.emplace_back();
+        for (std::uint32_t i = 0; i < createdTriangles_[l.step + 1]; ++i)
+            if (triangleDestroyer_[i] > l.step) t.push_back(i);
+        auto& e = levelEdges_.emplace_back();
+        for (std::uint32_t i = 0; i < createdEdges_[l.step + 1]; ++i)
+            if (edgeDestroyer_[i] > l.step) e.push_back(i);
+    }
     return true;
 }
 
@@ -443,7 +454,19 @@ void Refinement::refine(const ViewSpec& view, RefinedMesh& out, std::uint32_t pr
     // destroyed by one (a never destroyed one names the sentinel step, never taken).
     out.triangles.clear();
     out.riverEdges.clear();
-    for (std::size_t s = 0; s <= steps_.size(); ++s) {
+    // From a stored level at the prefix: its triangles and edges, then those of the steps taken
+    // after it; else from full resolution.
+    std::size_t from = 0;
+    const auto level = std::lower_bound(levelSteps_.begin(), levelSteps_.end(), prefix);
+    if (prefix > 0 && level != levelSteps_.end() && *level == prefix) {
+        const std::size_t l = std::size_t(level - levelSteps_.begin());
+        for (const std::uint32_t t : levelTriangles_[l])
+            if (!done[triangleDestroyer_[t]]) out.triangles.push_back(triangles_[t]);
+        for (const std::uint32_t e : levelEdges_[l])
+            if (!done[edgeDestroyer_[e]]) out.riverEdges.push_back(edges_[e]);
+        from = std::size_t(prefix) + 1;
+    }
+    for (std::size_t s = from; s <= steps_.size(); ++s) {
         if (!done[s]) continue;
         for (std::uint32_t t = createdTriangles_[s]; t < createdTriangles_[s + 1]; ++t)
             if (!done[triangleDestroyer_[t]]) out.triangles.push_back(triangles_[t]);

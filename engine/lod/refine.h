@@ -103,6 +103,9 @@ private:
     std::vector<format::Edge> edges_;
     std::vector<std::uint32_t> edgeCreator_, edgeDestroyer_;
     std::vector<std::uint32_t> createdTriangles_, createdEdges_;
+    // Per stored level (ascending steps): the triangles and river edges it draws (table indices).
+    std::vector<std::uint32_t> levelSteps_;
+    std::vector<std::vector<std::uint32_t>> levelTriangles_, levelEdges_;
     std::uint32_t fullTriangles_ = 0;
     bool horizontal_ = false;
 };

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <filesystem>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "blockbuild.h"
@@ -208,6 +209,24 @@ TEST_F(Refine, UniformToleranceMeetsItsBoundWithNoMoreTrianglesThanThePrefix) {
             r.refine(view, fromPrefix, std::uint32_t(prefix));
             EXPECT_EQ(fromPrefix.stepsDone, mesh.stepsDone);
             EXPECT_EQ(fromPrefix.triangles.size(), mesh.triangles.size());
+            // ... or from the stored level the cut picks (its triangles are the start).
+            const std::size_t stored = format::storedLevelFor(leaf.levels, format::kMetricMax, h);
+            engine::RefinedMesh fromLevel;
+            r.refine(view, fromLevel, leaf.levels[stored].step);
+            EXPECT_EQ(fromLevel.stepsDone, mesh.stepsDone);
+            auto sorted = [](std::vector<format::Triangle> t) {
+                std::sort(t.begin(), t.end(),
+                          [](const format::Triangle& x, const format::Triangle& y) {
+                              return std::tie(x.a, x.b, x.c) < std::tie(y.a, y.b, y.c);
+                          });
+                return t;
+            };
+            const auto a = sorted(fromLevel.triangles), c = sorted(mesh.triangles);
+            EXPECT_TRUE(std::equal(a.begin(), a.end(), c.begin(), c.end(),
+                                   [](const format::Triangle& x, const format::Triangle& y) {
+                                       return x.a == y.a && x.b == y.b && x.c == y.c;
+                                   }));
+            EXPECT_EQ(fromLevel.riverEdges.size(), mesh.riverEdges.size());
         }
     }
     EXPECT_GT(partial, 40u);        // not vacuous: most meshes are neither extreme
