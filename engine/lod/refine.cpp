@@ -143,6 +143,8 @@ bool Refinement::init(const format::Block& b, std::string& why) {
     const auto pz = [&](std::uint32_t v) { return double(b.vertices[v].z); };
 
     std::unordered_map<std::uint64_t, std::uint32_t> triangleId, edgeId;
+    triangleId.reserve(b.levels.front().triangleCount + b.addedTriangles.size());
+    edgeId.reserve(b.levels.front().riverCount + b.addedEdges.size());
     const format::Level& full = b.levels.front();
     for (std::uint32_t t = full.triangleFirst; t < full.triangleFirst + full.triangleCount; ++t) {
         triangleId[triangleKey(b.terrainIndices[t])] = std::uint32_t(triangles_.size());
@@ -232,13 +234,18 @@ bool Refinement::init(const format::Block& b, std::string& why) {
         // stood for and those it leaves outside (in a removed triangle, in no created one). Their
         // horizontal distance to the nearest new outline edge bounds their distance to the drawn
         // outline, a horizontal displacement (the river part, as the build's outline deviation).
-        outerBoundary(b.removedTriangles.data() + b.removedTriangleOffset[s],
-                      b.removedTriangles.data() + b.removedTriangleOffset[s + 1], scratch,
-                      removedOuter);
-        outerBoundary(b.addedTriangles.data() + b.addedTriangleOffset[s],
-                      b.addedTriangles.data() + b.addedTriangleOffset[s + 1], scratch, addedOuter);
+        // Only a vertex on the outline can move it (any other's star is a closed fan whose
+        // re-triangulation keeps its outer boundary).
         double outline = 0;
-        step.movesOutline = removedOuter != addedOuter;
+        if (outlineDegree[b.steps[s].vertex] > 0) {
+            outerBoundary(b.removedTriangles.data() + b.removedTriangleOffset[s],
+                          b.removedTriangles.data() + b.removedTriangleOffset[s + 1], scratch,
+                          removedOuter);
+            outerBoundary(b.addedTriangles.data() + b.addedTriangleOffset[s],
+                          b.addedTriangles.data() + b.addedTriangleOffset[s + 1], scratch,
+                          addedOuter);
+            step.movesOutline = removedOuter != addedOuter;
+        }
         if (step.movesOutline) {
             // The outline edges this step ends (their points are reassigned) and starts: a
             // boundary edge of the removed region that was outline goes; one that was not
