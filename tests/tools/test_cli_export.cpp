@@ -400,6 +400,27 @@ TEST_F(ExportTest, CameraEqualsEngineSelection) {
     EXPECT_EQ(triangles, j.at("totals").at("triangles").get<std::uint64_t>());
     EXPECT_EQ(edges, j.at("totals").at("river_edges").get<std::uint64_t>());
     EXPECT_TRUE(m.asset.extras.Get("selection").Get("culled").Get<bool>());
+
+    // --no-refine on both: stored levels only, the same counts again, and more triangles.
+    const std::string stored = dir->file("stored.glb");
+    ASSERT_EQ(runCli("export -q --no-refine " + q(model) + common + " -o " + q(stored)).code, 0);
+    const std::string storedFrames = dir->file("stored_frames");
+    const auto c2 = runCli("capture --validation --no-refine " + q(model) + common + " --out " +
+                           q(storedFrames));
+    ASSERT_EQ(c2.code, 0) << c2.err;
+    const nlohmann::json j2 = nlohmann::json::parse(test::slurp(storedFrames + "/frame_0000.json"));
+    for (const auto& b : j2.at("blocks"))
+        EXPECT_FALSE(b.at("refined").get<bool>());
+    std::uint64_t storedTriangles = 0;
+    const tinygltf::Model m2 = load(stored);
+    for (const tinygltf::Node& node : m2.nodes) {
+        EXPECT_FALSE(node.extras.Get("refined").Get<bool>());
+        for (const tinygltf::Primitive& p : m2.meshes[std::size_t(node.mesh)].primitives)
+            if (p.mode == TINYGLTF_MODE_TRIANGLES)
+                storedTriangles += m2.accessors[std::size_t(p.indices)].count / 3;
+    }
+    EXPECT_EQ(storedTriangles, j2.at("totals").at("triangles").get<std::uint64_t>());
+    EXPECT_GT(storedTriangles, triangles);
 }
 
 TEST_F(ExportTest, ErrorsLeaveNoFile) {
