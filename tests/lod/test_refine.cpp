@@ -17,6 +17,7 @@
 #include "blockbuild.h"
 #include "blocks.h"
 #include "cut.h"
+#include "demfixtures.h"
 #include "errorcheck.h"
 #include "lod.h"
 #include "refine.h"
@@ -305,23 +306,7 @@ TEST_F(Refine, PerspectiveViewKeepsEveryOriginalPointWithinItsOwnTolerance) {
 // outline): a disc with a bite and a hole, with relief. Steps that cut a corner leave original
 // points outside the domain; their horizontal distance to the refined outline is within h.
 TEST_F(Refine, OutlineCornersCutCountTheirHorizontalError) {
-    DemGrid d;
-    d.width = d.height = 36;
-    d.originX = 500000;
-    d.originY = 4000000;
-    d.cellX = 30;
-    d.cellY = -30;
-    for (int r = 0; r < d.height; ++r)
-        for (int c = 0; c < d.width; ++c) {
-            const double x = c - 17.5, y = r - 17.5;
-            const bool disc = x * x + y * y < 16.5 * 16.5;
-            const bool bite = (x - 8) * (x - 8) + y * y < 8.0 * 8.0;
-            const bool hole = (x + 7) * (x + 7) + (y - 2) * (y - 2) < 3.2 * 3.2;
-            d.z.push_back(
-                !disc || bite || hole
-                    ? NAN
-                    : float(100 + 2 * c + 3 * r + 20.0 * std::sin(c / 4.0) * std::cos(r / 5.0)));
-        }
+    const DemGrid d = test::discWithBiteAndHole();
     BlockSource source;
     BlockOptions bo;
     bo.blockSize = 35;

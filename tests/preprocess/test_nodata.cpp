@@ -19,6 +19,7 @@
 #include "cdt.h"
 #include "checker.h"
 #include "deletion.h"
+#include "demfixtures.h"
 #include "modelerror.h"
 #include "nodata.h"
 #include "stats.h"
@@ -342,18 +343,7 @@ TEST(Nodata, DomainFollowsTheValidData) {
 // outline corners are deleted, and the stored error bounds the vertical error of every point the
 // domain still covers.
 TEST(Nodata, OutlineCornersSimplifyWithInvariantsAfterEveryStep) {
-    DemGrid d = plane(36, 36);
-    for (int r = 0; r < d.height; ++r) {
-        for (int c = 0; c < d.width; ++c) {
-            const double x = c - 17.5, y = r - 17.5;
-            float& z = d.z[std::size_t(r) * std::size_t(d.width) + std::size_t(c)];
-            z += float(20.0 * std::sin(c / 4.0) * std::cos(r / 5.0));
-            const bool disc = x * x + y * y < 16.5 * 16.5;
-            const bool bite = (x - 8) * (x - 8) + y * y < 8.0 * 8.0;
-            const bool hole = (x + 7) * (x + 7) + (y - 2) * (y - 2) < 3.2 * 3.2;
-            if (!disc || bite || hole) z = NAN;
-        }
-    }
+    const DemGrid d = unilod::test::discWithBiteAndHole();
     BlockSource source;
     BlockOptions bo;
     bo.blockSize = 35;
