@@ -164,6 +164,8 @@ struct BlockState {
     // With `full`: the entry's deletion records for refinement (SceneOptions::refine; null for a
     // tree node or a leaf refine.h does not refine).
     std::shared_ptr<const Refinement> refinement;
+    std::uint64_t refinementBytes = 0;   // its memoryBytes(), counted in Impl::refineBytes
+    std::uint64_t lastRefinedFrame = 0;  // the last frame that drew it refined
     std::uint32_t parent = kNoParent;
     std::uint32_t treeLevel = 0;
     std::uint64_t lastUsedFrame = 0;
@@ -200,6 +202,7 @@ struct StreamingScene::Impl {
     Buffer arena;
     RangeAllocator allocator;
     std::uint64_t budget = 0, coarseBytes = 0;
+    std::uint64_t refineBytes = 0;  // held by the resident leaves' refinements
     Staging staging[kFramesInFlight];
     std::uint64_t stagingSize = 0;
     std::deque<Release> releases;
@@ -359,7 +362,7 @@ struct StreamingScene::Impl {
         // Frames up to lastUsedFrame may still read it.
         Release r{std::int64_t(victim->lastUsedFrame), victim->full.offset, victim->full.size};
         victim->full = Allocation{};
-        victim->refinement.reset();
+        dropRefinement(*victim);
         if (r.afterFrame <= completedFrame) {
             allocator.release(r.offset, r.size);
             ++spaceEpoch;
@@ -372,6 +375,31 @@ struct StreamingScene::Impl {
         }
         ++stats.evictions;
         return true;
+    }
+
+    // Keeps a leaf's refinement within SceneOptions::refineMemory: room is made by dropping
+    // the refinements of the leaves drawn refined longest ago (not in `frame`); without room the
+    // leaf keeps its stored levels (until its geometry is evicted and streamed again).
+    void adoptRefinement(BlockState& b, std::shared_ptr<const Refinement> r, std::uint64_t frame) {
+        if (!r) return;
+        const std::uint64_t bytes = r->memoryBytes();
+        while (refineBytes + bytes > options.refineMemory) {
+            BlockState* victim = nullptr;
+            for (BlockState& o : blocks)
+                if (o.refinement && &o != &b && o.lastRefinedFrame < frame &&
+                    (!victim || o.lastRefinedFrame < victim->lastRefinedFrame))
+                    victim = &o;
+            if (!victim) return;
+            dropRefinement(*victim);
+        }
+        b.refinement = std::move(r);
+        b.refinementBytes = bytes;
+        refineBytes += bytes;
+    }
+    void dropRefinement(BlockState& b) {
+        refineBytes -= b.refinementBytes;
+        b.refinementBytes = 0;
+        b.refinement.reset();
     }
 
     // Whether drawing `level` of `b` needs its full geometry: any level of an entry below the
@@ -569,7 +597,7 @@ bool StreamingScene::open(const Device& device, const std::string& path,
                 assert(fits);
                 (void)fits;
                 b.full = {offset, p.bytes.size(), p.vertexBytes, p.terrainBytes, true};
-                b.refinement = std::move(refinements[k]);
+                s.adoptRefinement(b, std::move(refinements[k]), 0);
                 std::memcpy(s.staging[0].buffer.mapped, p.bytes.data(), p.bytes.size());
                 submitAndWait(device, [&](VkCommandBuffer cmd) {
                     const VkBufferCopy copy{0, offset, p.bytes.size()};
@@ -691,7 +719,7 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
             continue;
         }
         b.full = {offset, size, item.packed.vertexBytes, item.packed.terrainBytes, true};
-        b.refinement = std::move(item.refinement);
+        s.adoptRefinement(b, std::move(item.refinement), frame);
         std::memcpy(stagingBytes + stagingAt, item.packed.bytes.data(), size);
         copies.push_back({stagingAt, offset, size});
         stagingAt += alignUp(size);
@@ -780,7 +808,7 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
             }
             continue;
         }
-        const BlockState& b = s.blocks[sel.block];
+        BlockState& b = s.blocks[sel.block];
         // Resident as wanted, or a root at its coarse level (wanted, or a fallback).
         const bool full = s.needsFull(b, sel.wanted.level) && b.full.valid;
         sel.drawnLevel = full ? sel.wanted.level : b.info.levels.size() - 1;
@@ -791,6 +819,7 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
             // level at the last step is drawn as it is: nothing is left to take).
             const auto t0 = std::chrono::steady_clock::now();
             b.refinement->refine(spec, s.mesh, sel.wanted.step);
+            b.lastRefinedFrame = frame;
             st.refineMs +=
                 std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
                     .count();
@@ -855,6 +884,7 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
     s.wake.notify_all();
     st.residentBlocks = 0;
     for (const BlockState& b : s.blocks) st.residentBlocks += b.full.valid;
+    st.refineBytes = s.refineBytes;
     st.gpuBytesUsed = s.allocator.used();
     return ok;
 }

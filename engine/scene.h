@@ -65,6 +65,10 @@ struct SceneOptions {
     // with the frame. Off: stored levels only (the paper's per-entry levels). A leaf that
     // cannot be refined (refine.h) keeps its stored level; so does every tree node.
     bool refine = true;
+    // Host memory the resident leaves' refinement tables may hold (about 240 bytes per vertex:
+    // 0.9 MiB for a 64-cell leaf, 8-16 MiB for a 256-cell one); beyond it the leaves drawn
+    // refined longest ago lose theirs (lod/refine.h Refinement::memoryBytes).
+    std::uint64_t refineMemory = 256ull << 20;
     // Everything resident: open() also uploads every block's full LOD geometry (the budget
     // is raised to what that needs) and nothing is streamed: the benchmark's baseline.
     bool preloadAll = false;
@@ -98,6 +102,7 @@ struct FrameStats {
     std::uint32_t fallbackBlocks = 0;  // visible, drawn coarser than wanted
     std::uint32_t refinedBlocks = 0;   // drawn refined (SceneOptions::refine)
     double refineMs = 0;               // CPU time of this frame's refinements
+    std::uint64_t refineBytes = 0;     // host memory of the resident refinements
     std::uint64_t triangles = 0, riverEdges = 0;
     std::uint64_t bytesUploaded = 0;   // this frame
     std::uint64_t gpuBytesUsed = 0;    // allocated in the budget (incl. memory awaiting release)

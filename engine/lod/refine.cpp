@@ -381,6 +381,16 @@ bool Refinement::init(const format::Block& b, std::string& why) {
         if (d == 0) d = sentinel;
     for (std::uint32_t& d : edgeDestroyer_)
         if (d == 0) d = sentinel;
+    // The creators served the dependencies above (refine() walks the created ranges); the rest
+    // is kept at its size (the engine holds the tables of every resident leaf).
+    triangleCreator_ = {};
+    edgeCreator_ = {};
+    for (auto* v : {&parents_, &triangleDestroyer_, &edgeDestroyer_, &createdTriangles_,
+                    &createdEdges_})
+        v->shrink_to_fit();
+    steps_.shrink_to_fit();
+    triangles_.shrink_to_fit();
+    edges_.shrink_to_fit();
     // What each stored level draws, as indices into the tables: refine() starts from it.
     for (const format::Level& l : b.levels) {
         if (l.step > steps_.size()) continue;
@@ -506,6 +516,19 @@ std::size_t Refinement::appendAsLevel(const RefinedMesh& mesh, format::Block& bl
     block.errorRiver.push_back(river);
     block.levels.push_back(l);
     return block.levels.size() - 1;
+}
+
+std::size_t Refinement::memoryBytes() const {
+    const auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
+    std::size_t sum = bytes(steps_) + bytes(parents_) + bytes(triangles_) +
+                      bytes(triangleCreator_) + bytes(triangleDestroyer_) + bytes(edges_) +
+                      bytes(edgeCreator_) + bytes(edgeDestroyer_) + bytes(createdTriangles_) +
+                      bytes(createdEdges_) + bytes(levelSteps_);
+    for (const auto& v : levelTriangles_)
+        sum += bytes(v);
+    for (const auto& v : levelEdges_)
+        sum += bytes(v);
+    return sum;
 }
 
 }  // namespace unilod::engine

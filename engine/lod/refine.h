@@ -78,6 +78,8 @@ public:
     std::size_t appendAsLevel(const RefinedMesh& mesh, format::Block& block) const;
 
     std::size_t steps() const { return steps_.size(); }
+    // Heap bytes held (the engine caps what its resident refinements hold).
+    std::size_t memoryBytes() const;
     std::uint32_t fullTriangles() const { return fullTriangles_; }
     // The realised errors of step k (metres): vertical (with the river part: max of both) and
     // river part.

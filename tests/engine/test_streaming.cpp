@@ -161,6 +161,43 @@ TEST_F(Streaming, FirstFrameDrawsTheRootThenStreamsIn) {
     EXPECT_TRUE(messages.empty()) << messages.front();
 }
 
+// The leaves' refinement tables stay within SceneOptions::refineMemory: with room for about two
+// 64-cell leaves, at most that much is held at any frame while the view moves, leaves are still
+// drawn refined, and a leaf without its table is drawn at its stored level; with no room none
+// is refined.
+TEST_F(Streaming, RefinementMemoryStaysWithinItsCap) {
+    for (const std::uint64_t cap : {std::uint64_t(0), std::uint64_t(2500) << 10}) {
+        engine::HeadlessOptions o = options(engine::kDefaultGpuBudget);
+        o.scene.refineMemory = cap;
+        engine::HeadlessRenderer r;
+        std::string error;
+        ASSERT_TRUE(r.open(o, error)) << error;
+        std::uint64_t refined = 0, stored = 0;
+        for (int i = 0; i < 60; ++i) {
+            const engine::FrameView view = r.view(oblique(0.2 + 0.01 * i));
+            ASSERT_TRUE(r.renderFrame(view, true, nullptr, error)) << error;
+            const engine::FrameStats& st = r.scene().stats();
+            EXPECT_LE(st.refineBytes, cap);
+            refined += st.refinedBlocks;
+            for (const engine::BlockSelection& s : r.scene().selection())
+                if (!s.refined && !s.fallback && s.treeLevel == 0 &&
+                    s.drawnLevel + 1 < r.scene().levels(s.block).size()) {
+                    ++stored;
+                    EXPECT_EQ(s.triangles, r.scene().levels(s.block)[s.drawnLevel].triangleCount);
+                }
+        }
+        r.finish();
+        if (cap == 0) {
+            EXPECT_EQ(refined, 0u);
+        } else {
+            EXPECT_GT(refined, 0u);
+        }
+        EXPECT_GT(stored, 0u);  // leaves without a table keep their stored levels
+        const std::vector<std::string> messages = r.close();
+        EXPECT_TRUE(messages.empty()) << messages.front();
+    }
+}
+
 TEST_F(Streaming, BudgetIsNeverExceededAndBlocksAreEvicted) {
     // Budget: the coarse set plus about a third of the full blocks.
     std::uint64_t coarse = 0, full = 0;
