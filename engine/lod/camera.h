@@ -71,6 +71,13 @@ bool boxInFrustum(const Camera& camera, double aspect, const double boxMin[3],
                   const double boxMax[3]);
 bool boxInFrustum(const Camera& camera, const CameraBasis& basis, double aspect,
                   const double boxMin[3], const double boxMax[3]);
+// The same test with the frustum's planes computed once (many boxes of one view: refine.h).
+struct Frustum {
+    double eye[3] = {}, forward[3] = {};
+    double planes[4][3] = {};  // inward normals of the side planes, through the eye
+};
+Frustum viewFrustum(const Camera& camera, const CameraBasis& basis, double aspect);
+bool boxInFrustum(const Frustum& frustum, const double boxMin[3], const double boxMax[3]);
 
 // The grid view's culling: false when the box's x/y extent misses the viewport rectangle.
 bool boxInGridView(const Camera& camera, double halfHeight, double aspect, const double boxMin[3],

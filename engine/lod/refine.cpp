@@ -413,25 +413,29 @@ void Refinement::refine(const ViewSpec& view, RefinedMesh& out, std::uint32_t pr
     node.horizontal = horizontal_;
     out.stepsDone = 0;
     // A camera view in Nearest mode bounds every tolerance from below (lod.h effectiveDistance,
-    // cut.cpp nodeTolerances: S' >= cos(theta_c) max(zMin, S cos(theta_c)) with c >=
-    // cos(theta_c) and verticalSin <= 1; the river factor f / (f + P c) >= f / (f + P)) by
-    //   P cos(theta_c) max(zMin, S cos(theta_c)) / (f + P),
-    // zMin the box's smallest depth, S its nearest distance: a step whose error fits that is
-    // taken without the full evaluation.
+    // cut.cpp nodeTolerances, which never returns less than the whole box's bounds: S' >=
+    // cos(theta_c) D / sin(phi) with D = max(zMin, S cos(theta_c)), as c >= cos(theta_c); the
+    // river bound has no sin(phi) and, per column, the factor f / (f + P c) >= f / (f + P)):
+    //   vertical >= P cos(theta_c) D / (f sin(phi)),  river >= P cos(theta_c) D / (f + P),
+    // zMin the box's smallest depth, S its nearest distance, sin(phi) <= the box's bound below
+    // (1 when the eye's height is within its z range). A step whose errors fit those is taken
+    // without the full evaluation.
     const bool camera = view.kind == ViewSpec::Kind::Camera && view.direction;
     const bool quick = camera && view.distance == DistanceMode::Nearest;
     const CameraBasis basis = cameraBasis(view.camera);
     const double aspect = view.widthPixels / view.heightPixels;
-    double cornerCos = 0, factor = 0;
+    const Frustum frustum = viewFrustum(view.camera, basis, aspect);
+    double cornerCos = 0, verticalFactor = 0, riverFactor = 0;
     if (quick) {
         const double fov = view.camera.fovDegrees * (3.14159265358979323846 / 180.0);
         const double focal = view.heightPixels / (2.0 * std::tan(fov / 2.0));
         cornerCos = std::sqrt(frustumEdgeFactor(fov, aspect));
-        factor = view.pixels * cornerCos / (focal + view.pixels) * (1 - 1e-12);
+        verticalFactor = view.pixels * cornerCos / focal * (1 - 1e-12);
+        riverFactor = view.pixels * cornerCos / (focal + view.pixels) * (1 - 1e-12);
     }
     const auto visible = [&](const Step& step) {
-        if (camera && view.cull)  // nodeVisible's test, the basis computed once
-            return boxInFrustum(view.camera, basis, aspect, step.boxMin, step.boxMax);
+        if (camera && view.cull)  // nodeVisible's test, the planes computed once
+            return boxInFrustum(frustum, step.boxMin, step.boxMax);
         return nodeVisible(view, step.boxMin, step.boxMax);
     };
     const double* eye = view.camera.eye;
@@ -446,14 +450,24 @@ void Refinement::refine(const ViewSpec& view, RefinedMesh& out, std::uint32_t pr
         if (!ready) continue;
         bool take = false;
         if (quick) {
-            double d2 = 0, depth = 0;  // squared nearest distance, smallest depth
+            // Squared nearest distance, smallest depth, the largest squared horizontal distance.
+            double d2 = 0, depth = 0, far2 = 0;
             for (int k = 0; k < 3; ++k) {
                 const double lo = step.boxMin[k] - eye[k], hi = step.boxMax[k] - eye[k];
                 const double d = std::max({lo, 0.0, -hi});
                 d2 += d * d;
                 depth += basis.forward[k] * (basis.forward[k] >= 0 ? lo : hi);
+                if (k < 2) far2 += std::max(lo * lo, hi * hi);
             }
-            take = double(step.error) <= factor * std::max(depth, std::sqrt(d2) * cornerCos);
+            const double reach = std::max(depth, std::sqrt(d2) * cornerCos);
+            // sin(phi) <= h / sqrt(h^2 + dz^2) at the box's largest horizontal distance h and
+            // smallest height difference dz (increasing in h, decreasing in dz); 1 beside it.
+            const double below = step.boxMin[2] - eye[2], above = eye[2] - step.boxMax[2];
+            const double dz = std::max({below, above, 0.0});
+            const double sinBound =
+                dz > 0 ? std::max(std::sqrt(far2 / (far2 + dz * dz)), 1e-9) : 1.0;
+            take = double(step.error) <= verticalFactor * reach / sinBound &&
+                   double(step.river) <= riverFactor * reach;
         }
         if (!take && visible(step)) {
             std::copy(step.boxMin, step.boxMin + 3, node.boxMin);
