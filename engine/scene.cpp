@@ -161,8 +161,8 @@ struct BlockState {
     // coarse: the last level only, always resident, for a root (an entry with no tree parent:
     // every block of a file without a tree); full: every level, streamed.
     Allocation coarse, full;
-    // With `full`: the entry's deletion records for refinement (SceneOptions::refine; null for a
-    // tree node or a leaf refine.h does not refine).
+    // With `full`: the entry's deletion records for refinement (SceneOptions::refine; null for
+    // an entry refine.h does not refine).
     std::shared_ptr<const Refinement> refinement;
     std::uint64_t refinementBytes = 0;   // its memoryBytes(), counted in Impl::refineBytes
     std::uint64_t lastRefinedFrame = 0;  // the last frame that drew it refined
@@ -277,7 +277,7 @@ struct StreamingScene::Impl {
     }
 
     // Reads, validates and packs an entry's full geometry (every level); with
-    // SceneOptions::refine a leaf is read whole and its records prepared for refinement
+    // SceneOptions::refine an entry is read whole and its records prepared for refinement
     // (refine.h; left null where it does not apply). Thread-safe (pread).
     bool readEntry(std::uint32_t index, Packed& packed,
                    std::shared_ptr<const Refinement>& refinement, std::string& error) const {
@@ -289,7 +289,7 @@ struct StreamingScene::Impl {
             error = reader.path() + ": block arrays shorter than its levels";
             return false;
         };
-        if (options.refine && b.info.level == 0 && b.info.childCount == 0) {
+        if (options.refine) {
             format::Block block;
             if (!reader.readBlock(index, block, error) || !fits(block)) return false;
             pack(block, b.terrainTriangles, b.riverEdges, packed);
@@ -377,7 +377,7 @@ struct StreamingScene::Impl {
         return true;
     }
 
-    // Keeps a leaf's refinement within SceneOptions::refineMemory: room is made by dropping
+    // Keeps an entry's refinement within SceneOptions::refineMemory: room is made by dropping
     // the refinements of the leaves drawn refined longest ago (not in `frame`); without room the
     // leaf keeps its stored levels (until its geometry is evicted and streamed again).
     void adoptRefinement(BlockState& b, std::shared_ptr<const Refinement> r, std::uint64_t frame) {

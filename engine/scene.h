@@ -59,14 +59,14 @@ struct SceneOptions {
     DistanceMode distance = DistanceMode::Nearest;
     LodPolicy policy = LodPolicy::Adaptive;
     bool cull = true;  // frustum culling (off: every block is drawn)
-    // Selective refinement (lod/refine.h): a leaf drawn from its full geometry is drawn as its
-    // deletion records refined for the view (every step whose own error fits the tolerance of
-    // its own box) instead of its stored level; each frame's refined index data is uploaded
-    // with the frame. Off: stored levels only (the paper's per-entry levels). A leaf that
-    // cannot be refined (refine.h) keeps its stored level; so does every tree node.
+    // Selective refinement (lod/refine.h): an entry (leaf or tree node) drawn from its full
+    // geometry is drawn as its deletion records refined for the view (every step whose error
+    // fits the tolerance of its own box) instead of its stored level; each frame's refined index
+    // data is uploaded with the frame. Off: stored levels only (the paper's per-entry levels).
+    // An entry that cannot be refined (refine.h) keeps its stored level.
     bool refine = true;
-    // Host memory the resident leaves' refinement tables may hold (about 240 bytes per vertex:
-    // 0.9 MiB for a 64-cell leaf, 8-16 MiB for a 256-cell one); beyond it the leaves drawn
+    // Host memory the resident entries' refinement tables may hold (about 240 bytes per vertex:
+    // 0.9 MiB for a 64-cell leaf, 8-16 MiB for a 256-cell one); beyond it the entries drawn
     // refined longest ago lose theirs (lod/refine.h Refinement::memoryBytes).
     std::uint64_t refineMemory = 256ull << 20;
     // Everything resident: open() also uploads every block's full LOD geometry (the budget

@@ -124,8 +124,12 @@ void outerBoundary(const format::Triangle* first, const format::Triangle* last,
 bool Refinement::init(const format::Block& b, std::string& why) {
     *this = Refinement{};
     const std::size_t n = b.vertices.size();
-    if (b.firstChild != format::kNoChild || b.level != 0) {
-        why = "a tree node (its original points are its leaves')";
+    // A tree node's original points are its leaves': its steps take the stored running maximum
+    // (refine.h).
+    const bool node = b.firstChild != format::kNoChild || b.level != 0;
+    if (node && (b.errorMax.size() != b.steps.size() + 1 ||
+                 (!b.errorRiver.empty() && b.errorRiver.size() != b.steps.size() + 1))) {
+        why = "a tree node without its `max` errors";
         return false;
     }
     if (b.grid.size() != n || n == 0 || b.levels.empty()) {
@@ -163,7 +167,8 @@ bool Refinement::init(const format::Block& b, std::string& why) {
         edgeDestroyer_.push_back(0);
         cover.emplace_back();
     }
-    horizontal_ = full.riverCount > 0 || format::outlineMoves(b);
+    const bool outlineMoves = format::outlineMoves(b);
+    horizontal_ = full.riverCount > 0 || outlineMoves;
 
     const PointBuckets buckets(b);
     steps_.reserve(b.steps.size());
@@ -221,6 +226,7 @@ bool Refinement::init(const format::Block& b, std::string& why) {
             const double gx = (uz * wy - uy * wz) / d, gy = (ux * wz - uz * wx) / d;
             for (std::uint32_t v : {t.a, t.b, t.c})
                 grow(step.boxMin, step.boxMax, px(v), py(v), pz(v));
+            if (node) continue;
             buckets.inTriangle(t, [&](std::uint32_t v) {
                 const double surface = pz(t.a) + gx * (px(v) - px(t.a)) + gy * (py(v) - py(t.a));
                 vertical = std::max(vertical, std::abs(surface - pz(v)));
@@ -237,7 +243,19 @@ bool Refinement::init(const format::Block& b, std::string& why) {
         // Only a vertex on the outline can move it (any other's star is a closed fan whose
         // re-triangulation keeps its outer boundary).
         double outline = 0;
-        if (outlineDegree[b.steps[s].vertex] > 0) {
+        if (node) {
+            // A node's step that moves the outline is never taken beyond the stored prefix:
+            // where its outline's original points lie is not known here.
+            if (outlineMoves) {
+                outerBoundary(b.removedTriangles.data() + b.removedTriangleOffset[s],
+                              b.removedTriangles.data() + b.removedTriangleOffset[s + 1], scratch,
+                              removedOuter);
+                outerBoundary(b.addedTriangles.data() + b.addedTriangleOffset[s],
+                              b.addedTriangles.data() + b.addedTriangleOffset[s + 1], scratch,
+                              addedOuter);
+                step.movesOutline = step.blocked = removedOuter != addedOuter;
+            }
+        } else if (outlineDegree[b.steps[s].vertex] > 0) {
             outerBoundary(b.removedTriangles.data() + b.removedTriangleOffset[s],
                           b.removedTriangles.data() + b.removedTriangleOffset[s + 1], scratch,
                           removedOuter);
@@ -334,7 +352,7 @@ bool Refinement::init(const format::Block& b, std::string& why) {
             edgeDestroyer_[it->second] = self;
             merged.insert(merged.end(), cover[it->second].begin(), cover[it->second].end());
         }
-        if (b.removedEdgeOffset[s + 1] > b.removedEdgeOffset[s])
+        if (b.removedEdgeOffset[s + 1] > b.removedEdgeOffset[s] && !node)
             merged.push_back(b.steps[s].vertex);
         double river = 0;
         for (std::uint32_t a = b.addedEdgeOffset[s]; a < b.addedEdgeOffset[s + 1]; ++a) {
@@ -356,16 +374,29 @@ bool Refinement::init(const format::Block& b, std::string& why) {
             }
             cover.push_back(merged);
         }
-        river = std::max(river, outline);
-        // Rounded up to float: a stored bound never below the double value.
-        step.river = float(river);
-        if (double(step.river) < river) step.river = std::nextafter(step.river, INFINITY);
-        const double error = std::max(vertical, river);
-        step.error = float(error);
-        if (double(step.error) < error) step.error = std::nextafter(step.error, INFINITY);
         if (!(step.boxMin[0] <= step.boxMax[0])) {  // nothing created: the vertex's own place
             const std::uint32_t v = b.steps[s].vertex;
             grow(step.boxMin, step.boxMax, px(v), py(v), pz(v));
+        }
+        if (node) {
+            // The running maximum after the step bounds the error of every original point
+            // under a triangle it created (and of every original river point an edge it created
+            // stands for): those are alive in the sequential state after it. The points lie
+            // within that error of the triangles and edges: the box grows by it.
+            step.error = b.errorMax[s + 1];
+            step.river = b.errorRiver.empty() ? step.error : b.errorRiver[s + 1];
+            for (int k = 0; k < 3; ++k) {
+                step.boxMin[k] -= double(step.error);
+                step.boxMax[k] += double(step.error);
+            }
+        } else {
+            river = std::max(river, outline);
+            // Rounded up to float: a stored bound never below the double value.
+            step.river = float(river);
+            if (double(step.river) < river) step.river = std::nextafter(step.river, INFINITY);
+            const double error = std::max(vertical, river);
+            step.error = float(error);
+            if (double(step.error) < error) step.error = std::nextafter(step.error, INFINITY);
         }
         for (int k = 0; k < 2; ++k) {  // world coordinates
             const double origin = k == 0 ? b.originX : b.originY;
@@ -447,7 +478,7 @@ void Refinement::refine(const ViewSpec& view, RefinedMesh& out, std::uint32_t pr
         bool ready = true;
         for (std::uint32_t p = 0; p < step.parentCount && ready; ++p)
             ready = done[parents_[step.parentFirst + p]] != 0;
-        if (!ready) continue;
+        if (!ready || step.blocked) continue;
         bool take = false;
         if (quick) {
             // Squared nearest distance, smallest depth, the largest squared horizontal distance.

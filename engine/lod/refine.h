@@ -1,4 +1,4 @@
-// View-dependent selective refinement of one leaf block's deletion records (issues 15 and 18:
+// View-dependent selective refinement of one block's deletion records (issues 15 and 18:
 // the per-entry tolerance of a stored level holds a whole 64-cell leaf to the tolerance of its
 // nearest column; bench_order --view measured that granularity at 1.5-1.9x the triangles of a
 // per-point view-dependent TIN on the bundled fly-over).
@@ -33,9 +33,17 @@
 // removed outline edges stood for, and those it leaves outside) to its new outline edges, part of
 // the river part as in the build (both are horizontal displacements, bounded without sin(phi)).
 //
-// Not refined (init() says why; the engine keeps the stored levels for them): tree nodes (their
-// original points are the leaves', not their own vertices), blocks without grid positions, and
-// records that are not pure replacements.
+// A tree node (issue 18) is refined too, but its original points are its leaves', not its own
+// vertices, so its steps take the stored running maximum instead (errorMax / errorRiver after the
+// step): a triangle or river edge created by step k is alive in the sequential state after k,
+// whose error bounds every original point under it (and every original river point it stands
+// for), and those points lie within that error of it, so the step's box is its created
+// triangles' grown by the error on every side. A node's step that moves its outline is never
+// taken beyond the prefix (where the original points its new outline stands for lie is not
+// known without the leaves), nor is any step that depends on it.
+//
+// Not refined (init() says why; the engine keeps the stored levels for them): blocks without
+// grid positions, tree nodes without `max` errors, and records that are not pure replacements.
 #pragma once
 
 #include <cstdint>
@@ -93,6 +101,7 @@ private:
         double boxMin[3], boxMax[3];
         float error = 0, river = 0;
         bool movesOutline = false;
+        bool blocked = false;  // never taken beyond the prefix (a node's outline move)
         std::uint32_t parentFirst = 0, parentCount = 0;
     };
     std::vector<Step> steps_;

@@ -94,7 +94,7 @@ TEST_F(Capture, NearAndFarViews) {
     format::Reader reader;
     std::string error;
     ASSERT_TRUE(reader.open(file_, error)) << error;
-    std::size_t refined = 0;
+    std::size_t refined = 0, refinedNodes = 0;
     for (const nlohmann::json* view : {&nearView, &farView}) {
         // Frustum culling: only blocks in view are listed; none is drawn coarser than wanted
         // (a capture settles its residency first).
@@ -128,11 +128,13 @@ TEST_F(Capture, NearAndFarViews) {
                 EXPECT_TRUE(block.errorMax[next] > hLim || block.errorRiver[next] > hLimRiver)
                     << b.dump();
             }
-            // A leaf is drawn refined from its records (scene.h SceneOptions::refine): between
-            // its coarsest state and full resolution, else exactly its stored level.
+            // An entry (leaf or tree node) is drawn refined from its records (scene.h
+            // SceneOptions::refine): from its stored level on (at least that level's steps, no
+            // more triangles), else exactly its stored level.
             if (b["refined"].get<bool>()) {
-                EXPECT_EQ(block.level, 0u);
-                EXPECT_LE(b["triangles"].get<std::uint32_t>(), block.levels.front().triangleCount);
+                EXPECT_LE(b["triangles"].get<std::uint32_t>(), block.levels[level].triangleCount);
+                EXPECT_GE(b["steps_done"].get<std::uint32_t>(), block.levels[level].step);
+                refinedNodes += block.level > 0;
                 EXPECT_GT(b["triangles"].get<std::uint32_t>(), 0u);
                 EXPECT_LE(b["steps_done"].get<std::uint32_t>(), block.steps.size());
                 ++refined;
@@ -207,7 +209,8 @@ TEST_F(Capture, NearAndFarViews) {
             }
         }
     }
-    EXPECT_GT(refined, 0u);  // the default refines the leaves it draws from their records
+    EXPECT_GT(refined, 0u);       // the default refines the entries it draws from their records
+    EXPECT_GT(refinedNodes, 0u);  // the far view's tree node too
 
     // (c) not blank: many colours, terrain over most of the image (the near view looks at the
     // middle of a ~30 km data set from ~6 km: the whole frame is terrain).

@@ -181,7 +181,7 @@ private:
 };
 
 // A capture and what it drew: per block of the file, the chosen level and its surface.
-// A leaf drawn refined from its records (scene.h SceneOptions::refine) is rebuilt here with the
+// An entry drawn refined from its records (scene.h SceneOptions::refine) is rebuilt here with the
 // same CPU module and view (lod/refine.h; the capture's `steps_done` must agree) and stands as a
 // copy of the block with one more level: the refined triangles and river edges, its step an
 // extra error entry holding the largest own error of the steps taken; `alive` marks the
@@ -194,7 +194,7 @@ struct Drawn {
     std::vector<std::unique_ptr<format::Block>> refined;  // per block index: a refined leaf
     std::vector<std::vector<std::uint8_t>> alive;         // per block index: a refined leaf's
     const std::vector<format::Block>* file = nullptr;
-    std::size_t refinedLeaves = 0;
+    std::size_t refinedLeaves = 0, refinedNodes = 0;  // refined entries; of them tree nodes
     const format::Block& block(std::size_t i) const {
         return refined[i] ? *refined[i] : (*file)[i];
     }
@@ -314,6 +314,7 @@ protected:
                     if (mesh.done[k + 1]) d.alive[i][block.steps[k].vertex] = 0;
                 d.refined[i] = std::move(copy);
                 ++d.refinedLeaves;
+                d.refinedNodes += block.level > 0;
             }
             d.surfaces[i] = std::make_unique<Surface>(d.block(i), d.block(i).levels[d.level[i]]);
         }
@@ -664,6 +665,7 @@ TEST_F(Guarantee, TopDownView) {
     const Drawn d =
         capture("topdown", camera(0, (h.maxY - h.minY) / 2, 22000, 0, -90), 0.4, "nearest");
     expectGuarantee("top-down", d, 0.4);
+    EXPECT_GT(d.refinedNodes, 0u);  // tree nodes drawn refined too (their stored errors)
 }
 
 TEST_F(Guarantee, ThreePixels) {

@@ -48,13 +48,30 @@ protected:
         ASSERT_TRUE(reader.open(file, error)) << error;
         header_ = reader.header();
         for (std::size_t i = 0; i < reader.blocks().size(); ++i) {
-            if (reader.blocks()[i].level != 0) continue;
+            if (reader.blocks()[i].level != 0) {
+                nodes_.emplace_back();
+                ASSERT_TRUE(reader.readBlock(i, nodes_.back(), error)) << error;
+                // The leaves below it (their vertices are its original points).
+                auto& below = leavesBelow_.emplace_back();
+                std::vector<std::size_t> stack{i};
+                while (!stack.empty()) {
+                    const format::BlockInfo& info = reader.blocks()[stack.back()];
+                    const std::size_t at = stack.back();
+                    stack.pop_back();
+                    for (std::uint32_t c = 0; c < info.childCount; ++c)
+                        stack.push_back(info.firstChild + c);
+                    if (info.childCount == 0) below.push_back(at);
+                }
+                continue;
+            }
+            leafIndex_.push_back(i);
             leaves_.emplace_back();
             ASSERT_TRUE(reader.readBlock(i, leaves_.back(), error)) << error;
         }
     }
     static void TearDownTestSuite() {
         leaves_.clear();
+        nodes_.clear();
         fs::remove_all(dir_);
     }
 
@@ -138,12 +155,16 @@ protected:
 
     static fs::path dir_;
     static format::Header header_;
-    static std::vector<format::Block> leaves_;
+    static std::vector<format::Block> leaves_, nodes_;
+    static std::vector<std::size_t> leafIndex_;                 // file index of each leaf
+    static std::vector<std::vector<std::size_t>> leavesBelow_;  // per node: its leaves' indices
 };
 
 fs::path Refine::dir_;
 format::Header Refine::header_;
-std::vector<format::Block> Refine::leaves_;
+std::vector<format::Block> Refine::leaves_, Refine::nodes_;
+std::vector<std::size_t> Refine::leafIndex_;
+std::vector<std::vector<std::size_t>> Refine::leavesBelow_;
 
 TEST_F(Refine, NothingDoneIsFullResolutionEverythingDoneIsTheCoarsestState) {
     ASSERT_EQ(leaves_.size(), 42u);
@@ -232,6 +253,68 @@ TEST_F(Refine, UniformToleranceMeetsItsBoundWithNoMoreTrianglesThanThePrefix) {
     }
     EXPECT_GT(partial, 40u);        // not vacuous: most meshes are neither extreme
     EXPECT_GT(outlineSteps, 100u);  // straight outline stretches simplified (clipped DEM)
+}
+
+// Tree nodes: their steps take the stored running maximum, their outline-moving steps are never
+// taken. Every refined mesh is a valid triangulation, and its true error at every ORIGINAL point
+// of the node's area (the leaves' vertices and river points, recomputed by `check --errors`'
+// NodeOriginalError) is within the uniform tolerance.
+TEST_F(Refine, TreeNodesMeetTheBoundAtTheirLeavesOriginalPoints) {
+    ASSERT_EQ(nodes_.size(), 17u);
+    std::size_t partial = 0, blocked = 0;
+    for (std::size_t i = 0; i < nodes_.size(); ++i) {
+        const format::Block& node = nodes_[i];
+        engine::Refinement r;
+        std::string why;
+        ASSERT_TRUE(r.init(node, why)) << why;
+        ASSERT_EQ(r.steps(), node.steps.size());
+        for (std::size_t k = 0; k < r.steps(); ++k) {
+            blocked += r.stepMovesOutline(k);
+            EXPECT_EQ(r.stepError(k), node.errorMax[k + 1]);
+        }
+        const std::vector<double> tolerances = {5.0, 20.0, 50.0, 100.0, 200.0};
+        std::vector<std::vector<TriangleTriple>> levels;
+        std::vector<std::vector<RiverEdge>> rivers;
+        for (const double h : tolerances) {
+            engine::ViewSpec view;
+            view.kind = engine::ViewSpec::Kind::Uniform;
+            view.hLim = h;
+            // From the stored level the cut picks, as the engine refines (outline-moving steps
+            // are taken only within it).
+            const format::Level& stored =
+                node.levels[format::storedLevelFor(node.levels, format::kMetricMax, h)];
+            engine::RefinedMesh mesh;
+            r.refine(view, mesh, stored.step);
+            SCOPED_TRACE("node " + std::to_string(i) + " at " + std::to_string(h) + " m");
+            expectValidMesh(node, mesh);
+            partial += mesh.stepsDone > stored.step && mesh.stepsDone < node.steps.size();
+            EXPECT_GE(mesh.stepsDone, stored.step);
+            EXPECT_LE(mesh.triangles.size(), stored.triangleCount);
+            auto& t = levels.emplace_back();
+            for (const format::Triangle& x : mesh.triangles)
+                t.push_back(canonicalTriangle(x.a, x.b, x.c));
+            auto& e = rivers.emplace_back();
+            for (const format::Edge& x : mesh.riverEdges)
+                e.push_back(makeRiverEdge(x.a, x.b));
+        }
+        // The node's starting error must fit for it to be drawn at all: tolerances below it
+        // are not checked against the original points (its start is its children's coarsest).
+        NodeOriginalError originals(node, levels, rivers);
+        for (const std::size_t leaf : leavesBelow_[i]) {
+            const auto at = std::find(leafIndex_.begin(), leafIndex_.end(), leaf);
+            ASSERT_NE(at, leafIndex_.end());
+            originals.add(leaves_[std::size_t(at - leafIndex_.begin())]);
+        }
+        for (std::size_t k = 0; k < tolerances.size(); ++k) {
+            if (tolerances[k] < node.errorMax.front()) continue;
+            EXPECT_LE(originals.worst()[k].value, tolerances[k] + originals.tolerance())
+                << "node " << i << " at " << tolerances[k] << " m";
+            EXPECT_LE(originals.riverWorst()[k].value, tolerances[k] + originals.tolerance())
+                << "node " << i << " at " << tolerances[k] << " m";
+        }
+    }
+    EXPECT_GT(partial, 2u);  // not vacuous: steps past the stored level taken
+    EXPECT_GT(blocked, 0u);  // the clipped outline moves in some node
 }
 
 TEST_F(Refine, PerspectiveViewKeepsEveryOriginalPointWithinItsOwnTolerance) {

@@ -125,10 +125,9 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
         if (!reader.readBlock(i, block, error)) return false;
         ExportedBlock s = selectLevel(block, i, so, metric);
         std::size_t level = s.wanted.level;
-        // A leaf refined for the view from its records, as the engine draws it (scene.h
+        // An entry refined for the view from its records, as the engine draws it (scene.h
         // SceneOptions::refine, lod/refine.h).
-        if (so.useCamera && so.refine && block.level == 0 && block.childCount == 0 &&
-            s.wanted.step < block.steps.size()) {
+        if (so.useCamera && so.refine && s.wanted.step < block.steps.size()) {
             engine::Refinement refinement;
             std::string why;
             if (refinement.init(block, why)) {
