@@ -243,19 +243,7 @@ bool Refinement::init(const format::Block& b, std::string& why) {
         // Only a vertex on the outline can move it (any other's star is a closed fan whose
         // re-triangulation keeps its outer boundary).
         double outline = 0;
-        if (node) {
-            // A node's step that moves the outline is never taken beyond the stored prefix:
-            // where its outline's original points lie is not known here.
-            if (outlineMoves) {
-                outerBoundary(b.removedTriangles.data() + b.removedTriangleOffset[s],
-                              b.removedTriangles.data() + b.removedTriangleOffset[s + 1], scratch,
-                              removedOuter);
-                outerBoundary(b.addedTriangles.data() + b.addedTriangleOffset[s],
-                              b.addedTriangles.data() + b.addedTriangleOffset[s + 1], scratch,
-                              addedOuter);
-                step.movesOutline = step.blocked = removedOuter != addedOuter;
-            }
-        } else if (outlineDegree[b.steps[s].vertex] > 0) {
+        if (node ? outlineMoves : outlineDegree[b.steps[s].vertex] > 0) {
             outerBoundary(b.removedTriangles.data() + b.removedTriangleOffset[s],
                           b.removedTriangles.data() + b.removedTriangleOffset[s + 1], scratch,
                           removedOuter);
@@ -264,7 +252,10 @@ bool Refinement::init(const format::Block& b, std::string& why) {
                           addedOuter);
             step.movesOutline = removedOuter != addedOuter;
         }
-        if (step.movesOutline) {
+        // A node's step that moves the outline is never taken beyond the stored prefix: where
+        // the original points its new outline stands for lie is not known here.
+        step.blocked = node && step.movesOutline;
+        if (step.movesOutline && !node) {
             // The outline edges this step ends (their points are reassigned) and starts: a
             // boundary edge of the removed region that was outline goes; one that was not
             // (a neighbour on its other side) now faces the exterior from that neighbour; a
