@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <unordered_map>
 #include <utility>
 
@@ -170,7 +171,9 @@ bool Refinement::init(const format::Block& b, std::string& why) {
     const bool outlineMoves = format::outlineMoves(b);
     horizontal_ = full.riverCount > 0 || outlineMoves;
 
-    const PointBuckets buckets(b);
+    // The original points located per triangle (a leaf's own vertices; a node has none here).
+    std::optional<PointBuckets> buckets;
+    if (!node) buckets.emplace(b);
     steps_.reserve(b.steps.size());
     createdTriangles_.assign(1, 0);
     createdTriangles_.push_back(std::uint32_t(triangles_.size()));
@@ -227,7 +230,7 @@ bool Refinement::init(const format::Block& b, std::string& why) {
             for (std::uint32_t v : {t.a, t.b, t.c})
                 grow(step.boxMin, step.boxMax, px(v), py(v), pz(v));
             if (node) continue;
-            buckets.inTriangle(t, [&](std::uint32_t v) {
+            buckets->inTriangle(t, [&](std::uint32_t v) {
                 const double surface = pz(t.a) + gx * (px(v) - px(t.a)) + gy * (py(v) - py(t.a));
                 vertical = std::max(vertical, std::abs(surface - pz(v)));
                 grow(step.boxMin, step.boxMax, px(v), py(v), pz(v));
@@ -306,9 +309,9 @@ bool Refinement::init(const format::Block& b, std::string& why) {
                 b.addedTriangles.data() + b.addedTriangleOffset[s + 1];
             for (std::uint32_t r = b.removedTriangleOffset[s]; r < b.removedTriangleOffset[s + 1];
                  ++r)
-                buckets.inTriangle(b.removedTriangles[r], [&](std::uint32_t v) {
+                buckets->inTriangle(b.removedTriangles[r], [&](std::uint32_t v) {
                     for (const format::Triangle* t = added; t != addedEnd; ++t)
-                        if (buckets.contains(*t, v)) return;
+                        if (buckets->contains(*t, v)) return;
                     if (outlineDegree[v] == 0) outside.push_back(v);
                 });
             std::sort(outside.begin(), outside.end());
