@@ -80,13 +80,15 @@ nlohmann::json ratiosOf(double lod, double resident, double bare, double full) {
 }
 
 nlohmann::json runJson(const RunData& r, bool perFrame) {
-    std::vector<double> triangles, resident, fallback, visible;
+    std::vector<double> triangles, resident, fallback, visible, refineMs, refined;
     std::uint64_t uploaded = 0, gpuUsed = 0, evictions = 0;
     for (const FrameStats& s : r.stats) {
         triangles.push_back(double(s.triangles));
         resident.push_back(double(s.residentBlocks));
         fallback.push_back(double(s.fallbackBlocks));
         visible.push_back(double(s.visibleBlocks));
+        refineMs.push_back(s.refineMs);
+        refined.push_back(double(s.refinedBlocks));
         uploaded += s.bytesUploaded;
         gpuUsed = std::max(gpuUsed, s.gpuBytesUsed);
         evictions += s.evictions;
@@ -105,6 +107,10 @@ nlohmann::json runJson(const RunData& r, bool perFrame) {
         {"visible_blocks", summary(visible)},
         {"resident_blocks", summary(resident)},
         {"fallback_blocks", summary(fallback)},
+        // The view refinement's part of cpu_ms (SceneOptions::refine; 0 for bare) and the entries
+        // it refined.
+        {"refine_ms", summary(refineMs)},
+        {"refined_blocks", summary(refined)},
         {"bytes_uploaded", uploaded},
         {"warmup_bytes_uploaded", r.warmupBytesUploaded},
         {"warmup_frames", r.warmupFrames},

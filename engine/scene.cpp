@@ -20,6 +20,7 @@
 #include <thread>
 
 #include "vkcheck.h"
+#include "workers.h"
 
 namespace unilod::engine {
 
@@ -114,44 +115,6 @@ void pack(const G& g, std::uint64_t terrainTriangles, std::uint64_t riverEdges, 
         std::memcpy(p + out.vertexBytes + out.terrainBytes, g.riverIndices.data(), riverBytes);
 }
 
-// Calls fn(i) for every i in [0, n) once, on up to hardware_concurrency() threads (at most 16;
-// the calling thread is one of them). fn must be safe to call concurrently for different i. The
-// open and the preload read and validate every block of the file this way (Reader is pread-based
-// and thread-safe): one thread took 22 s to open a 16M-point model and 20 s more to preload it.
-// An exception thrown by fn (std::bad_alloc under a memory limit) stops the other threads at their
-// next index and is rethrown here, on the calling thread, once they are joined; so is one from
-// starting a thread.
-template <class Fn>
-void forEachIndexInParallel(std::size_t n, Fn&& fn) {
-    const std::size_t threads =
-        std::min<std::size_t>({n, 16, std::max(1u, std::thread::hardware_concurrency())});
-    std::atomic<std::size_t> next{0};
-    std::mutex mutex;
-    std::exception_ptr thrown;
-    auto work = [&] {
-        try {
-            for (std::size_t i = next++; i < n; i = next++)
-                fn(i);
-        } catch (...) {
-            next = n;
-            std::lock_guard lock(mutex);
-            if (!thrown) thrown = std::current_exception();
-        }
-    };
-    std::vector<std::thread> pool;
-    try {
-        for (std::size_t t = 1; t < threads; ++t)
-            pool.emplace_back(work);
-    } catch (...) {
-        next = n;
-        std::lock_guard lock(mutex);
-        thrown = std::current_exception();
-    }
-    work();
-    for (std::thread& t : pool) t.join();
-    if (thrown) std::rethrow_exception(thrown);
-}
-
 struct BlockState {
     format::BlockInfo info;
     double originX = 0, originY = 0;
@@ -211,7 +174,16 @@ struct StreamingScene::Impl {
     std::vector<DrawBlock> draws;
     std::vector<std::uint32_t> refinedWords;  // the last prepare()'s refined index data
     std::uint32_t slot = 0;                   // the last prepare()'s frame slot
-    RefinedMesh mesh;                         // scratch
+    // Open, preload and each frame's refinements run on these (SceneOptions::threads).
+    std::unique_ptr<WorkerPool> workers;
+    // A frame's refinements: one task per entry drawn refined, in draw order.
+    struct RefineTask {
+        std::uint32_t selection = 0;  // index in `selection`
+        std::uint32_t draw = 0;       // index in `draws`
+        RefinedMesh mesh;
+    };
+    std::vector<RefineTask> refineTasks;  // [0, refineCount) this frame's; capacity kept
+    std::size_t refineCount = 0;
     FrameStats stats;
 
     // Loader thread state, under `mutex`.
@@ -435,6 +407,7 @@ bool StreamingScene::open(const Device& device, const std::string& path,
     assert(!s.device);
     s.options = options;
     if (!s.reader.open(path, error)) return false;
+    s.workers = std::make_unique<WorkerPool>(options.threads);
     const format::Header& header = s.reader.header();
     s.metric = header.defaultMetric;
     if (options.metric == "max")
@@ -475,7 +448,7 @@ bool StreamingScene::open(const Device& device, const std::string& path,
     if (options.openProgress) options.openProgress(0, roots.size());
     for (std::size_t from = 0; from < roots.size(); from += kOpenBatch) {
         const std::size_t count = std::min(kOpenBatch, roots.size() - from);
-        forEachIndexInParallel(count, [&](std::size_t k) {
+        s.workers->run(count, [&](std::size_t k) {
             const std::uint32_t i = roots[from + k];
             const int last = int(s.reader.blocks()[i].levelCount) - 1;
             format::BlockGeometry g;
@@ -579,7 +552,7 @@ bool StreamingScene::open(const Device& device, const std::string& path,
         std::vector<char> batchFailed(kBatch);
         for (std::size_t from = 0; from < todo.size(); from += kBatch) {
             const std::size_t count = std::min(kBatch, todo.size() - from);
-            forEachIndexInParallel(count, [&](std::size_t k) {
+            s.workers->run(count, [&](std::size_t k) {
                 refinements[k].reset();
                 batchFailed[k] =
                     !s.readEntry(todo[from + k], packed[k], refinements[k], batchErrors[k]);
@@ -634,6 +607,7 @@ void StreamingScene::close() {
         s.wake.notify_all();
         s.loader.join();
     }
+    s.workers.reset();
     if (!s.device) return;
     for (Staging& st : s.staging) {
         destroyBuffer(*s.device, st.buffer);
@@ -738,6 +712,7 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
     // entries between it and what is drawn for it, coarsest first.
     s.draws.clear();
     s.refinedWords.clear();
+    s.refineCount = 0;
     st.visibleBlocks = std::uint32_t(s.selection.size());
     st.fallbackBlocks = 0;
     st.refinedBlocks = 0;
@@ -816,33 +791,18 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
             sel.wanted.step < b.info.stepCount) {
             // Refined for the view: the records' steps whose own error fits their own box's
             // tolerance, instead of the stored level (refine.h), from that level's step on (a
-            // level at the last step is drawn as it is: nothing is left to take).
-            const auto t0 = std::chrono::steady_clock::now();
-            b.refinement->refine(spec, s.mesh, sel.wanted.step);
+            // level at the last step is drawn as it is: nothing is left to take). The draw's
+            // index data is filled in below, once the frame's refinements have run in parallel.
+            if (s.refineTasks.size() <= s.refineCount) s.refineTasks.emplace_back();
+            Impl::RefineTask& task = s.refineTasks[s.refineCount++];
+            task.selection = std::uint32_t(&sel - s.selection.data());
+            task.draw = std::uint32_t(s.draws.size());
             b.lastRefinedFrame = frame;
-            st.refineMs +=
-                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-                    .count();
             DrawBlock d;
             d.originX = b.originX;
             d.originY = b.originY;
             d.vertexOffset = b.full.offset;
             d.dynamic = true;
-            d.terrainFirst = std::uint32_t(s.refinedWords.size());
-            d.terrainCount = std::uint32_t(s.mesh.triangles.size() * 3);
-            for (const format::Triangle& t : s.mesh.triangles)
-                s.refinedWords.insert(s.refinedWords.end(), {t.a, t.b, t.c});
-            d.riverFirst = std::uint32_t(s.refinedWords.size());
-            d.riverCount = std::uint32_t(s.mesh.riverEdges.size() * 2);
-            for (const format::Edge& e : s.mesh.riverEdges)
-                s.refinedWords.insert(s.refinedWords.end(), {e.a, e.b});
-            sel.refined = true;
-            sel.stepsDone = s.mesh.stepsDone;
-            sel.triangles = std::uint32_t(s.mesh.triangles.size());
-            sel.riverEdges = std::uint32_t(s.mesh.riverEdges.size());
-            st.triangles += sel.triangles;
-            st.riverEdges += sel.riverEdges;
-            ++st.refinedBlocks;
             s.draws.push_back(d);
             continue;
         }
@@ -850,6 +810,40 @@ bool StreamingScene::prepare(VkCommandBuffer cmd, std::uint64_t frame, std::int6
         sel.triangles = l.triangleCount;
         sel.riverEdges = l.riverCount;
         addDraw(b, full, sel.drawnLevel);
+    }
+    // The refinements: each entry's on its own (Refinement::refine is const and its scratch is
+    // the task's), in parallel; their index data then goes out in draw order, so the frame is the
+    // same for any number of threads.
+    if (s.refineCount > 0) {
+        const auto t0 = std::chrono::steady_clock::now();
+        s.workers->run(s.refineCount, [&](std::size_t k) {
+            Impl::RefineTask& task = s.refineTasks[k];
+            const BlockSelection& sel = s.selection[task.selection];
+            s.blocks[sel.block].refinement->refine(spec, task.mesh, sel.wanted.step);
+        });
+        st.refineMs =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                .count();
+        for (std::size_t k = 0; k < s.refineCount; ++k) {
+            const Impl::RefineTask& task = s.refineTasks[k];
+            BlockSelection& sel = s.selection[task.selection];
+            DrawBlock& d = s.draws[task.draw];
+            d.terrainFirst = std::uint32_t(s.refinedWords.size());
+            d.terrainCount = std::uint32_t(task.mesh.triangles.size() * 3);
+            for (const format::Triangle& t : task.mesh.triangles)
+                s.refinedWords.insert(s.refinedWords.end(), {t.a, t.b, t.c});
+            d.riverFirst = std::uint32_t(s.refinedWords.size());
+            d.riverCount = std::uint32_t(task.mesh.riverEdges.size() * 2);
+            for (const format::Edge& e : task.mesh.riverEdges)
+                s.refinedWords.insert(s.refinedWords.end(), {e.a, e.b});
+            sel.refined = true;
+            sel.stepsDone = task.mesh.stepsDone;
+            sel.triangles = std::uint32_t(task.mesh.triangles.size());
+            sel.riverEdges = std::uint32_t(task.mesh.riverEdges.size());
+            st.triangles += sel.triangles;
+            st.riverEdges += sel.riverEdges;
+            ++st.refinedBlocks;
+        }
     }
     // The refined index data goes to this frame's slot (its previous frame has completed).
     s.slot = std::uint32_t(frame % kFramesInFlight);

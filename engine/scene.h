@@ -69,6 +69,10 @@ struct SceneOptions {
     // 0.9 MiB for a 64-cell leaf, 8-16 MiB for a 256-cell one); beyond it the entries drawn
     // refined longest ago lose theirs (lod/refine.h Refinement::memoryBytes).
     std::uint64_t refineMemory = 256ull << 20;
+    // Threads that read the entries at open (and preload) and refine a frame's entries, the
+    // calling thread included (engine/workers.h); 0: every core, at most 16. The frame is the
+    // same for any count.
+    std::size_t threads = 0;
     // Everything resident: open() also uploads every block's full LOD geometry (the budget
     // is raised to what that needs) and nothing is streamed: the benchmark's baseline.
     bool preloadAll = false;
@@ -101,7 +105,7 @@ struct FrameStats {
     std::uint32_t residentBlocks = 0;  // full LOD geometry on the GPU
     std::uint32_t fallbackBlocks = 0;  // visible, drawn coarser than wanted
     std::uint32_t refinedBlocks = 0;   // drawn refined (SceneOptions::refine)
-    double refineMs = 0;               // CPU time of this frame's refinements
+    double refineMs = 0;               // wall time of this frame's refinements (in parallel)
     std::uint64_t refineBytes = 0;     // host memory of the resident refinements
     std::uint64_t triangles = 0, riverEdges = 0;
     std::uint64_t bytesUploaded = 0;   // this frame

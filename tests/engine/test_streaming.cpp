@@ -18,16 +18,18 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <stdexcept>
 #include <thread>
 
+#include "bench.h"
 #include "camera.h"
 #include "capture.h"
-#include "bench.h"
 #include "headless.h"
 #include "testutil.h"
-#include "ulodbytes.h"
 #include "tools/cliutil.h"
 #include "ulod.h"
+#include "ulodbytes.h"
+#include "workers.h"
 
 namespace fs = std::filesystem;
 using namespace unilod;
@@ -202,6 +204,77 @@ TEST_F(Streaming, RefinementMemoryStaysWithinItsCap) {
         EXPECT_GT(stored, 0u);  // leaves without a table keep their stored levels
         const std::vector<std::string> messages = r.close();
         EXPECT_TRUE(messages.empty()) << messages.front();
+    }
+}
+
+// The frame's refinements run in parallel (SceneOptions::threads): the draws and the refined
+// index data are the same for one thread and for several, frame by frame.
+TEST_F(Streaming, RefinedFramesAreTheSameForAnyThreadCount) {
+    std::vector<std::vector<engine::DrawBlock>> draws[2];
+    std::vector<std::vector<std::uint32_t>> words[2];
+    const std::size_t threads[2] = {1, 3};
+    std::uint64_t refined = 0;
+    for (int run = 0; run < 2; ++run) {
+        engine::HeadlessOptions o = options(engine::kDefaultGpuBudget);
+        o.scene.preloadAll = true;  // no streaming: the same entries resident in both runs
+        o.scene.threads = threads[run];
+        engine::HeadlessRenderer r;
+        std::string error;
+        ASSERT_TRUE(r.open(o, error)) << error;
+        for (int i = 0; i < 12; ++i) {
+            engine::Camera c = oblique(0.1 + 0.07 * i);
+            c.yawDegrees = 20 + 13 * i;
+            ASSERT_TRUE(r.renderFrame(r.view(c), true, nullptr, error)) << error;
+            draws[run].push_back(r.scene().drawList());
+            words[run].push_back(r.scene().refinedIndices());
+            if (run == 0) refined += r.scene().stats().refinedBlocks;
+        }
+        r.finish();
+        const std::vector<std::string> messages = r.close();
+        EXPECT_TRUE(messages.empty()) << messages.front();
+    }
+    EXPECT_GT(refined, 12u);  // several entries refined a frame
+    ASSERT_EQ(draws[0].size(), draws[1].size());
+    for (std::size_t f = 0; f < draws[0].size(); ++f) {
+        ASSERT_EQ(draws[0][f].size(), draws[1][f].size()) << "frame " << f;
+        for (std::size_t k = 0; k < draws[0][f].size(); ++k) {
+            const engine::DrawBlock &a = draws[0][f][k], &b = draws[1][f][k];
+            EXPECT_EQ(a.vertexOffset, b.vertexOffset) << "frame " << f << " draw " << k;
+            EXPECT_EQ(a.terrainFirst, b.terrainFirst) << "frame " << f << " draw " << k;
+            EXPECT_EQ(a.terrainCount, b.terrainCount) << "frame " << f << " draw " << k;
+            EXPECT_EQ(a.riverFirst, b.riverFirst) << "frame " << f << " draw " << k;
+            EXPECT_EQ(a.riverCount, b.riverCount) << "frame " << f << " draw " << k;
+            EXPECT_EQ(a.dynamic, b.dynamic) << "frame " << f << " draw " << k;
+        }
+        EXPECT_EQ(words[0][f], words[1][f]) << "frame " << f;
+    }
+}
+
+// WorkerPool (engine/workers.h): every index once, any pool size, an exception rethrown on the
+// caller and the pool usable after it.
+TEST(WorkerPool, CallsEveryIndexOnceAndRethrows) {
+    for (const std::size_t threads : {std::size_t(1), std::size_t(2), std::size_t(5)}) {
+        engine::WorkerPool pool(threads);
+        EXPECT_GE(pool.threads(), 1u);
+        EXPECT_LE(pool.threads(), threads);
+        for (const std::size_t n :
+             {std::size_t(0), std::size_t(1), std::size_t(7), std::size_t(1000)}) {
+            std::vector<std::atomic<int>> calls(n);
+            pool.run(n, [&](std::size_t i) { ++calls[i]; });
+            for (std::size_t i = 0; i < n; ++i)
+                ASSERT_EQ(calls[i].load(), 1) << "threads " << threads << " n " << n << " i " << i;
+        }
+        std::atomic<int> after{0};
+        EXPECT_THROW(pool.run(100,
+                              [&](std::size_t i) {
+                                  if (i == 37) throw std::runtime_error("task 37");
+                                  ++after;
+                              }),
+                     std::runtime_error);
+        EXPECT_LT(after.load(), 100);
+        std::atomic<int> again{0};
+        pool.run(50, [&](std::size_t) { ++again; });
+        EXPECT_EQ(again.load(), 50);
     }
 }
 

@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "numbers.h"
+#include "workers.h"
 
 namespace unilod::cli {
 
@@ -45,6 +46,10 @@ void EngineCli::add(CLI::App& sub, const std::string& defaultSize) {
     sub.add_flag("--no-refine", noRefine,
                  "draw every block at a stored level (the paper's per-block levels) instead of "
                  "refining the leaves for the view from their deletion records");
+    sub.add_option("--threads", threads,
+                   "CPU threads that read the model's entries and refine a frame's entries "
+                   "(default 0: every core, at most 16; the image is the same for any count)")
+        ->check(CLI::Range(0u, unsigned(engine::WorkerPool::kMaxThreads)));
     sub.add_option("--gpu-budget", gpuBudgetMiB,
                    "device memory for block geometry in MiB (default " +
                        std::to_string(engine::kDefaultGpuBudget >> 20) +
@@ -73,6 +78,7 @@ bool EngineCli::apply(engine::SceneOptions& scene, engine::DeviceOptions& dev, s
     }
     scene.pixels = pixels;
     scene.refine = !noRefine;
+    scene.threads = threads;
     scene.metric = metric;
     scene.distance =
         distance == "centre" ? engine::DistanceMode::Centre : engine::DistanceMode::Nearest;

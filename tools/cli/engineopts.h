@@ -20,6 +20,7 @@ struct EngineCli {
     std::string metric;
     bool validation = false, noValidation = false;
     bool noRefine = false;
+    unsigned threads = 0;
     int device = -1;
 
     void add(CLI::App& sub, const std::string& defaultSize);
