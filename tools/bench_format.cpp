@@ -3,7 +3,8 @@
 // and prints JSON: bytes per DEM point and per model point for both, where the compact bytes go
 // (per stream), build time compact vs raw, and the decode speed of the compact blocks on one core
 // (decoded output = the raw arrays, per second; every block decoded, then once more through
-// Reader::readBlock with its checks).
+// Reader::readBlock with its checks), and the time the engine's loader then spends on each
+// entry's refinement tables (engine/lod/refine.h).
 //
 //   bench_format                 the bundled Jacksboro DEM with the GRASS rivers
 //   bench_format --points N      a synthetic DEM with rivers of about N points (tools/synthetic.h)
@@ -28,6 +29,7 @@
 #include "benchutil.h"
 #include "blockcodec.h"
 #include "jsontext.h"
+#include "refine.h"
 #include "ulod.h"
 
 namespace fs = std::filesystem;
@@ -150,7 +152,7 @@ json measureFiles(const std::string& compact, const std::string& raw) {
         counts.push_back(unilod::format::countsOf(b));
         meshoptimizerBaseline(b, r.header().zQuantum, meshopt);
         decodedBytes += r.blocks()[i].size;
-        // The payload: after the 144-byte block header, its size in the header's last word.
+        // The payload: after the block header, its size in the header (blockcodec.h).
         std::vector<unsigned char> bytes(info.size);
         FILE* f = std::fopen(compact.c_str(), "rb");
         if (!f || fseeko(f, off_t(info.offset), SEEK_SET) != 0 ||
@@ -158,8 +160,9 @@ json measureFiles(const std::string& compact, const std::string& raw) {
             fail("cannot read " + compact);
         std::fclose(f);
         std::uint32_t payload = 0;
-        std::memcpy(&payload, bytes.data() + 140, 4);
-        payloads.emplace_back(bytes.begin() + 144, bytes.begin() + 144 + payload);
+        std::memcpy(&payload, bytes.data() + unilod::format::kBlockPayloadSizeOffset, 4);
+        const auto at = bytes.begin() + unilod::format::kBlockHeaderBytes;
+        payloads.emplace_back(at, at + payload);
         std::vector<unilod::format::StreamSize> sizes;
         if (!unilod::format::compactStreamSizes(payloads.back().data(), payload, sizes))
             fail("damaged payload");
@@ -185,6 +188,19 @@ json measureFiles(const std::string& compact, const std::string& raw) {
         if (!c.readBlock(i, b, error)) fail(error);
     }
     const double readSeconds = secondsSince(t);
+    // What the engine's loader does next with each entry it streams: the refinement tables
+    // (engine/lod/refine.h Refinement::init), one core.
+    double refineSeconds = 0;
+    std::size_t refinable = 0;
+    for (std::size_t i = 0; i < c.blocks().size(); ++i) {
+        unilod::format::Block b;
+        if (!c.readBlock(i, b, error)) fail(error);
+        t = std::chrono::steady_clock::now();
+        unilod::engine::Refinement tables;
+        std::string why;
+        refinable += tables.init(b, why);
+        refineSeconds += secondsSince(t);
+    }
     const double mb = double(decodedBytes) / 1e6;
     return {{"blocks", c.blocks().size()},
             {"compact_blocks", compactBlocks},
@@ -198,7 +214,9 @@ json measureFiles(const std::string& compact, const std::string& raw) {
             {"decode_seconds_one_core", decodeSeconds},
             {"decode_mb_per_s_one_core", mb / decodeSeconds},
             {"read_block_seconds_one_core", readSeconds},
-            {"read_block_mb_per_s_one_core", mb / readSeconds}};
+            {"read_block_mb_per_s_one_core", mb / readSeconds},
+            {"refinable_blocks", refinable},
+            {"refinement_tables_seconds_one_core", refineSeconds}};
 }
 
 }  // namespace

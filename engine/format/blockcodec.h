@@ -24,6 +24,7 @@
 // and lays the levels out from its replay and compares them with the stored ones.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -33,6 +34,9 @@
 namespace unilod::format {
 
 enum class BlockEncoding : std::uint32_t { kRaw = 0, kCompact = 1 };
+// A stored block is its header (kBlockHeaderBytes), then a compact block's payload of the size
+// in the header's word at kBlockPayloadSizeOffset (ulod.cpp BlockHeader; tools read payloads).
+inline constexpr std::size_t kBlockHeaderBytes = 152, kBlockPayloadSizeOffset = 144;
 
 // z rounded to the nearest multiple of q (q > 0).
 double quantizeZ(double z, double q);

@@ -113,7 +113,8 @@ struct BlockHeader {
     std::uint32_t payloadSize;  // compact: the encoded bytes after this header; raw: 0
     std::uint32_t reserved;     // 0
 };
-static_assert(sizeof(BlockHeader) == 152);
+static_assert(sizeof(BlockHeader) == kBlockHeaderBytes);
+static_assert(offsetof(BlockHeader, payloadSize) == kBlockPayloadSizeOffset);
 static_assert(offsetof(BlockHeader, vertexCount) == 72);
 static_assert(offsetof(BlockHeader, gridCount) == 136);
 
