@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <mutex>
 #include <set>
 #include <tuple>
 
@@ -12,6 +13,7 @@
 #include "errorcheck.h"
 #include "meshimport.h"
 #include "ulod.h"
+#include "workers.h"
 
 namespace unilod {
 
@@ -277,7 +279,7 @@ bool checkBlock(const format::Block& b, const UlodCheckOptions& options, UlodChe
 // Issue 18: the stored `max` error of every level of tree node `b` (entry `index`) against the
 // original points of its area, the vertices of the leaf blocks below it, vertical and river
 // (errorcheck.h NodeOriginalError), read leaf by leaf.
-bool checkNodeOriginals(format::Reader& reader, std::size_t index, const format::Block& b,
+bool checkNodeOriginals(const format::Reader& reader, std::size_t index, const format::Block& b,
                         std::vector<std::vector<TriangleTriple>> levels,
                         std::vector<std::vector<RiverEdge>> riverLevels, UlodCheckSummary& summary,
                         std::string& error) {
@@ -327,7 +329,9 @@ bool checkNodeOriginals(format::Reader& reader, std::size_t index, const format:
         if (river.value > 0 && std::isfinite(river.value))
             summary.riverMargin = std::min(summary.riverMargin, storedRiver - river.value);
         const double margin = stored - w.value;
-        if (margin < summary.smallestMargin) summary.smallestMargin = margin;
+        if (!summary.errorsChecked || margin < summary.smallestMargin)
+            summary.smallestMargin = margin;
+        summary.errorsChecked = true;
         if (stored > 0 && w.value / stored > summary.worstRatio) {
             summary.worstRatio = w.value / stored;
             summary.worstStored = stored;
@@ -352,7 +356,18 @@ bool checkNodeOriginals(format::Reader& reader, std::size_t index, const format:
 // exact grid, in absolute grid units (a block's origin is a grid point, cdt.cpp).
 class SharedBorders {
 public:
-    void add(std::size_t entry, const format::Block& b) {
+    struct Edge {
+        std::size_t entry = 0;
+        std::uint32_t col = 0, row = 0, level = 0;
+        std::int64_t x[2] = {0, 0}, y[2] = {0, 0};
+        float z[2] = {0, 0};
+        bool locked[2] = {false, false};
+    };
+
+    // The outline edges of entry `entry`'s full-resolution mesh (any thread), then append()ed in
+    // entry order.
+    static std::vector<Edge> outline(std::size_t entry, const format::Block& b) {
+        std::vector<Edge> edges;
         const format::Level& l0 = b.levels.front();
         std::vector<std::pair<std::uint32_t, std::uint32_t>> directed;  // sorted, then searched
         directed.reserve(3 * std::size_t(l0.triangleCount));
@@ -380,8 +395,12 @@ public:
                 e.z[k] = b.vertices[ends[k]].z;
                 e.locked[k] = (b.vertices[ends[k]].flags & format::kVertexLocked) != 0;
             }
-            edges_.push_back(e);
+            edges.push_back(e);
         }
+        return edges;
+    }
+    void append(const std::vector<Edge>& edges) {
+        edges_.insert(edges_.end(), edges.begin(), edges.end());
     }
 
     bool check(std::string& error) {
@@ -457,13 +476,6 @@ public:
     }
 
 private:
-    struct Edge {
-        std::size_t entry = 0;
-        std::uint32_t col = 0, row = 0, level = 0;
-        std::int64_t x[2] = {0, 0}, y[2] = {0, 0};
-        float z[2] = {0, 0};
-        bool locked[2] = {false, false};
-    };
     static std::string at(std::int64_t x, std::int64_t y) {
         char buf[64];
         std::snprintf(buf, sizeof buf, "(%.3f, %.3f)", double(x) * format::kGridUnit,
@@ -477,6 +489,59 @@ private:
     std::vector<Edge> edges_;
 };
 
+// One entry's share of checkUlod: its summary (from a default one), error and outline edges.
+struct EntryCheck {
+    UlodCheckSummary summary;
+    std::string error;  // empty: it holds
+    std::vector<SharedBorders::Edge> outline;
+};
+
+EntryCheck checkEntry(const format::Reader& reader, std::size_t i,
+                      const UlodCheckOptions& options) {
+    EntryCheck r;
+    format::Block b;
+    if (!reader.readBlock(i, b, r.error)) return r;
+    const bool node = options.errors && b.level > 0;
+    std::vector<std::vector<TriangleTriple>> levels;
+    std::vector<std::vector<RiverEdge>> riverLevels;
+    if (!checkBlock(b, options, r.summary, r.error, node ? &levels : nullptr,
+                    node ? &riverLevels : nullptr) ||
+        (node && !checkNodeOriginals(reader, i, b, std::move(levels), std::move(riverLevels),
+                                     r.summary, r.error))) {
+        r.error = format::blockName(b.col, b.row, b.level) + ": " + r.error;
+        return r;
+    }
+    r.outline = SharedBorders::outline(i, b);
+    r.summary.blocks = 1;
+    r.summary.levels = b.levels.size();
+    r.summary.steps = b.steps.size();
+    return r;
+}
+
+// Adds an entry's summary to the file's, as checking the entries one after another in file order
+// would have (the closest approach: the first entry with the largest ratio).
+void merge(UlodCheckSummary& into, const UlodCheckSummary& s) {
+    into.blocks += s.blocks;
+    into.levels += s.levels;
+    into.steps += s.steps;
+    if (s.errorsChecked) {
+        if (!into.errorsChecked || s.smallestMargin < into.smallestMargin)
+            into.smallestMargin = s.smallestMargin;
+        into.errorsChecked = true;
+    }
+    if (s.worstRatio > into.worstRatio) {
+        into.worstRatio = s.worstRatio;
+        into.worstStored = s.worstStored;
+        into.worstRecomputed = s.worstRecomputed;
+        into.worstCol = s.worstCol;
+        into.worstRow = s.worstRow;
+        into.worstTreeLevel = s.worstTreeLevel;
+        into.worstLevel = s.worstLevel;
+    }
+    into.nodeRiverWorst = std::max(into.nodeRiverWorst, s.nodeRiverWorst);
+    into.riverMargin = std::min(into.riverMargin, s.riverMargin);
+}
+
 }  // namespace
 
 bool checkUlod(const std::string& path, const UlodCheckOptions& options, UlodCheckSummary& summary,
@@ -488,26 +553,31 @@ bool checkUlod(const std::string& path, const UlodCheckOptions& options, UlodChe
         error = path + ": the file stores no `max` error, so --errors has nothing to check";
         return false;
     }
-    const auto& blocks = reader.blocks();
+    // Entries are independent (a node reads the leaves below it itself): one a task, the tree
+    // nodes (stored after the leaves, the root last, each reading every leaf below it) handed
+    // out first so that the largest tasks do not finish last. Results are combined in file
+    // order, so the summary and the first failure named are those of a serial check.
+    const std::size_t n = reader.blocks().size();
+    std::vector<EntryCheck> results(n);
+    std::mutex mutex;
+    std::size_t done = 0;
+    engine::WorkerPool pool(options.threads);
+    pool.run(n, [&](std::size_t task) {
+        const std::size_t i = n - 1 - task;
+        results[i] = checkEntry(reader, i, options);
+        std::lock_guard lock(mutex);
+        ++done;
+        if (progress) progress(done, n);
+    });
     SharedBorders borders;
-    for (std::size_t i = 0; i < blocks.size(); ++i) {
-        format::Block b;
-        if (!reader.readBlock(i, b, error)) return false;
-        const bool node = options.errors && b.level > 0;
-        std::vector<std::vector<TriangleTriple>> levels;
-        std::vector<std::vector<RiverEdge>> riverLevels;
-        if (!checkBlock(b, options, summary, error, node ? &levels : nullptr,
-                        node ? &riverLevels : nullptr) ||
-            (node && !checkNodeOriginals(reader, i, b, std::move(levels), std::move(riverLevels),
-                                         summary, error))) {
-            error = path + ": " + format::blockName(b.col, b.row, b.level) + ": " + error;
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!results[i].error.empty()) {
+            error = path + ": " + results[i].error;
             return false;
         }
-        borders.add(i, b);
-        ++summary.blocks;
-        summary.levels += b.levels.size();
-        summary.steps += b.steps.size();
-        if (progress) progress(i + 1, blocks.size());
+        merge(summary, results[i].summary);
+        borders.append(results[i].outline);
+        results[i] = EntryCheck{};
     }
     if (!borders.check(error)) {
         error = path + ": " + error;

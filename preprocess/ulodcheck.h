@@ -20,6 +20,9 @@ namespace unilod {
 
 struct UlodCheckOptions {
     bool errors = false;  // recompute the `max` error at every stored level (errorcheck.h)
+    // Threads checking entries at once (0: every core, at most engine::WorkerPool::kMaxThreads);
+    // the result does not depend on it.
+    std::size_t threads = 0;
 };
 
 struct UlodCheckSummary {

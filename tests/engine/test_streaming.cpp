@@ -29,7 +29,6 @@
 #include "tools/cliutil.h"
 #include "ulod.h"
 #include "ulodbytes.h"
-#include "workers.h"
 
 namespace fs = std::filesystem;
 using namespace unilod;
@@ -247,34 +246,6 @@ TEST_F(Streaming, RefinedFramesAreTheSameForAnyThreadCount) {
             EXPECT_EQ(a.dynamic, b.dynamic) << "frame " << f << " draw " << k;
         }
         EXPECT_EQ(words[0][f], words[1][f]) << "frame " << f;
-    }
-}
-
-// WorkerPool (engine/workers.h): every index once, any pool size, an exception rethrown on the
-// caller and the pool usable after it.
-TEST(WorkerPool, CallsEveryIndexOnceAndRethrows) {
-    for (const std::size_t threads : {std::size_t(1), std::size_t(2), std::size_t(5)}) {
-        engine::WorkerPool pool(threads);
-        EXPECT_GE(pool.threads(), 1u);
-        EXPECT_LE(pool.threads(), threads);
-        for (const std::size_t n :
-             {std::size_t(0), std::size_t(1), std::size_t(7), std::size_t(1000)}) {
-            std::vector<std::atomic<int>> calls(n);
-            pool.run(n, [&](std::size_t i) { ++calls[i]; });
-            for (std::size_t i = 0; i < n; ++i)
-                ASSERT_EQ(calls[i].load(), 1) << "threads " << threads << " n " << n << " i " << i;
-        }
-        std::atomic<int> after{0};
-        EXPECT_THROW(pool.run(100,
-                              [&](std::size_t i) {
-                                  if (i == 37) throw std::runtime_error("task 37");
-                                  ++after;
-                              }),
-                     std::runtime_error);
-        EXPECT_LT(after.load(), 100);
-        std::atomic<int> again{0};
-        pool.run(50, [&](std::size_t) { ++again; });
-        EXPECT_EQ(again.load(), 50);
     }
 }
 

@@ -247,6 +247,71 @@ TEST_F(CheckErrors, LoweredRiverPartFails) {
     }
 }
 
+// `check` runs entries on worker threads (ulodcheck.cpp): the summary is the same for any
+// number of them, its counts are the file's, and a file with two lying entries is reported at the
+// first in file order (a leaf), though the tree nodes, stored after the leaves, are checked first.
+TEST_F(CheckErrors, SameResultForAnyThreadCount) {
+    ASSERT_EQ(models.size(), 4u);
+    const Built& m = models[2];  // synthetic_greedy: leaves and tree nodes, with rivers
+    ASSERT_EQ(m.name, "synthetic_greedy");
+    test::Model model;
+    std::string error;
+    ASSERT_TRUE(test::readModel(m.path, model, error)) << error;
+    std::size_t levels = 0, steps = 0;
+    for (const format::Block& b : model.blocks)
+        levels += b.levels.size(), steps += b.steps.size();
+    for (const std::size_t threads : {std::size_t(1), std::size_t(3)}) {
+        SCOPED_TRACE("threads " + std::to_string(threads));
+        UlodCheckOptions options;
+        options.errors = true;
+        options.threads = threads;
+        UlodCheckSummary s;
+        ASSERT_TRUE(checkUlod(m.path, options, s, error)) << error;
+        EXPECT_EQ(s.blocks, model.blocks.size());
+        EXPECT_EQ(s.levels, levels);
+        EXPECT_EQ(s.steps, steps);
+        const UlodCheckSummary& d = m.summary;  // every core
+        EXPECT_EQ(s.blocks, d.blocks);
+        EXPECT_EQ(s.errorsChecked, d.errorsChecked);
+        EXPECT_EQ(s.worstRatio, d.worstRatio);
+        EXPECT_EQ(s.worstStored, d.worstStored);
+        EXPECT_EQ(s.worstRecomputed, d.worstRecomputed);
+        EXPECT_EQ(s.worstCol, d.worstCol);
+        EXPECT_EQ(s.worstRow, d.worstRow);
+        EXPECT_EQ(s.worstTreeLevel, d.worstTreeLevel);
+        EXPECT_EQ(s.worstLevel, d.worstLevel);
+        EXPECT_EQ(s.smallestMargin, d.smallestMargin);
+        EXPECT_EQ(s.nodeRiverWorst, d.nodeRiverWorst);
+        EXPECT_EQ(s.riverMargin, d.riverMargin);
+    }
+
+    // Two lies: the river part zeroed in the leaf and in the tree node with the largest one.
+    format::Block* leaf = nullptr;
+    format::Block* node = nullptr;
+    for (format::Block& b : model.blocks) {
+        format::Block*& pick = b.level > 0 ? node : leaf;
+        if (pick == nullptr || b.errorRiver.back() > pick->errorRiver.back()) pick = &b;
+    }
+    ASSERT_NE(leaf, nullptr);
+    ASSERT_NE(node, nullptr);
+    for (format::Block* b : {leaf, node}) {
+        ASSERT_GT(b->errorRiver.back(), 0.1f);
+        std::fill(b->errorRiver.begin(), b->errorRiver.end(), 0.0f);
+        for (format::Level& l : b->levels)
+            l.errorRiver = 0;
+    }
+    const std::string tampered = (dir / "two_lies.ulod").string();
+    ASSERT_TRUE(format::writeUlod(tampered, model.header, model.blocks, error)) << error;
+    const test::CliResult r = test::runCli("check -q --errors --threads 3 " + q(tampered));
+    EXPECT_EQ(r.code, 1) << r.out;
+    EXPECT_NE(r.err.find(format::blockName(leaf->col, leaf->row, leaf->level) + ": "),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(r.err.find(format::blockName(node->col, node->row, node->level) + ": "),
+              std::string::npos)
+        << r.err;
+}
+
 // Neighbouring leaves must meet edge to edge with the same heights (`check` compares their shared
 // borders on the exact grid): one border vertex of a leaf raised or lowered by a few z quanta
 // (towards the middle of the block's height range, so that the block itself stays valid: its

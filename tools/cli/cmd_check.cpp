@@ -11,6 +11,7 @@
 #include "progress.h"
 #include "ulod.h"
 #include "ulodcheck.h"
+#include "workers.h"
 
 namespace unilod::cli {
 
@@ -27,6 +28,11 @@ void addCheckCommand(CLI::App& app, int& exitCode) {
                   "file's data; fail when a stored error is below it beyond the tolerance "
                   "(4 * 2^-24 * max|z| of the block + 1e-6 m); a tree node's against every "
                   "original point below it");
+    sub->add_option("--threads", options->threads,
+                    "entries checked at once (default 0: every core, at most " +
+                        std::to_string(engine::WorkerPool::kMaxThreads) +
+                        "); the result is the same for any number")
+        ->check(CLI::Range(std::size_t(0), engine::WorkerPool::kMaxThreads));
     addQuietFlag(sub, *quiet);
     sub->callback([path, quiet, options, &exitCode] {
         UlodCheckSummary s;

@@ -1,7 +1,9 @@
 // Persistent worker threads for index loops run on the calling thread's behalf: the scene's
 // open and preload (every entry read and validated) and each frame's view refinements (one leaf
 // or node a task, lod/refine.h), which would otherwise cost the render thread about 1-2 ms a frame
-// on the bundled paths (bench `refine_ms`) and bound a fast GPU's frame.
+// on the bundled paths (bench `refine_ms`) and bound a fast GPU's frame; `check` (one entry a
+// task, preprocess/ulodcheck.cpp). In unilod_lod, the CPU-only library both the engine and
+// preprocess link.
 #pragma once
 
 #include <atomic>
