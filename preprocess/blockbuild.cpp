@@ -66,13 +66,57 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
         del.releaseExtraSamples = true;  // a root's are every original point of the model
     }
     DeletionRecords records;
+    // The state the parent starts from (CoarseState): the alive mesh at the hand-over, compacted
+    // to the vertices it uses.
+    auto takeCoarse = [&] {
+        *coarse = CoarseState{};
+        coarse->triangles = collectTriangles(cdt);
+        coarse->rivers = collectRiverEdges(cdt);
+        // What each river edge stands for: its report, else (not reported) everything within
+        // the error so far.
+        const double finalError =
+            records.errorMax.empty() ? records.initialErrorMax : records.errorMax.back();
+        coarse->riverCover.reserve(coarse->rivers.size());
+        for (const RiverEdge& e : coarse->rivers) {
+            const auto it =
+                std::lower_bound(records.riverCover.begin(), records.riverCover.end(), e,
+                                 [](const auto& l, const RiverEdge& r) { return l.first < r; });
+            if (it != records.riverCover.end() && it->first == e) {
+                coarse->riverCover.push_back(std::move(it->second));
+            } else {
+                coarse->riverCover.push_back(RiverCover{finalError, {}});
+            }
+        }
+        std::vector<PointId> local(set.points.size(), kNoPoint);
+        auto use = [&](PointId& v) {
+            if (local[v] == kNoPoint) {
+                local[v] = PointId(coarse->points.size());
+                coarse->points.push_back(set.points[v]);
+            }
+            v = local[v];
+        };
+        for (TriangleTriple& t : coarse->triangles)
+            for (PointId& v : t.v)
+                use(v);
+        for (RiverEdge& e : coarse->rivers) {
+            use(e.a);
+            use(e.b);
+        }
+        coarse->errorMax =
+            records.errorMax.empty() ? records.initialErrorMax : records.errorMax.back();
+        coarse->errorRiver =
+            records.errorRiver.empty() ? records.initialErrorRiver : records.errorRiver.back();
+        coarse->step = std::uint32_t(records.steps.size());
+    };
     if (options.order == DeletionOrderKind::ThreeDdp) {
         if (!runDeletion(set, cdt, importance.order, del, records, error)) return false;
+        if (coarse != nullptr) takeCoarse();  // no hand-over: the last state
     } else {
         // The greedy key needs the max metric; its BAI factors: Eq. 2 (bai.h BaiKeys).
         del.maxError = true;
-        del.stopTriangles = options.stopTriangles;
-        del.stopKey = options.stopKey;
+        del.handoverTriangles = options.handoverTriangles;
+        del.handoverKey = options.handoverKey;
+        if (coarse != nullptr) del.onHandover = takeCoarse;
         BaiKeys keys;
         if (options.importance.useBai && options.importance.baiByThreshold) {
             keys = BaiKeys::byThreshold(set, options.importance.baiTable);
@@ -122,47 +166,6 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
     in.maxError = options.maxError;
     in.paperError = del.paperError;
     if (!buildLodIndex(in, block, error)) return false;
-
-    if (coarse != nullptr) {
-        // The alive mesh after the last step, compacted to the vertices it uses.
-        *coarse = CoarseState{};
-        coarse->triangles = collectTriangles(cdt);
-        coarse->rivers = collectRiverEdges(cdt);
-        // What each river edge stands for: its report, else (not reported) everything within
-        // the final error.
-        const double finalError =
-            records.errorMax.empty() ? records.initialErrorMax : records.errorMax.back();
-        coarse->riverCover.reserve(coarse->rivers.size());
-        for (const RiverEdge& e : coarse->rivers) {
-            const auto it = std::lower_bound(
-                records.riverCover.begin(), records.riverCover.end(), e,
-                [](const auto& l, const RiverEdge& r) { return l.first < r; });
-            if (it != records.riverCover.end() && it->first == e) {
-                coarse->riverCover.push_back(std::move(it->second));
-            } else {
-                coarse->riverCover.push_back(RiverCover{finalError, {}});
-            }
-        }
-        std::vector<PointId> local(set.points.size(), kNoPoint);
-        auto use = [&](PointId& v) {
-            if (local[v] == kNoPoint) {
-                local[v] = PointId(coarse->points.size());
-                coarse->points.push_back(set.points[v]);
-            }
-            v = local[v];
-        };
-        for (TriangleTriple& t : coarse->triangles)
-            for (PointId& v : t.v)
-                use(v);
-        for (RiverEdge& e : coarse->rivers) {
-            use(e.a);
-            use(e.b);
-        }
-        coarse->errorMax =
-            records.errorMax.empty() ? records.initialErrorMax : records.errorMax.back();
-        coarse->errorRiver =
-            records.errorRiver.empty() ? records.initialErrorRiver : records.errorRiver.back();
-    }
 
     stats.vertices = block.vertices.size();
     stats.steps = records.steps.size();

@@ -30,11 +30,13 @@ struct BlockBuildOptions {
     bool maxError = true;          // record the `max` metric
     bool paperError = true;        // record the `paper` metric
     double lodRatio = 1.3;         // stored levels: see lodindex.h
-    // Greedy order: stop at this many alive triangles (0: run to the end): the hand-over of a
-    // block or node to its parent in issue 18's tree (nodebuild.h).
-    std::uint32_t stopTriangles = 0;
-    // Greedy order: also stop before a step whose key exceeds this (DeletionOptions::stopKey).
-    double stopKey = std::numeric_limits<double>::infinity();
+    // Greedy order, a block or node with a parent in issue 18's tree (nodebuild.h): the state
+    // its parent starts from (buildBlock's `coarse`) is taken at this many alive triangles or
+    // before a step whose key exceeds `handoverKey`, whichever comes first
+    // (DeletionOptions::handoverTriangles / handoverKey); the block itself simplifies on to the
+    // end (its own coarser levels, drawn where its parent does not fit but it does).
+    std::uint32_t handoverTriangles = 0;
+    double handoverKey = std::numeric_limits<double>::infinity();
 };
 
 struct BlockBuildStats {
@@ -49,8 +51,9 @@ struct BlockBuildStats {
     double seconds = 0;
 };
 
-// The coarsest state of a built block or node, what its parent in issue 18's tree starts from
-// (nodebuild.h): the alive vertices with their exact coordinates, the alive triangles (counter-
+// The hand-over state of a built block or node (BlockBuildOptions::handoverTriangles; its last
+// state when it has none), what its parent in issue 18's tree starts from (nodebuild.h): the
+// alive vertices with their exact coordinates, the alive triangles (counter-
 // clockwise, indices into `points`) and river edges, and the final `max` error.
 struct CoarseState {
     std::vector<Point> points;
@@ -60,6 +63,7 @@ struct CoarseState {
     std::vector<RiverCover> riverCover;
     double errorMax = 0;
     double errorRiver = 0;  // its river part (DeletionRecords::errorRiver)
+    std::uint32_t step = 0;  // the step it was taken at (the block's records go on past it)
 };
 
 // How a tree node's build differs from a leaf block's (nodebuild.h): its error is measured

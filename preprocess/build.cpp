@@ -317,8 +317,8 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
             try {
                 BlockBuildOptions itemOptions = blockOptions;
                 if (it.parent != format::kNoChild) {
-                    itemOptions.stopTriangles = nodeHandoffTriangles(side, it.level);
-                    itemOptions.stopKey =
+                    itemOptions.handoverTriangles = nodeHandoffTriangles(side, it.level);
+                    itemOptions.handoverKey =
                         nodeHandoffError(std::max(header.blockWidth, header.blockHeight),
                                          std::max(dem.width * std::fabs(dem.cellX),
                                                   dem.height * std::fabs(dem.cellY)),
@@ -379,7 +379,7 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
                 if (ok) {
                     const format::Block& b = results[i];
                     boxes[i] = {b.minX, b.minY, b.minZ, b.maxX, b.maxY, b.maxZ};
-                    // The children's coarsest states are no longer needed.
+                    // The children's hand-over states are no longer needed.
                     for (std::uint32_t c = 0; c < it.childCount; ++c)
                         coarse[it.firstChild + c] = CoarseState{};
                 }

@@ -773,9 +773,19 @@ bool Sequence::runGreedy(const BaiKeys& keys, std::string& error) {
         return step_ >= options_.maxSteps ||
                (options_.stopTriangles > 0 && domainTriangles_ <= options_.stopTriangles);
     };
+    bool handedOver = !options_.onHandover;
+    auto handOver = [&] {
+        reportRiverCover();
+        options_.onHandover();
+        handedOver = true;
+    };
     while (!heap_.empty() && !stopped()) {
         const PointId x = heap_.top();
         const double key = heap_.topKey();
+        if (!handedOver &&
+            ((options_.handoverTriangles > 0 && domainTriangles_ <= options_.handoverTriangles) ||
+             key > options_.handoverKey))
+            handOver();
         if (key > options_.stopKey) break;
         heap_.pop();
         assert(state_[x] == State::Pending);
@@ -841,6 +851,7 @@ bool Sequence::runGreedy(const BaiKeys& keys, std::string& error) {
             if (state_[v] == State::Deferred) rec_.kept.push_back({v, KeptReason::Deferred});
         }
     }
+    if (!handedOver) handOver();
     reportRiverCover();
     return true;
 }

@@ -133,6 +133,15 @@ struct DeletionOptions {
     // exceeds this: a tree node's hand-over error (nodebuild.h nodeHandoffError). Infinity: no
     // such stop.
     double stopKey = std::numeric_limits<double>::infinity();
+    // Greedy order: the hand-over of issue 18's tree (nodebuild.h), decoupled from the stop. The
+    // first time the alive triangles are `handoverTriangles` or fewer (0: never by count) or the
+    // next step's key exceeds `handoverKey`, or at the end if neither comes first, `onHandover`
+    // is called once with the state at that step (the Cdt and the records so far, `riverCover`
+    // filled in as at the end); the deletion then goes on to its own stop. A block or node keeps
+    // simplifying for its own drawing past the state its parent starts from.
+    std::uint32_t handoverTriangles = 0;
+    double handoverKey = std::numeric_limits<double>::infinity();
+    std::function<void()> onHandover;
     // Called after every step with the step count (tests run the checker here).
     std::function<void(std::uint32_t)> afterStep;
     // Original points beyond the set's, counted in the `max` metric (modelerror.h ExtraSample;

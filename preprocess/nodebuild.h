@@ -2,9 +2,10 @@
 //
 // Leaves are the blocks (blockbuild.h). A node at tree level L covers the 2^L x 2^L blocks from
 // (col * 2^L, row * 2^L) on; its children are the (up to four) nodes of level L - 1 inside it
-// that hold any of the domain. A node starts from the union of its children's coarsest states
-// (CoarseState): the same points (merged where two children share one), the outline of the union
-// of their triangles as the domain's rings, their coarsest river edges chained into polylines.
+// that hold any of the domain. A node starts from the union of its children's hand-over states
+// (CoarseState, below): the same points (merged where two children share one), the outline of
+// the union of their triangles as the domain's rings, their river edges there chained into
+// polylines.
 // The borders the children shared are now interior and simplify; the node's own outer border
 // stays locked (it is shared with the neighbour node of the same level, so adjacent drawn nodes
 // meet without cracks), except where it is the DEM's outer edge and leaves leave that unlocked
@@ -14,12 +15,12 @@
 //
 // The node then runs the same greedy deletion as a block (deletion.h), with its `max` error
 // measured against every ORIGINAL point of its area (ModelError extra samples), the running
-// maximum starting at its children's largest final error (errors stay monotone up the tree).
-// Its river chains start as the children's coarsest, so each river edge carries the original
-// river points it replaced (CoarseState::riverCover, deletion.h DeletionOptions::riverCover): a
-// node's river deviation is measured against the original river as a block's is; outline chains
-// take the starting error as slack. Its records,
-// errors, levels and index data are stored like a block's.
+// maximum starting at its children's largest hand-over error (errors stay monotone up the tree).
+// Its river chains start as the children's at the hand-over, so each river edge carries the
+// original river points it replaced (CoarseState::riverCover, deletion.h
+// DeletionOptions::riverCover): a node's river deviation is measured against the original river as
+// a block's is; outline chains take the starting error as slack. Its records, errors, levels and
+// index data are stored like a block's.
 //
 // The node's starting triangulation is exactly the union of its children's: Delaunay ties
 // (cocircular grid points) are broken by one symbolic perturbation everywhere (predicates.h
@@ -28,11 +29,16 @@
 // points: without the perturbation level-1 nodes started at 11-28 m above children that ended
 // at 7.5 m, and the 100 m cut was 4.9x the river-holding TIN; with it 1.6x).
 //
-// Hand-over: a block or node that has a parent stops before a deletion costing more than
-// nodeHandoffError (the same for every node of a tree level: siblings hand over alike) or once
-// it has nodeHandoffTriangles(side, level) triangles or fewer (its coarsest state; the root runs
-// to the end). Errors then double per tree level, as the view distance at which a node is drawn
-// does (the chunked-LOD rule), up to the cap at which one root draws the whole model.
+// Hand-over: a block or node that has a parent hands its state over before a deletion costing
+// more than nodeHandoffError (the same for every node of a tree level: siblings hand over alike)
+// or once it has nodeHandoffTriangles(side, level) triangles or fewer: that state is what the
+// parent starts from. Errors then double per tree level, as the view distance at which a node
+// is drawn does (the chunked-LOD rule), up to the cap at which one root draws the whole model.
+// The block or node itself simplifies on to the end of its order (its own coarser levels):
+// where its parent does not fit h_lim (the parent's box comes nearer the eye) the child may
+// still, at an error above the hand-over. Measured on the bundled 64-cell model (median
+// triangles of the `bench` paths at P = 1): fly-over 12 904 -> 11 747, jacksboro_path
+// 25 752 -> 21 730, orbit 24 506 -> 11 625 (there the cap had stopped every level at 17 m).
 //
 // Stop rule: the tree is built up to one root covering the whole model (a block grid of
 // bx x by blocks has ceil(log2(max(bx, by))) levels above the leaves); the leaves are the blocks,
@@ -85,14 +91,14 @@ struct NodeBorder {
 
 // The node's starting point set (above): points merged by exact (x, y), rings from the outline
 // of the union of the children's triangles (the domain on the left of every ring edge), rivers
-// from their coarsest river edges. Deterministic for a given child order.
+// from their river edges at the hand-over. Deterministic for a given child order.
 // `riverCover` (optional) gets what each river edge stands for (CoarseState::riverCover), by
 // Cdt::edgeKey(min, max).
 PointSet nodePointSet(const std::vector<const CoarseState*>& children, const NodeBorder& border,
                       std::unordered_map<std::uint64_t, RiverCover>* riverCover = nullptr);
 
-// Builds a node from its children's coarsest states: `block` (col, row: the node's position in
-// its level's grid) and the node's own coarsest state for its parent. `originals` calls its
+// Builds a node from its children's hand-over states: `block` (col, row: the node's position in
+// its level's grid) and the node's own hand-over state for its parent. `originals` calls its
 // argument once for every original point of the node's area. Greedy order only (the paper's
 // 3D_DP order builds no tree). Returns false with `error` on failure.
 bool buildNode(const std::vector<const CoarseState*>& children, const NodeBorder& border,

@@ -362,6 +362,69 @@ TEST(GreedyOrder, IdenticalRecordsForIdenticalInput) {
     EXPECT_EQ(first.errorMax, second.errorMax);
 }
 
+// The hand-over (DeletionOptions::handoverKey / handoverTriangles, issue 18's tree): called
+// once, with exactly the state a run stopped there ends in (mesh, records, river cover), and the
+// deletion goes on past it with the same order as a run without a hand-over.
+TEST(GreedyOrder, HandoverIsTheStoppedStateAndTheOrderGoesOn) {
+    BlockSpec spec;
+    spec.seed = 29;
+    spec.points = 900;
+    spec.rivers = 3;
+    const PointSet set = makeBlock(spec);
+    std::string error;
+    DeletionRecords all;
+    {
+        Cdt cdt;
+        ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+        ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, {}, all, error)) << error;
+    }
+    ASSERT_GT(all.steps.size(), 300u);
+    const double key = all.stepErrorMax[all.steps.size() / 2];
+    for (int byCount = 0; byCount < 2; ++byCount) {
+        DeletionOptions stop, hand;
+        if (byCount) {
+            stop.stopTriangles = hand.handoverTriangles = 400;
+        } else {
+            stop.stopKey = hand.handoverKey = key;
+        }
+        DeletionRecords stopped, handed;
+        Cdt a, b;
+        ASSERT_TRUE(buildCdt(set, {}, a, error)) << error;
+        ASSERT_TRUE(runGreedyDeletion(set, a, {}, stop, stopped, error)) << error;
+        ASSERT_TRUE(buildCdt(set, {}, b, error)) << error;
+        int calls = 0;
+        std::size_t atStep = 0;
+        std::vector<TriangleTriple> triangles;
+        std::vector<RiverEdge> rivers;
+        std::vector<std::pair<RiverEdge, RiverCover>> cover;
+        hand.onHandover = [&] {
+            ++calls;
+            atStep = handed.steps.size();
+            triangles = collectTriangles(b);
+            rivers = collectRiverEdges(b);
+            cover = handed.riverCover;
+        };
+        ASSERT_TRUE(runGreedyDeletion(set, b, {}, hand, handed, error)) << error;
+        EXPECT_EQ(calls, 1);
+        ASSERT_GT(stopped.steps.size(), 10u);
+        EXPECT_EQ(atStep, stopped.steps.size()) << "by count " << byCount;
+        EXPECT_LT(atStep, handed.steps.size());  // and on past it
+        EXPECT_EQ(triangles, collectTriangles(a));
+        EXPECT_EQ(rivers, collectRiverEdges(a));
+        ASSERT_EQ(cover.size(), stopped.riverCover.size());
+        for (std::size_t e = 0; e < cover.size(); ++e) {
+            EXPECT_EQ(cover[e].first, stopped.riverCover[e].first);
+            EXPECT_EQ(cover[e].second.points, stopped.riverCover[e].second.points);
+            EXPECT_EQ(cover[e].second.slack, stopped.riverCover[e].second.slack);
+        }
+        // The whole sequence is the one without a hand-over.
+        ASSERT_EQ(handed.steps.size(), all.steps.size());
+        for (std::size_t k = 0; k < all.steps.size(); ++k)
+            ASSERT_EQ(handed.steps[k].vertex, all.steps[k].vertex) << "step " << k;
+        EXPECT_EQ(handed.errorMax, all.errorMax);
+    }
+}
+
 // A trial deletion rolled back leaves the mesh exactly as it was, slots and free list included.
 TEST(GreedyOrder, TrialRollbackRestoresTheMeshExactly) {
     BlockSpec spec;

@@ -12,6 +12,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -20,6 +21,7 @@
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
@@ -1186,26 +1188,76 @@ TEST_F(CliBuildJacksboro, TreeRetentionFallsWithDistance) {
     EXPECT_EQ(roots, 1u);
     EXPECT_EQ(infos.back().level, 3u);  // 6 x 7 blocks: three levels above them
     ASSERT_GT(infos.size(), leaves);
-    std::vector<float> finalError(infos.size()), startError(infos.size());
+    // Each node starts from its children's hand-over states (BlockBuildOptions::handoverKey):
+    // in each child a prefix of its retention order (the vertices alive after some step k_c),
+    // which the child's own records go on past (its coarser levels, drawn where the node does
+    // not fit but the child does). Found from the file: the node's vertices inside a child's box
+    // are exactly that child's first n_c - k_c vertices (positions within 1 mm; the node and the
+    // child have their own origins), and the node's error starts at the largest child error
+    // at its hand-over step (monotone up the tree).
+    std::vector<format::Block> blocks(infos.size());
+    for (std::size_t i = 0; i < infos.size(); ++i)
+        ASSERT_TRUE(reader.readBlock(i, blocks[i], error)) << error;
+    auto position = [](const format::Block& e, std::size_t v) {
+        return std::array<double, 2>{e.originX + e.grid[v].x * format::kGridUnit,
+                                     e.originY + e.grid[v].y * format::kGridUnit};
+    };
+    std::size_t pastHandover = 0;
     for (std::size_t i = 0; i < infos.size(); ++i) {
-        format::Block block;
-        ASSERT_TRUE(reader.readBlock(i, block, error)) << error;
-        startError[i] = block.errorMax.front();
-        finalError[i] = block.errorMax.back();
-    }
-    for (std::size_t i = 0; i < infos.size(); ++i) {
+        const format::Block& node = blocks[i];
+        if (infos[i].level == 0) continue;
+        ASSERT_EQ(node.grid.size(), node.vertices.size());
         float largest = 0;
-        for (std::uint32_t c = 0; c < infos[i].childCount; ++c)
-            largest = std::max(largest, finalError[infos[i].firstChild + c]);
-        EXPECT_GE(startError[i], largest) << "entry " << i;
-        if (infos[i].level > 0) {
-            EXPECT_GT(startError[i], 0.0f) << "entry " << i;
-            // Exactly there: the node starts from the union of its children's triangles (ties
-            // broken alike, predicates.h incirclePerturbed), not a re-triangulation that lost
-            // accuracy (11-28 m above 7.5 m children on a 4M synthetic model before).
-            EXPECT_EQ(startError[i], largest) << "entry " << i;
+        std::size_t matched = 0;
+        std::set<std::size_t> inSomeChild;
+        for (std::uint32_t c = 0; c < infos[i].childCount; ++c) {
+            const format::Block& child = blocks[infos[i].firstChild + c];
+            ASSERT_EQ(child.grid.size(), child.vertices.size());
+            // The node's vertices in the child's box (1 mm slack: rounding to either grid).
+            std::map<std::pair<long long, long long>, std::vector<std::size_t>> inBox;
+            std::size_t inBoxCount = 0;
+            for (std::size_t v = 0; v < node.vertices.size(); ++v) {
+                const auto p = position(node, v);
+                if (p[0] < child.minX - 1e-3 || p[0] > child.maxX + 1e-3 ||
+                    p[1] < child.minY - 1e-3 || p[1] > child.maxY + 1e-3)
+                    continue;
+                inBox[{std::llround(p[0] * 10), std::llround(p[1] * 10)}].push_back(v);
+                ++inBoxCount;
+                inSomeChild.insert(v);
+            }
+            ASSERT_LE(inBoxCount, child.vertices.size()) << "entry " << i << " child " << c;
+            const std::size_t k = child.vertices.size() - inBoxCount;
+            ASSERT_LT(k, child.errorMax.size()) << "entry " << i << " child " << c;
+            // Those are the child's first n_c - k vertices (alive after its step k).
+            for (std::size_t v = 0; v < inBoxCount; ++v) {
+                const auto p = position(child, v);
+                bool found = false;
+                for (long long dx = -1; dx <= 1 && !found; ++dx)
+                    for (long long dy = -1; dy <= 1 && !found; ++dy) {
+                        const auto it = inBox.find(
+                            {std::llround(p[0] * 10) + dx, std::llround(p[1] * 10) + dy});
+                        if (it == inBox.end()) continue;
+                        for (std::size_t w : it->second)
+                            found = found || std::hypot(position(node, w)[0] - p[0],
+                                                        position(node, w)[1] - p[1]) <= 1e-3;
+                    }
+                EXPECT_TRUE(found) << "entry " << i << " child " << c << " vertex " << v
+                                   << " alive at its hand-over is not a vertex of the node";
+                matched += found;
+            }
+            largest = std::max(largest, child.errorMax[k]);
+            pastHandover += child.steps.size() - k;
         }
+        EXPECT_EQ(inSomeChild.size(), node.vertices.size()) << "entry " << i;
+        EXPECT_GT(matched, 0u);
+        EXPECT_GT(node.errorMax.front(), 0.0f) << "entry " << i;
+        // Exactly there: the node starts from the union of its children's triangles (ties
+        // broken alike, predicates.h incirclePerturbed), not a re-triangulation that lost
+        // accuracy (11-28 m above 7.5 m children on a 4M synthetic model before).
+        EXPECT_EQ(node.errorMax.front(), largest) << "entry " << i;
     }
+    // The children simplify on past their hand-over (the state their parent starts from).
+    EXPECT_GT(pastHandover, 1000u);
 
     const std::string flatModel = (dir / "jb_flat.ulod").string();
     const Result fb = run("build -q " + q(kDem) + " " + q(kRivers) + " -o " + q(flatModel) +

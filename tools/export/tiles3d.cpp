@@ -231,6 +231,18 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
     }
 
     const std::size_t count = reader.blocks().size();
+    // A tree node starts from its children's hand-over states (preprocess/nodebuild.h); a child
+    // goes on simplifying past that for its own drawing, to errors above its parent's start.
+    // Under REPLACE refinement a child tile never has a larger error than its parent, so a
+    // child's chain stops at its last level within its parent's starting (finest-level) error.
+    std::vector<double> cap(count, std::numeric_limits<double>::infinity());
+    for (const format::BlockInfo& info : reader.blocks()) {
+        if (info.firstChild == format::kNoChild || info.levels.empty()) continue;
+        const format::Level& start = info.levels.front();
+        for (std::uint32_t c = 0; c < info.childCount; ++c)
+            cap[info.firstChild + c] =
+                metric == format::kMetricPaper ? start.errorPaper : start.errorMax;
+    }
     std::vector<Entry> entries(count);
     std::vector<bool> isChild(count, false);
     format::Block block;
@@ -263,6 +275,10 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
             const format::Level& level = block.levels[l];
             LevelTile& t = entry.levels[l];
             t.error = metric == format::kMetricPaper ? level.errorPaper : level.errorMax;
+            if (l > 0 && t.error > cap[i]) {  // levels ascend in error: the rest too
+                entry.levels.resize(l);
+                break;
+            }
             for (std::size_t v = 0; v < level.vertexCount; ++v) {
                 const double p[3] = {xs[v], ys[v], zs[v]};
                 t.box.add(p);
