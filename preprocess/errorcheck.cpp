@@ -345,40 +345,55 @@ void NodeOriginalError::add(const format::Block& leaf) {
             if (e.b < riverPoint.size()) riverPoint[e.b] = 1;
         }
     }
+    // The leaf's vertices in the node's grid (those that can lie in its triangles), then one
+    // level at a time over all of them: a level's buckets and triangles stay in cache (the
+    // vertex-major order missed them at nearly every lookup). Per level the vertices are visited
+    // in the same order either way, so the worst found (and its tie-break) is the same.
+    struct LeafPoint {
+        double m[3];
+        std::int64_t x0, x1, y0, y1, rx, ry;
+        std::uint32_t v;
+    };
+    std::vector<LeafPoint> points;
+    points.reserve(leaf.vertices.size());
     for (std::uint32_t v = 0; v < leaf.vertices.size() && v < leaf.grid.size(); ++v) {
         const double qx = (leaf.originX + double(leaf.grid[v].x) * u - node_.originX) / u;
         const double qy = (leaf.originY + double(leaf.grid[v].y) * u - node_.originY) / u;
         // Far outside the node's grid (|coordinate| < 2^28: ulod.h): in none of its triangles.
         if (!(std::fabs(qx) < 0x1p40 && std::fabs(qy) < 0x1p40)) continue;
-        const std::int64_t x0 = std::int64_t(std::ceil(qx - 1 - 1e-6));
-        const std::int64_t x1 = std::int64_t(std::floor(qx + 1 + 1e-6));
-        const std::int64_t y0 = std::int64_t(std::ceil(qy - 1 - 1e-6));
-        const std::int64_t y1 = std::int64_t(std::floor(qy + 1 + 1e-6));
-        const std::int64_t rx = std::llround(qx), ry = std::llround(qy);
-        const double z = double(leaf.vertices[v].z);
-        const double m[3] = {qx * u, qy * u, z};
-        for (std::size_t l = 0; l < levels_.size(); ++l) {
-            if (checkRivers_ && riverPoint[v]) {
+        points.push_back({{qx * u, qy * u, double(leaf.vertices[v].z)},
+                          std::int64_t(std::ceil(qx - 1 - 1e-6)),
+                          std::int64_t(std::floor(qx + 1 + 1e-6)),
+                          std::int64_t(std::ceil(qy - 1 - 1e-6)),
+                          std::int64_t(std::floor(qy + 1 + 1e-6)),
+                          std::llround(qx),
+                          std::llround(qy),
+                          v});
+    }
+    for (std::size_t l = 0; l < levels_.size(); ++l) {
+        const TriangleBuckets& b = buckets_[l]->buckets;
+        const std::vector<TriangleTriple>& tris = levels_[l];
+        for (const LeafPoint& p : points) {
+            const double z = p.m[2];
+            if (checkRivers_ && riverPoint[p.v]) {
                 // Above the level's worst plus the slack: the point raises it.
                 const double d =
-                    buckets_[l]->rivers.nearestAbove(m, riverWorst_[l].value + kNodeRiverSlack);
+                    buckets_[l]->rivers.nearestAbove(p.m, riverWorst_[l].value + kNodeRiverSlack);
                 if (d - kNodeRiverSlack > riverWorst_[l].value)
-                    riverWorst_[l] = {d - kNodeRiverSlack, leaf.col, leaf.row, v};
+                    riverWorst_[l] = {d - kNodeRiverSlack, leaf.col, leaf.row, p.v};
             }
-            const TriangleBuckets& b = buckets_[l]->buckets;
-            const std::vector<TriangleTriple>& tris = levels_[l];
             auto error = [&](std::int64_t x, std::int64_t y) {
                 const std::uint32_t t = b.locate(x, y);
                 return t == kNotFound ? 0.0 : std::fabs(z - surfaceHeight(node_, tris[t], x, y));
             };
             // The nearest position first: when it does not beat the level's worst, the smallest
             // over the positions cannot either.
-            double e = error(rx, ry);
+            double e = error(p.rx, p.ry);
             if (e <= worst_[l].value) continue;
-            for (std::int64_t y = y0; y <= y1 && e > 0; ++y)
-                for (std::int64_t x = x0; x <= x1 && e > 0; ++x)
-                    if (x != rx || y != ry) e = std::min(e, error(x, y));
-            if (e > worst_[l].value) worst_[l] = {e, leaf.col, leaf.row, v};
+            for (std::int64_t y = p.y0; y <= p.y1 && e > 0; ++y)
+                for (std::int64_t x = p.x0; x <= p.x1 && e > 0; ++x)
+                    if (x != p.rx || y != p.ry) e = std::min(e, error(x, y));
+            if (e > worst_[l].value) worst_[l] = {e, leaf.col, leaf.row, p.v};
         }
     }
 }
