@@ -106,7 +106,6 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
             records.errorMax.empty() ? records.initialErrorMax : records.errorMax.back();
         coarse->errorRiver =
             records.errorRiver.empty() ? records.initialErrorRiver : records.errorRiver.back();
-        coarse->step = std::uint32_t(records.steps.size());
     };
     if (options.order == DeletionOrderKind::ThreeDdp) {
         if (!runDeletion(set, cdt, importance.order, del, records, error)) return false;

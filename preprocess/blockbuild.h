@@ -63,7 +63,6 @@ struct CoarseState {
     std::vector<RiverCover> riverCover;
     double errorMax = 0;
     double errorRiver = 0;  // its river part (DeletionRecords::errorRiver)
-    std::uint32_t step = 0;  // the step it was taken at (the block's records go on past it)
 };
 
 // How a tree node's build differs from a leaf block's (nodebuild.h): its error is measured

@@ -125,13 +125,12 @@ struct DeletionOptions {
     // Stop after this many steps (the Cdt is left at that step; `kept` then lists only the
     // refusals met so far and no Deferred entries).
     std::uint32_t maxSteps = std::numeric_limits<std::uint32_t>::max();
-    // Greedy order: stop once the alive triangles are this many or fewer (0: run to the end). A
-    // block or node of issue 18's tree hands over to its parent there (nodebuild.h); like
-    // maxSteps, `kept` then lists no Deferred entries.
+    // Greedy order: stop once the alive triangles are this many or fewer (0: run to the end);
+    // like maxSteps, `kept` then lists no Deferred entries. (The tree's hand-over does not stop
+    // the deletion: handoverTriangles below.)
     std::uint32_t stopTriangles = 0;
     // Greedy order: stop before a step whose key (the error it causes, times its BAI factor)
-    // exceeds this: a tree node's hand-over error (nodebuild.h nodeHandoffError). Infinity: no
-    // such stop.
+    // exceeds this. Infinity: no such stop. (A tree node's hand-over error is handoverKey.)
     double stopKey = std::numeric_limits<double>::infinity();
     // Greedy order: the hand-over of issue 18's tree (nodebuild.h), decoupled from the stop. The
     // first time the alive triangles are `handoverTriangles` or fewer (0: never by count) or the

@@ -59,16 +59,16 @@ namespace unilod {
 // sampled cells: twice the node's locked border (4 side 2^level points), which no deletion
 // removes: below that the node would be its border alone, with an error of the whole relief;
 // for a block at least side^2 / 8 (1/16 of its 2 side^2 triangles; 8192 for 256-cell blocks, 512
-// for 64-cell ones). The error rule (nodeHandoffError) usually stops a node first.
+// for 64-cell ones). The error rule (nodeHandoffError) usually hands a node over first.
 std::uint32_t nodeHandoffTriangles(int side, std::uint32_t level);
 
 // The hand-over error of a block or node of tree `level` whose blocks are `blockExtent` metres
 // on a side, in a model `modelExtent` metres across: its extent (blockExtent 2^level) divided by
-// `pixels`, at most modelExtent / kRootPixels. A node stops before a deletion that would cost
-// more (deletion.h DeletionOptions::stopKey), so its parent starts at most there whatever its
-// siblings did. The same target for all nodes of a level: siblings hand over alike, and the error
-// doubles per tree level as the node's extent does (chunked LOD): a view in which the node spans
-// about `pixels` pixels at P = 1 draws its parent. The cap: once the whole model fits a
+// `pixels`, at most modelExtent / kRootPixels. A node hands over before a deletion that would
+// cost more (deletion.h DeletionOptions::handoverKey), so its parent starts at most there whatever
+// its siblings did. The same target for all nodes of a level: siblings hand over alike, and the
+// error doubles per tree level as the node's extent does (chunked LOD): a view in which the node
+// spans about `pixels` pixels at P = 1 draws its parent. The cap: once the whole model fits a
 // 1920-pixel screen at P = 1, one draw of the root shows it (issue 18's far view).
 inline constexpr double kDefaultHandoffPixels = 256;
 

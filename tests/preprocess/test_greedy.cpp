@@ -127,20 +127,12 @@ void expectGreedyAgainstOracle(const PointSet& set, bool generalPosition) {
 }
 
 TEST(GreedyOrder, KeyIsTheRealisedErrorAndTheSmallestRandomPoints) {
-    BlockSpec spec;
-    spec.seed = 7;
-    spec.points = 90;
-    spec.rivers = 0;
-    expectGreedyAgainstOracle(makeBlock(spec), true);
+    expectGreedyAgainstOracle(makeBlock({.seed = 7, .points = 90, .rivers = 0}), true);
 }
 
 TEST(GreedyOrder, KeyIsTheRealisedErrorAndTheSmallestGrid) {
     // An exact grid: every square is cocircular, so ties in the re-triangulation are everywhere.
-    BlockSpec spec;
-    spec.points = 81;
-    spec.rivers = 0;
-    spec.grid = true;
-    expectGreedyAgainstOracle(makeBlock(spec), false);
+    expectGreedyAgainstOracle(makeBlock({.points = 81, .rivers = 0, .grid = true}), false);
 }
 
 // After every step (DeletionOptions::afterStep): the river edges replayed from the records, the
@@ -184,11 +176,7 @@ private:
 // With rivers: invariants after every step, errors equal to the brute force (vertical and river
 // deviation) at every step, keys non-decreasing where the order is free, BAI weights respected.
 TEST(GreedyOrder, InvariantsAndErrorsWithRivers) {
-    BlockSpec spec;
-    spec.seed = 23;
-    spec.points = 700;
-    spec.rivers = 3;
-    const PointSet set = makeBlock(spec);
+    const PointSet set = makeBlock({.seed = 23, .points = 700, .rivers = 3});
     Cdt cdt;
     std::string error;
     ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
@@ -314,11 +302,7 @@ TEST(GreedyOrder, StraightHullVerticesAreDeleted) {
 // The BAI factor delays river vertices: with a huge weight on every river vertex, all DEM
 // deletions whose key is below the smallest weighted river key come first.
 TEST(GreedyOrder, RiverWeightsDelayRiverVertices) {
-    BlockSpec spec;
-    spec.seed = 5;
-    spec.points = 400;
-    spec.rivers = 2;
-    const PointSet set = makeBlock(spec);
+    const PointSet set = makeBlock({.seed = 5, .points = 400, .rivers = 2});
     auto firstRiverStep = [&](const std::vector<float>& weight) {
         Cdt cdt;
         std::string error;
@@ -342,11 +326,7 @@ TEST(GreedyOrder, RiverWeightsDelayRiverVertices) {
 }
 
 TEST(GreedyOrder, IdenticalRecordsForIdenticalInput) {
-    BlockSpec spec;
-    spec.seed = 3;
-    spec.points = 1500;
-    spec.rivers = 2;
-    const PointSet set = makeBlock(spec);
+    const PointSet set = makeBlock({.seed = 3, .points = 1500, .rivers = 2});
     DeletionRecords first, second;
     for (DeletionRecords* rec : {&first, &second}) {
         Cdt cdt;
@@ -366,11 +346,7 @@ TEST(GreedyOrder, IdenticalRecordsForIdenticalInput) {
 // once, with exactly the state a run stopped there ends in (mesh, records, river cover), and the
 // deletion goes on past it with the same order as a run without a hand-over.
 TEST(GreedyOrder, HandoverIsTheStoppedStateAndTheOrderGoesOn) {
-    BlockSpec spec;
-    spec.seed = 29;
-    spec.points = 900;
-    spec.rivers = 3;
-    const PointSet set = makeBlock(spec);
+    const PointSet set = makeBlock({.seed = 29, .points = 900, .rivers = 3});
     std::string error;
     DeletionRecords all;
     {
@@ -427,11 +403,7 @@ TEST(GreedyOrder, HandoverIsTheStoppedStateAndTheOrderGoesOn) {
 
 // A trial deletion rolled back leaves the mesh exactly as it was, slots and free list included.
 TEST(GreedyOrder, TrialRollbackRestoresTheMeshExactly) {
-    BlockSpec spec;
-    spec.seed = 9;
-    spec.points = 600;
-    spec.rivers = 2;
-    const PointSet set = makeBlock(spec);
+    const PointSet set = makeBlock({.seed = 9, .points = 600, .rivers = 2});
     Cdt cdt;
     std::string error;
     ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
