@@ -94,6 +94,17 @@ format::Block* worstBlock(test::Model& model, const UlodCheckSummary& s) {
     return nullptr;
 }
 
+// Lowers the stored `max` bound of `b` to at most `value` at every step up to `step` (so that the
+// array stays non-decreasing), its river part with it (a part of it), the levels' copies equal.
+void lowerBound(format::Block& b, std::uint32_t step, float value) {
+    for (std::uint32_t k = 0; k <= step; ++k) {
+        b.errorMax[k] = std::min(b.errorMax[k], value);
+        b.errorRiver[k] = std::min(b.errorRiver[k], b.errorMax[k]);
+    }
+    for (format::Level& l : b.levels)
+        l.errorMax = b.errorMax[l.step], l.errorRiver = b.errorRiver[l.step];
+}
+
 TEST_F(CheckErrors, StoredBoundsHoldOnEveryModel) {
     ASSERT_EQ(models.size(), 4u);
     for (const Built& m : models) {
@@ -144,13 +155,7 @@ TEST_F(CheckErrors, LoweredBoundFails) {
         std::printf("[ tampered  ] %s: %s, level %u lowered from %.3f to %.3f m\n", m.name.c_str(),
                     format::blockName(b->col, b->row, b->level).c_str(), s.worstLevel,
                     double(level.errorMax), double(lowered));
-        const std::uint32_t step = level.step;
-        for (std::uint32_t k = 0; k <= step; ++k)
-            b->errorMax[k] = std::min(b->errorMax[k], lowered);
-        for (std::uint32_t k = 0; k <= step; ++k)
-            b->errorRiver[k] = std::min(b->errorRiver[k], b->errorMax[k]);  // part of it
-        for (format::Level& l : b->levels)
-            l.errorMax = b->errorMax[l.step], l.errorRiver = b->errorRiver[l.step];
+        lowerBound(*b, level.step, lowered);
         const std::string tampered = (dir / (m.name + "_tampered.ulod")).string();
         ASSERT_TRUE(format::writeUlod(tampered, model.header, model.blocks, error)) << error;
 
@@ -185,14 +190,8 @@ TEST_F(CheckErrors, MillimetreLieFails) {
         ASSERT_TRUE(test::readModel(m.path, model, error)) << error;
         format::Block* b = worstBlock(model, s);
         ASSERT_NE(b, nullptr);
-        const std::uint32_t step = b->levels[s.worstLevel].step;
         const float lowered = float(s.worstStored - 3 * model.header.zQuantum - 1e-3);
-        for (std::uint32_t k = 0; k <= step; ++k)
-            b->errorMax[k] = std::min(b->errorMax[k], lowered);
-        for (std::uint32_t k = 0; k <= step; ++k)
-            b->errorRiver[k] = std::min(b->errorRiver[k], b->errorMax[k]);  // part of it
-        for (format::Level& l : b->levels)
-            l.errorMax = b->errorMax[l.step], l.errorRiver = b->errorRiver[l.step];
+        lowerBound(*b, b->levels[s.worstLevel].step, lowered);
         const std::string tampered = (dir / (m.name + "_mm.ulod")).string();
         ASSERT_TRUE(format::writeUlod(tampered, model.header, model.blocks, error)) << error;
 
