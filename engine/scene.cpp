@@ -403,8 +403,9 @@ StreamingScene::~StreamingScene() { assert(!impl_->device && "StreamingScene::cl
 
 bool StreamingScene::open(const Device& device, const std::string& path,
                           const SceneOptions& options, std::string& error) {
+    assert(!impl_->device && "StreamingScene::close() first");
+    impl_ = std::make_unique<Impl>();  // a scene closed before opens with fresh state
     Impl& s = *impl_;
-    assert(!s.device);
     s.options = options;
     if (!s.reader.open(path, error)) return false;
     s.workers = std::make_unique<WorkerPool>(options.threads);

@@ -162,6 +162,34 @@ TEST_F(Streaming, FirstFrameDrawsTheRootThenStreamsIn) {
     EXPECT_TRUE(messages.empty()) << messages.front();
 }
 
+// A renderer (and its scene) closed and opened again starts from nothing and streams again: no
+// state of the first opening (the loader's stop, its queue, the resident set) carries over.
+TEST_F(Streaming, ReopenedSceneStreamsAgain) {
+    engine::HeadlessRenderer r;
+    std::string error;
+    std::uint32_t resident[2] = {};
+    for (int opening = 0; opening < 2; ++opening) {
+        SCOPED_TRACE("opening " + std::to_string(opening));
+        ASSERT_TRUE(r.open(options(engine::kDefaultGpuBudget), error)) << error;
+        const engine::FrameView view = r.view(oblique(0.5));
+        ASSERT_TRUE(r.renderFrame(view, true, nullptr, error)) << error;
+        EXPECT_EQ(r.scene().stats().residentBlocks, 0u);  // the coarse set only
+        for (int i = 0; i < 5000 && !r.scene().settled(); ++i) {
+            ASSERT_TRUE(r.renderFrame(view, true, nullptr, error)) << error;
+            r.finish();
+        }
+        ASSERT_TRUE(r.scene().settled());
+        ASSERT_TRUE(r.renderFrame(view, true, nullptr, error)) << error;
+        r.finish();
+        EXPECT_EQ(r.scene().stats().fallbackBlocks, 0u);
+        resident[opening] = r.scene().stats().residentBlocks;
+        const std::vector<std::string> messages = r.close();
+        EXPECT_TRUE(messages.empty()) << messages.front();
+    }
+    EXPECT_GT(resident[0], 0u);
+    EXPECT_EQ(resident[1], resident[0]);
+}
+
 // The leaves' refinement tables stay within SceneOptions::refineMemory: with room for about two
 // 64-cell leaves, at most that much is held at any frame while the view moves, leaves are still
 // drawn refined, and a leaf without its table is drawn at its stored level; with no room none
