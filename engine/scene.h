@@ -135,7 +135,8 @@ public:
     // fails that frame's prepare() (below).
     bool open(const Device& device, const std::string& path, const SceneOptions& options,
               std::string& error);
-    // Stops the loader and frees the GPU memory. The device must be idle.
+    // Stops the loader and frees the GPU memory. The device must be idle. A closed scene can be
+    // opened again: open() starts from fresh state.
     void close();
     // After open(): whether this file opened with preloadAll on the same device would pass
     // open()'s budget checks (one buffer holding every block); false with open()'s message. The
