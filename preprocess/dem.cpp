@@ -63,10 +63,12 @@ GDALDatasetUniquePtr extractBand(GDALDataset* src, int band) {
 // `srcWkt`: the source CRS when the raster declares none (--s-srs); empty: the raster's own.
 GDALDatasetUniquePtr warpToMemory(GDALDataset* src, const std::string& dstWkt,
                                   const std::string& srcWkt) {
-    ArgList list{
-        {"-of", "MEM", "-r", "bilinear", "-t_srs", dstWkt, "-ot", "Float32", "-dstnodata", "nan"}};
-    if (!srcWkt.empty()) list = ArgList{{"-of", "MEM", "-r", "bilinear", "-s_srs", srcWkt, "-t_srs",
-                                         dstWkt, "-ot", "Float32", "-dstnodata", "nan"}};
+    std::vector<std::string> args{"-of", "MEM",     "-r",         "bilinear",
+                                  "-ot", "Float32", "-dstnodata", "nan"};
+    if (!srcWkt.empty()) args.insert(args.end(), {"-s_srs", srcWkt});
+    // No target: a raster without a CRS resampled north-up in its own coordinates.
+    if (!dstWkt.empty()) args.insert(args.end(), {"-t_srs", dstWkt});
+    ArgList list{args};
     std::vector<char*> argv = list.pointers();
     GDALWarpAppOptions* opts = GDALWarpAppOptionsNew(argv.data(), nullptr);
     if (opts == nullptr) return nullptr;
@@ -107,11 +109,17 @@ std::unique_ptr<OGRCoordinateTransformation> toLonLat(const OGRSpatialReference&
 }
 
 // The centre of the raster (geotransform `gt`, w x h cells) in WGS 84 longitude, latitude.
+// The CRS coordinates of grid position (col, row) (0, 0: the upper-left corner of the first
+// cell) under GDAL's affine geotransform, rotation terms included.
+void gridToCrs(const double gt[6], double col, double row, double& x, double& y) {
+    x = gt[0] + col * gt[1] + row * gt[2];
+    y = gt[3] + col * gt[4] + row * gt[5];
+}
+
 bool centreLonLat(const OGRSpatialReference& srs, const double gt[6], int w, int h, double& lon,
                   double& lat) {
     const std::unique_ptr<OGRCoordinateTransformation> ct = toLonLat(srs);
-    lon = gt[0] + 0.5 * w * gt[1];
-    lat = gt[3] + 0.5 * h * gt[5];
+    gridToCrs(gt, 0.5 * w, 0.5 * h, lon, lat);
     return ct && ct->Transform(1, &lon, &lat) && std::isfinite(lon) && std::isfinite(lat);
 }
 
@@ -241,8 +249,13 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
 
     double gt[6] = {0, 1, 0, 0, 0, 1};
     ds->GetGeoTransform(gt);  // without one GDAL leaves the identity: pixel coordinates
-    if (gt[2] != 0 || gt[4] != 0) {
-        error = "DEM '" + path + "': rotated or sheared grids are not supported";
+    // A rotated or sheared grid (rotation terms in the geotransform) is resampled to a north-up
+    // grid like a reprojected one; a singular geotransform places no cell anywhere.
+    const bool rotated = gt[2] != 0 || gt[4] != 0;
+    if (!std::isfinite(gt[0]) || !std::isfinite(gt[1]) || !std::isfinite(gt[2]) ||
+        !std::isfinite(gt[3]) || !std::isfinite(gt[4]) || !std::isfinite(gt[5]) ||
+        gt[1] * gt[5] - gt[2] * gt[4] == 0) {
+        error = "DEM '" + path + "': its geotransform is degenerate (zero-area cells)";
         return false;
     }
 
@@ -265,8 +278,16 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
         // Degrees: latitudes beyond the poles are a georeferencing mistake (a projected grid
         // labelled as geographic, swapped axes), which would otherwise surface later as "no
         // valid data" or rivers that "cannot be transformed".
-        const double lat0 = gt[3], lat1 = gt[3] + ds->GetRasterYSize() * gt[5];
-        const double lon0 = gt[0], lon1 = gt[0] + ds->GetRasterXSize() * gt[1];
+        double lat0 = INFINITY, lat1 = -INFINITY, lon0 = INFINITY, lon1 = -INFINITY;
+        for (int corner = 0; corner < 4; ++corner) {
+            double lon = 0, lat = 0;
+            gridToCrs(gt, corner % 2 == 0 ? 0 : ds->GetRasterXSize(),
+                      corner < 2 ? 0 : ds->GetRasterYSize(), lon, lat);
+            lat0 = std::min(lat0, lat);
+            lat1 = std::max(lat1, lat);
+            lon0 = std::min(lon0, lon);
+            lon1 = std::max(lon1, lon);
+        }
         const double eps = 1e-9;
         if (std::max(std::fabs(lat0), std::fabs(lat1)) > 90 + eps ||
             std::max(std::fabs(lon0), std::fabs(lon1)) > 540 + eps) {
@@ -274,8 +295,7 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
             std::snprintf(buf, sizeof buf,
                           "': a geographic raster (degrees) spanning latitudes %.6g to %.6g and "
                           "longitudes %.6g to %.6g, beyond the poles: its georeferencing is wrong",
-                          std::min(lat0, lat1), std::max(lat0, lat1), std::min(lon0, lon1),
-                          std::max(lon0, lon1));
+                          lat0, lat1, lon0, lon1);
             error = "DEM '" + path + buf +
                     " (a projected grid labelled as geographic? give its CRS with --s-srs)";
             return false;
@@ -311,9 +331,8 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
         // GDAL's geotransform of a geographic raster is in longitude, latitude order whatever the
         // CRS's official axis order is; the zone only needs the centre to a few kilometres, so
         // the source datum does not matter.
-        const double w = ds->GetRasterXSize(), h = ds->GetRasterYSize();
-        const double lon = gt[0] + 0.5 * w * gt[1];
-        const double lat = gt[3] + 0.5 * h * gt[5];
+        double lon = 0, lat = 0;
+        gridToCrs(gt, 0.5 * ds->GetRasterXSize(), 0.5 * ds->GetRasterYSize(), lon, lat);
         if (target.importFromEPSG(utmEpsgFor(lon, lat)) != OGRERR_NONE) {
             error = "DEM '" + path + "': cannot create the UTM CRS" + gdalErrorSuffix();
             return false;
@@ -344,8 +363,9 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
         double lon = 0, lat = 0;
         if (target.IsProjected() && options.warn &&
             centreLonLat(target, gt, ds->GetRasterXSize(), ds->GetRasterYSize(), lon, lat)) {
-            const double k = gridScale(target, gt[0] + 0.5 * ds->GetRasterXSize() * gt[1],
-                                       gt[3] + 0.5 * ds->GetRasterYSize() * gt[5]);
+            double x = 0, y = 0;
+            gridToCrs(gt, 0.5 * ds->GetRasterXSize(), 0.5 * ds->GetRasterYSize(), x, y);
+            const double k = gridScale(target, x, y);
             if (k > 0 && std::fabs(k - 1) > kGridScaleWarning) {
                 char text[64];
                 std::snprintf(text, sizeof text, "%.3f", k);
@@ -357,6 +377,18 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
                              std::to_string(utmEpsgFor(lon, lat)));
             }
         }
+    }
+
+    if (rotated) {
+        // GDAL's warper resamples the rotated cells onto a north-up grid of about the same cell
+        // size (in the chosen CRS, else in the raster's own coordinates).
+        warp = true;
+        char text[160];
+        std::snprintf(text, sizeof text,
+                      "a rotated or sheared grid (geotransform terms %.6g, %.6g): resampled to a "
+                      "north-up grid (bilinear)",
+                      gt[2], gt[4]);
+        dem.conversions.push_back(text);
     }
 
     // Elevations: raw * scale + offset (the band's, read before any warp, which keeps raw
@@ -416,7 +448,8 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
             }
             source = single.get();
         }
-        warped = warpToMemory(source, toWkt(target), assumedWkt);
+        warped =
+            warpToMemory(source, srcSrs != nullptr ? toWkt(target) : std::string(), assumedWkt);
         if (!warped) {
             error = "DEM '" + path + "': reprojection failed" + gdalErrorSuffix();
             return false;

@@ -309,6 +309,74 @@ TEST(Dem, Errors) {
     EXPECT_NE(error.find("jacksboro_rivers_grass.geojson"), std::string::npos) << error;
 }
 
+// A rotated grid (rotation terms in the geotransform, as some survey rasters have) is resampled
+// to a north-up grid in its own CRS, or in its own coordinates when it declares none. Its cells
+// hold a plane of the CRS coordinates, which bilinear resampling reproduces exactly wherever the
+// new cell lies inside the rotated footprint.
+TEST(Dem, RotatedGridIsResampledNorthUp) {
+    TempDir dir("rotated");
+    const int n = 24;
+    const double angle = 30.0 * 3.14159265358979323846 / 180, cell = 10.0;
+    const double gt[6] = {500000.0,  cell * std::cos(angle), cell * std::sin(angle),
+                          4000000.0, cell * std::sin(angle), -cell * std::cos(angle)};
+    auto plane = [](double x, double y) { return 300.0 + 0.02 * (x - 500000) - 0.03 * (y - 4e6); };
+    std::vector<double> v;
+    for (int r = 0; r < n; ++r) {
+        for (int c = 0; c < n; ++c) {
+            const double x = gt[0] + (c + 0.5) * gt[1] + (r + 0.5) * gt[2];
+            const double y = gt[3] + (c + 0.5) * gt[4] + (r + 0.5) * gt[5];
+            v.push_back(plane(x, y));
+        }
+    }
+    for (const int epsg : {32616, 0}) {
+        SCOPED_TRACE(epsg);
+        const std::string path = dir.file("rotated" + std::to_string(epsg) + ".tif");
+        writeTiff(path, n, n, {v}, GDT_Float64, gt, epsg);
+        DemGrid dem;
+        std::string error;
+        ASSERT_TRUE(loadDem(path, {}, dem, error)) << error;
+        EXPECT_LT(dem.cellY, 0.0);
+        EXPECT_GT(dem.cellX, 0.0);
+        EXPECT_EQ(dem.wkt.empty(), epsg == 0);
+        ASSERT_FALSE(dem.conversions.empty());
+        EXPECT_NE(dem.conversions.back().find("rotated"), std::string::npos);
+        // About the source's footprint: a square of n * cell turned by 30 degrees.
+        const double side = n * cell * (std::cos(angle) + std::sin(angle));
+        EXPECT_NEAR(dem.width * dem.cellX, side, 4 * cell);
+        EXPECT_NEAR(dem.height * -dem.cellY, side, 4 * cell);
+        // Exact inside the source cell centres' hull (GDAL's kernel is partial at its rim).
+        const double det = gt[1] * gt[5] - gt[2] * gt[4];
+        std::size_t valid = 0, inner = 0;
+        for (int r = 0; r < dem.height; ++r) {
+            for (int c = 0; c < dem.width; ++c) {
+                const float z = dem.z[static_cast<std::size_t>(r) * dem.width + c];
+                if (std::isnan(z)) continue;
+                ++valid;
+                const double dx = dem.centreX(c) - gt[0], dy = dem.centreY(r) - gt[3];
+                const double col = (dx * gt[5] - dy * gt[2]) / det;
+                const double row = (dy * gt[1] - dx * gt[4]) / det;
+                if (col < 1 || col > n - 1 || row < 1 || row > n - 1) continue;
+                ++inner;
+                EXPECT_NEAR(z, plane(dem.centreX(c), dem.centreY(r)), 0.01) << c << ", " << r;
+            }
+        }
+        // The turned square covers half of its bounding box or more; the corners are nodata.
+        EXPECT_GT(valid, dem.z.size() / 2);
+        EXPECT_LT(valid, dem.z.size());
+        EXPECT_GT(inner, valid / 2);
+    }
+
+    // A singular geotransform places no cell anywhere: refused, naming the file.
+    const std::string flat = dir.file("singular.tif");
+    const double singular[6] = {500000.0, 10.0, 20.0, 4000000.0, 5.0, 10.0};
+    writeTiff(flat, 4, 3, {std::vector<double>(12, 1.0)}, GDT_Float32, singular, 32616);
+    DemGrid dem;
+    std::string error;
+    EXPECT_FALSE(loadDem(flat, {}, dem, error));
+    EXPECT_NE(error.find(flat), std::string::npos) << error;
+    EXPECT_NE(error.find("degenerate"), std::string::npos) << error;
+}
+
 // Near a pole a geographic DEM goes to the polar stereographic grid (UPS), not to a UTM zone
 // stretched far beyond its latitudes.
 TEST(Dem, PolarDemIsWarpedToUps) {
