@@ -206,6 +206,51 @@ double DemGrid::sample(double x, double y) const {
     return ty > 0 ? top + (bottom - top) * ty : top;
 }
 
+namespace {
+
+// A DEM without a CRS is read in metres. Geographic coordinates read that way (an ASCII grid
+// without its .prj) make a terrain a fraction of a metre wide with hundreds of metres of relief,
+// and every metric tolerance of the build (river cleaning, the 1 m clearance) spans the whole
+// DEM: refused when the relief exceeds 100x the horizontal extent and the coordinates are valid
+// longitudes and latitudes; a warning when only the small cells and the coordinates suggest it.
+bool checkUndeclaredUnits(const std::string& path, const DemGrid& dem,
+                          const DemLoadOptions& options, std::string& error) {
+    const double x0 = dem.originX - 0.5 * dem.cellX, y0 = dem.originY - 0.5 * dem.cellY;
+    const double x1 = x0 + dem.width * dem.cellX, y1 = y0 + dem.height * dem.cellY;
+    const bool lonLat = std::min(x0, x1) >= -180 && std::max(x0, x1) <= 360 &&
+                        std::min(y0, y1) >= -90 && std::max(y0, y1) <= 90;
+    if (!lonLat) return true;
+    float zMin = INFINITY, zMax = -INFINITY;
+    for (const float z : dem.z) {
+        if (std::isnan(z)) continue;
+        zMin = std::min(zMin, z);
+        zMax = std::max(zMax, z);
+    }
+    const double extent = std::max(std::fabs(x1 - x0), std::fabs(y1 - y0));
+    const double relief = static_cast<double>(zMax) - zMin;
+    char text[400];
+    if (relief > 100 * extent) {
+        std::snprintf(text, sizeof text,
+                      "': it declares no CRS, so its coordinates are read as metres, but the grid "
+                      "spans %.6g x %.6g of them with %.6g m of relief: they look like degrees; "
+                      "give its CRS with --s-srs (e.g. EPSG:4326)",
+                      std::fabs(x1 - x0), std::fabs(y1 - y0), relief);
+        error = "DEM '" + path + text;
+        return false;
+    }
+    if (options.warn && std::max(std::fabs(dem.cellX), std::fabs(dem.cellY)) <= 0.01) {
+        std::snprintf(text, sizeof text,
+                      "': it declares no CRS, so its coordinates are read as metres (cells of "
+                      "%.6g x %.6g m); if they are degrees, give its CRS with --s-srs (e.g. "
+                      "EPSG:4326)",
+                      std::fabs(dem.cellX), std::fabs(dem.cellY));
+        options.warn("DEM '" + path + text);
+    }
+    return true;
+}
+
+}  // namespace
+
 bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& dem,
              std::string& error) {
     QuietGdalErrors quiet;
@@ -496,6 +541,10 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
     }
     if (valid == 0) {
         error = "DEM '" + path + "': every cell is nodata";
+        dem = DemGrid{};
+        return false;
+    }
+    if (srcSrs == nullptr && !checkUndeclaredUnits(path, dem, options, error)) {
         dem = DemGrid{};
         return false;
     }

@@ -52,11 +52,13 @@ double metresPerUnit(const std::string& unit);
 // given (it must be projected in metres; the raster is warped to it unless it is already in it);
 // otherwise a geographic raster, or a projected one whose unit is not the metre (State Plane in
 // feet), is warped (bilinear) to the UTM zone of its centre (EPSG:326xx north, 327xx south) and a
-// projected raster in metres, or one without a CRS, keeps its grid. Elevations: the band's scale
+// projected raster in metres, or one without a CRS, keeps its grid (a rotated or sheared grid is
+// resampled north-up). Elevations: the band's scale
 // and offset applied (scaled integers), then converted to metres from the band's unit (or, when
-// it has none, from the unit of a vertical CRS it declares). Returns false with `error` naming the file and the problem (missing file, not a raster, no
-// bands, multi-band without a band, band out of range, rotated grid, all cells nodata, GDAL
-// failures).
+// it has none, from the unit of a vertical CRS it declares). Returns false with `error` naming the
+// file and the problem (missing file, not a raster, no bands, multi-band without a band, band out
+// of range, singular geotransform, all cells nodata, coordinates without a CRS that look like
+// degrees (relief over 100x the extent), GDAL failures).
 bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& dem,
              std::string& error);
 

@@ -377,6 +377,51 @@ TEST(Dem, RotatedGridIsResampledNorthUp) {
     EXPECT_NE(error.find("degenerate"), std::string::npos) << error;
 }
 
+// A DEM without a CRS is read in metres; degrees read that way (an ASCII grid without its .prj)
+// would make a terrain a third of a metre wide with 800 m of relief: refused, pointing at
+// --s-srs; with --s-srs it loads. Small cells alone only warn; a metric grid says nothing.
+TEST(Dem, UndeclaredDegreesAreRefused) {
+    TempDir dir("undeclared");
+    const int n = 40;
+    std::vector<double> relief, flat;
+    for (int i = 0; i < n * n; ++i) {
+        relief.push_back(236.0 + 20.0 * (i % n) + 0.5 * (i / n));  // 236 .. 1035.5 m
+        flat.push_back(100.0 + 0.001 * i);
+    }
+    const double degrees[6] = {-84.4, 1.0 / 1200, 0.0, 36.7, 0.0, -1.0 / 1200};
+    const std::string path = dir.file("degrees.tif");
+    writeTiff(path, n, n, {relief}, GDT_Float32, degrees, 0);
+    DemGrid dem;
+    std::string error;
+    std::vector<std::string> warnings;
+    EXPECT_FALSE(loadDem(path, collecting(warnings), dem, error));
+    EXPECT_NE(error.find(path), std::string::npos) << error;
+    EXPECT_NE(error.find("look like degrees"), std::string::npos) << error;
+    EXPECT_NE(error.find("--s-srs"), std::string::npos) << error;
+    EXPECT_TRUE(dem.z.empty());
+
+    DemLoadOptions assumed = collecting(warnings);
+    assumed.assumeSrs = "EPSG:4326";
+    ASSERT_TRUE(loadDem(path, assumed, dem, error)) << error;
+    EXPECT_GT(dem.cellX, 50.0);  // warped to UTM: about 75 m
+    EXPECT_TRUE(warnings.empty());
+
+    // Degree-sized cells without the relief that gives them away: built, with a warning.
+    const std::string plain = dir.file("flat.tif");
+    writeTiff(plain, n, n, {flat}, GDT_Float32, degrees, 0);
+    ASSERT_TRUE(loadDem(plain, collecting(warnings), dem, error)) << error;
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("declares no CRS"), std::string::npos) << warnings[0];
+
+    // A local metric grid without a CRS: no warning.
+    warnings.clear();
+    const double metres[6] = {0.0, 10.0, 0.0, 400.0, 0.0, -10.0};
+    const std::string local = dir.file("local.tif");
+    writeTiff(local, n, n, {relief}, GDT_Float32, metres, 0);
+    ASSERT_TRUE(loadDem(local, collecting(warnings), dem, error)) << error;
+    EXPECT_TRUE(warnings.empty());
+}
+
 // Near a pole a geographic DEM goes to the polar stereographic grid (UPS), not to a UTM zone
 // stretched far beyond its latitudes.
 TEST(Dem, PolarDemIsWarpedToUps) {
