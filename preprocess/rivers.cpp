@@ -21,17 +21,60 @@ namespace unilod {
 
 namespace {
 
+// Linear geometry types: line strings and curves (circular arcs, compound curves: GML, GeoPackage
+// and FileGDB hydrography), single or multi; curves are read as OGR's linear approximation.
 bool isLineType(OGRwkbGeometryType t) {
     const OGRwkbGeometryType flat = wkbFlatten(t);
-    return flat == wkbLineString || flat == wkbMultiLineString;
+    return flat == wkbLineString || flat == wkbMultiLineString || flat == wkbCircularString ||
+           flat == wkbCompoundCurve || flat == wkbMultiCurve;
 }
 
-// True when some feature of a layer of unknown / mixed geometry type is a line.
+// A layer type whose features may hold lines although the type does not say so.
+bool isMixedType(OGRwkbGeometryType t) {
+    const OGRwkbGeometryType flat = wkbFlatten(t);
+    return flat == wkbUnknown || flat == wkbGeometryCollection;
+}
+
+// Calls `line` for every line string in `g`: curves linearised, multi-geometries and geometry
+// collections walked (nested ones too). False when `line` returns false (stops there).
+template <typename F>
+bool forEachLine(const OGRGeometry& g, F&& line) {
+    switch (wkbFlatten(g.getGeometryType())) {
+        case wkbLineString:
+            return line(*g.toLineString());
+        case wkbCircularString:
+        case wkbCompoundCurve: {
+            const std::unique_ptr<OGRGeometry> linear(g.getLinearGeometry());
+            return !linear || forEachLine(*linear, line);
+        }
+        case wkbMultiLineString:
+        case wkbMultiCurve:
+        case wkbGeometryCollection:
+            for (const OGRGeometry* part : *g.toGeometryCollection()) {
+                if (part != nullptr && !forEachLine(*part, line)) return false;
+            }
+            return true;
+        default:
+            return true;  // points, polygons, surfaces: not rivers
+    }
+}
+
+// True when `g` holds a line somewhere.
+bool holdsLine(const OGRGeometry& g) {
+    bool found = false;
+    forEachLine(g, [&](const OGRLineString&) {
+        found = true;
+        return false;
+    });
+    return found;
+}
+
+// True when some feature of a layer of unknown / mixed geometry type holds a line.
 bool hasLineFeature(OGRLayer* layer) {
     layer->ResetReading();
     for (const auto& feature : *layer) {
         const OGRGeometry* g = feature->GetGeometryRef();
-        if (g != nullptr && isLineType(g->getGeometryType())) return true;
+        if (g != nullptr && holdsLine(*g)) return true;
     }
     return false;
 }
@@ -74,7 +117,7 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
             return false;
         }
         const OGRwkbGeometryType t = layer->GetGeomType();
-        if (!isLineType(t) && !(wkbFlatten(t) == wkbUnknown && hasLineFeature(layer))) {
+        if (!isLineType(t) && !(isMixedType(t) && hasLineFeature(layer))) {
             error = what + ": layer '" + options.layer + "' has no line geometry (--layer)";
             return false;
         }
@@ -89,7 +132,7 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
         }
         for (int i = 0; layer == nullptr && i < ds->GetLayerCount(); ++i) {
             OGRLayer* l = ds->GetLayer(i);
-            if (wkbFlatten(l->GetGeomType()) == wkbUnknown && hasLineFeature(l)) layer = l;
+            if (isMixedType(l->GetGeomType()) && hasLineFeature(l)) layer = l;
         }
         if (layer == nullptr) {
             // No feature anywhere (an empty FeatureCollection declares no geometry type): an
@@ -177,23 +220,17 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
 
     layer->ResetReading();
     bool hasZ = false;
+    std::size_t skipped = 0;  // features with a geometry but no line in it
     for (const auto& feature : *layer) {
         const OGRGeometry* g = feature->GetGeometryRef();
         if (g == nullptr) continue;
-        hasZ = hasZ || (g->Is3D() && isLineType(g->getGeometryType()));
-        bool good = true;
-        switch (wkbFlatten(g->getGeometryType())) {
-            case wkbLineString:
-                good = addLine(*g->toLineString());
-                break;
-            case wkbMultiLineString:
-                for (const OGRLineString* part : *g->toMultiLineString()) {
-                    good = good && addLine(*part);
-                }
-                break;
-            default:
-                break;  // points, polygons: not rivers
-        }
+        bool any = false;
+        const bool good = forEachLine(*g, [&](const OGRLineString& line) {
+            any = true;
+            hasZ = hasZ || line.Is3D();
+            return addLine(line);
+        });
+        if (!any) ++skipped;
         if (!good) {
             const OGRSpatialReference* declared = layer->GetSpatialRef();
             char at[96];
@@ -211,6 +248,11 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
             out.clear();
             return false;
         }
+    }
+    if (skipped > 0 && options.warn) {
+        options.warn(what + ": " + std::to_string(skipped) + " feature" +
+                     (skipped == 1 ? "" : "s") + " of layer '" + layerName +
+                     "' without a line (points, polygons) skipped");
     }
     if (hasZ && options.warn) {
         options.warn(what + ": the lines have z coordinates; they are ignored (river altitudes " +

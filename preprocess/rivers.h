@@ -25,8 +25,10 @@ struct RiverLoadOptions {
     std::function<void(const std::string&)> warn;
 };
 
-// Reads every LineString / MultiLineString (each part one line; z and m are ignored; other
-// geometry types are skipped) of the chosen layer in feature order and transforms it to
+// Reads every LineString / MultiLineString, and every curve (CircularString, CompoundCurve,
+// MultiCurve: OGR's linear approximation), also inside geometry collections (each part one line;
+// z and m are ignored; features without a line are skipped, counted in one warning) of the
+// chosen layer in feature order and transforms it to
 // `workingWkt` (traditional GIS axis order: x = easting / longitude). An empty `workingWkt` means
 // the DEM has no CRS: coordinates are taken as they are. Returns false with `error` naming the
 // file and the problem: missing or unreadable file, no such layer, no line layer (a layer of points

@@ -127,6 +127,70 @@ TEST(Rivers, MultiLineStringsAnd3dLines) {
     EXPECT_EQ(lines[2][0], (XY{500000, 4001000}));
 }
 
+// Lines inside geometry collections are rivers too, and curves (circular arcs, compound curves,
+// as GML, GeoPackage and FileGDB hydrography store them) are read as their linear approximation;
+// features without any line are skipped with a warning that counts them.
+TEST(Rivers, CollectionsAndCurves) {
+    TempDir dir("curves");
+    const std::string collection = dir.write("collection.geojson", R"({"type": "FeatureCollection",
+      "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32616"}},
+      "features": [
+        {"type": "Feature", "properties": {}, "geometry": {"type": "GeometryCollection",
+          "geometries": [{"type": "Point", "coordinates": [500000, 4000000]},
+                         {"type": "LineString", "coordinates": [[500000, 4000000], [500100, 4000050]]}]}},
+        {"type": "Feature", "properties": {}, "geometry": {"type": "Point",
+          "coordinates": [500000, 4000000]}},
+        {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon",
+          "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 0]]]}},
+        {"type": "Feature", "properties": {}, "geometry": {"type": "LineString",
+          "coordinates": [[500000, 4001000], [500010, 4001010]]}}]})");
+    OGRSpatialReference srs;
+    srs.importFromEPSG(32616);
+    char* wkt = nullptr;
+    srs.exportToWkt(&wkt);
+    const std::string working = wkt;
+    CPLFree(wkt);
+    std::vector<std::string> warnings;
+    RiverLoadOptions options;
+    options.warn = [&](const std::string& w) { warnings.push_back(w); };
+    RiverLines lines;
+    std::string error;
+    ASSERT_TRUE(loadRivers(collection, options, working, lines, error)) << error;
+    ASSERT_EQ(lines.size(), 2u);
+    EXPECT_EQ(lines[0], (RiverLine{{500000, 4000000}, {500100, 4000050}}));
+    EXPECT_EQ(lines[1][0], (XY{500000, 4001000}));
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("2 features"), std::string::npos) << warnings[0];
+
+    // A half circle of radius 100 m around (500100, 4000000) and a compound curve (a straight
+    // piece, then an arc) in a CSV of WKT: every vertex on its arc or segment, ends exact.
+    const std::string curves =
+        dir.write("curves.csv",
+                  "WKT,id\n"
+                  "\"CIRCULARSTRING(500000 4000000,500100 4000100,500200 4000000)\",1\n"
+                  "\"COMPOUNDCURVE((500000 4001000,500100 4001000),"
+                  "CIRCULARSTRING(500100 4001000,500150 4001050,500200 4001000))\",2\n");
+    warnings.clear();
+    RiverLoadOptions assumed = options;
+    assumed.assumeSrs = "EPSG:32616";
+    ASSERT_TRUE(loadRivers(curves, assumed, working, lines, error)) << error;
+    ASSERT_EQ(lines.size(), 2u);
+    EXPECT_TRUE(warnings.empty());
+    EXPECT_GT(lines[0].size(), 10u);  // linearised
+    EXPECT_EQ(lines[0].front(), (XY{500000, 4000000}));
+    EXPECT_EQ(lines[0].back(), (XY{500200, 4000000}));
+    for (const XY& p : lines[0])
+        EXPECT_NEAR(std::hypot(p.x - 500100, p.y - 4000000), 100.0, 1e-6);
+    EXPECT_EQ(lines[1].front(), (XY{500000, 4001000}));
+    EXPECT_EQ(lines[1].back(), (XY{500200, 4001000}));
+    for (const XY& p : lines[1]) {
+        if (p.x > 500100)
+            EXPECT_NEAR(std::hypot(p.x - 500150, p.y - 4001000), 50.0, 1e-6);
+        else
+            EXPECT_EQ(p.y, 4001000);
+    }
+}
+
 TEST(Rivers, PointLayerIsAnError) {
     TempDir dir("points");
     const std::string path = dir.write("points.geojson", R"({"type": "FeatureCollection",
