@@ -1,5 +1,6 @@
-// `unilod export FILE (--camera X,Y,Z[,YAW,PITCH] | --h-lim METRES) -o OUT.glb`: the LOD selected
-// for one view as glTF 2.0 binary (issue 6, item 2; layout in tools/export/gltfexport.h). With
+// `unilod export FILE [--camera X,Y,Z[,YAW,PITCH] | --h-lim METRES] -o OUT.glb`: the LOD selected
+// for one view (without either, capture's default overview) as glTF 2.0 binary (issue 6, item 2;
+// layout in tools/export/gltfexport.h). With
 // --camera the levels are the ones the streaming engine draws for that view (same S, h_lim and
 // level choice: tools/export/selection.h); with yaw and pitch the blocks outside the view
 // frustum are left out as the engine culls them (unless --no-cull), with X,Y,Z only every block
@@ -12,12 +13,14 @@
 #include <string>
 #include <vector>
 
+#include "campath.h"
 #include "commands.h"
+#include "engineopts.h"
 #include "gltfexport.h"
-#include "tiles3d.h"
 #include "numbers.h"
 #include "outputopts.h"
 #include "progress.h"
+#include "tiles3d.h"
 #include "ulod.h"
 
 namespace unilod::cli {
@@ -153,9 +156,11 @@ void addExportCommand(CLI::App& app, int& exitCode) {
         "3D Tiles 1.1 tileset on the WGS84 globe (CesiumJS)");
     sub->add_option("FILE", c->o.path, ".ulod file")->required();
     CLI::Option* camera =
-        sub->add_option("--camera", c->camera,
-                        "eye X,Y,Z (file CRS, metres), optionally yaw,pitch in degrees (as in `unilod "
-                        "capture`): then only the blocks in the view frustum")
+        sub->add_option(
+               "--camera", c->camera,
+               "eye X,Y,Z (file CRS, metres), optionally yaw,pitch in degrees (as in `unilod "
+               "capture`): then only the blocks in the view frustum (default, without "
+               "--h-lim: capture's view of the whole model from the south)")
             ->delimiter(',')
             ->expected(3, 5);
     CLI::Option* hLim = sub->add_option("--h-lim", c->hLim,
@@ -204,10 +209,19 @@ void addExportCommand(CLI::App& app, int& exitCode) {
             return;
         }
         if (c->camera.empty() && c->hLim < 0) {
-            std::fprintf(stderr, "unilod export: error: one of --camera or --h-lim is required\n%s",
-                         sub->help().c_str());
-            exitCode = 2;
-            return;
+            // Neither: the view `unilod capture` renders without a camera, the whole model seen
+            // from the south (engine::defaultOverview), culled like any view with a direction.
+            format::Reader reader;
+            std::string error;
+            if (!reader.open(c->o.path, error)) {
+                std::fprintf(stderr, "unilod export: error: %s\n",
+                             errorForFile(c->o.path, error).c_str());
+                exitCode = 1;
+                return;
+            }
+            const engine::Camera overview = engine::defaultOverview(reader.header());
+            c->camera = {overview.eye[0], overview.eye[1], overview.eye[2], overview.yawDegrees,
+                         overview.pitchDegrees};
         }
         exitCode = run(*c);
     });
