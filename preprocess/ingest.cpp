@@ -78,7 +78,10 @@ bool ingest(const IngestOptions& o, Ingested& data, std::string& error) {
     }
     if (!checkElevations(dem, o.demPath, error)) return false;
     if (!fillSmallHoles(dem, o.demPath, kDefaultMaxFillCells, data.nodata, error)) return false;
-    if (data.nodata.nodataCells > 0) {
+    // Nodata that only bounds the domain (a DEM clipped to a watershed or a coast, the corners
+    // a reprojection leaves) is the normal case: the build summary counts it. Filled cells
+    // (invented altitudes) and holes kept inside the domain are worth a warning.
+    if (data.nodata.filledCells > 0 || data.nodata.keptHoles > 0) {
         warn("DEM '" + o.demPath + "': " + std::to_string(data.nodata.nodataCells) +
              " nodata cells (nodata value, NaN or infinite); " + std::to_string(data.nodata.holes) +
              " interior holes of at most " + std::to_string(kDefaultMaxFillCells) + " cells (" +

@@ -331,6 +331,22 @@ TEST(CliBuildOdd, NanCellsAreNodata) {
     expectAcceptedAndChecked(c, r);
 }
 
+// Nodata that only bounds the domain (a DEM clipped to a watershed, a reprojection's corners) is
+// the normal case: counted in the summary, no warning. Filling a hole (above) warns.
+TEST(CliBuildOdd, BorderNodataIsCountedWithoutWarning) {
+    Case c("dem_border_nodata");
+    c.writeGood();
+    const std::string dem = c.in("clipped.tif");
+    writeTiff(dem, kSize, kSize, 1, [](int col, int row) {
+        return col + row >= 2 * kSize - 8 ? std::nan("") : terrain(col, row);  // a corner
+    });
+    const Result r = run(build(c, dem, c.in("rivers.geojson")));
+    EXPECT_EQ(r.err.find("warning: DEM"), std::string::npos) << r.err;
+    EXPECT_NE(r.out.find("DEM nodata       28 cells"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("0 filled"), std::string::npos) << r.out;
+    expectAcceptedAndChecked(c, r);
+}
+
 // ---------------------------------------------------------------------------------------------
 // River problems
 

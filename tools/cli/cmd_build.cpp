@@ -69,6 +69,11 @@ int run(BuildCli& c) {
                 s.demHeight, s.crsName.c_str());
     for (const std::string& conversion : s.demConversions)
         std::printf("  DEM conversion   %s\n", conversion.c_str());
+    if (s.nodataCells > 0)
+        std::printf(
+            "  DEM nodata       %zu cells (nodata value, NaN or infinite): %zu filled in "
+            "small interior holes, the rest outside the domain\n",
+            s.nodataCells, s.filledNodataCells);
     std::printf("  rivers           %s (%zu lines after cleaning)\n", c.o.riversPath.c_str(),
                 s.riverLines);
     std::printf("  river cleaning   %s\n", s.cleaning.c_str());
