@@ -326,6 +326,15 @@ TEST(CliReadme, UnknownCommandIsNamed) {
     r = runCli("info nosuch.ulod --json other.json");
     EXPECT_EQ(r.code, 2);
     EXPECT_NE(r.err.find("only '-' (stdout)"), std::string::npos) << r.err;
+    // A usage error reads like every other error: the command, "error:", what is wrong, and
+    // where the usage is.
+    r = runCli("build only_a_dem.tif");
+    EXPECT_EQ(r.code, 2);
+    EXPECT_EQ(r.err.rfind("unilod build: error: RIVERS is required\n", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find("unilod build --help"), std::string::npos) << r.err;
+    r = runCli("--frobnicate");
+    EXPECT_EQ(r.code, 2);
+    EXPECT_EQ(r.err.rfind("unilod: error: ", 0), 0u) << r.err;
 }
 
 }  // namespace

@@ -53,7 +53,12 @@ int main(int argc, char** argv) {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
         // --help and --version arrive here too, with exit code 0.
-        return app.exit(e) == 0 ? 0 : 2;
+        if (e.get_exit_code() == 0) return app.exit(e);
+        // A usage error, in the form of every other error: the command, then what is wrong.
+        const std::string command = known ? "unilod " + first : std::string("unilod");
+        std::fprintf(stderr, "%s: error: %s\nRun '%s --help' for the usage.\n", command.c_str(),
+                     e.what(), command.c_str());
+        return 2;
     } catch (const std::bad_alloc&) {
         // Under a memory limit (ulimit -v, a container's limit with overcommit off) an allocation
         // fails anywhere: a clear message and exit 1 instead of an abort. Outputs are written
