@@ -33,6 +33,25 @@ const DemGrid& bundledDem() {
     return dem;
 }
 
+// The WKT of UTM zone 16N (EPSG:32616), the working CRS of the hand-made layers below.
+std::string utm16Wkt() {
+    OGRSpatialReference srs;
+    srs.importFromEPSG(32616);
+    char* wkt = nullptr;
+    srs.exportToWkt(&wkt);
+    const std::string text = wkt;
+    CPLFree(wkt);
+    return text;
+}
+
+// A GeoJSON FeatureCollection in UTM zone 16N holding `features` (comma-separated Features).
+std::string utm16Collection(const std::string& features) {
+    return R"({"type": "FeatureCollection",
+      "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32616"}},
+      "features": [)" +
+           features + "]}";
+}
+
 }  // namespace
 
 TEST(Rivers, BundledGrassNetworkInsideTheDem) {
@@ -100,25 +119,18 @@ TEST(Rivers, WhereClauseAndLayerName) {
 
 TEST(Rivers, MultiLineStringsAnd3dLines) {
     TempDir dir("multi");
-    const std::string path = dir.write("multi.geojson", R"({"type": "FeatureCollection",
-      "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32616"}},
-      "features": [
+    const std::string path = dir.write("multi.geojson", utm16Collection(R"(
         {"type": "Feature", "properties": {}, "geometry": {"type": "MultiLineString",
           "coordinates": [[[500000, 4000000, 10], [500100, 4000050, 11]],
                           [[500200, 4000000, 12], [500300, 4000000, 13], [500400, 4000010, 14]]]}},
         {"type": "Feature", "properties": {}, "geometry": {"type": "Point",
           "coordinates": [500000, 4000000]}},
         {"type": "Feature", "properties": {}, "geometry": {"type": "LineString",
-          "coordinates": [[500000, 4001000], [500010, 4001010]]}}]})");
+          "coordinates": [[500000, 4001000], [500010, 4001010]]}})"));
     RiverLines lines;
     std::string error;
     // Same CRS as the data: coordinates unchanged (x = easting first).
-    OGRSpatialReference srs;
-    srs.importFromEPSG(32616);
-    char* wkt = nullptr;
-    srs.exportToWkt(&wkt);
-    const std::string working = wkt;
-    CPLFree(wkt);
+    const std::string working = utm16Wkt();
     ASSERT_TRUE(loadRivers(path, {}, working, lines, error)) << error;
     ASSERT_EQ(lines.size(), 3u);  // two parts + one line; the point is skipped
     EXPECT_EQ(lines[0].size(), 2u);
@@ -132,9 +144,7 @@ TEST(Rivers, MultiLineStringsAnd3dLines) {
 // features without any line are skipped with a warning that counts them.
 TEST(Rivers, CollectionsAndCurves) {
     TempDir dir("curves");
-    const std::string collection = dir.write("collection.geojson", R"({"type": "FeatureCollection",
-      "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::32616"}},
-      "features": [
+    const std::string collection = dir.write("collection.geojson", utm16Collection(R"(
         {"type": "Feature", "properties": {}, "geometry": {"type": "GeometryCollection",
           "geometries": [{"type": "Point", "coordinates": [500000, 4000000]},
                          {"type": "LineString", "coordinates": [[500000, 4000000], [500100, 4000050]]}]}},
@@ -143,13 +153,8 @@ TEST(Rivers, CollectionsAndCurves) {
         {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon",
           "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 0]]]}},
         {"type": "Feature", "properties": {}, "geometry": {"type": "LineString",
-          "coordinates": [[500000, 4001000], [500010, 4001010]]}}]})");
-    OGRSpatialReference srs;
-    srs.importFromEPSG(32616);
-    char* wkt = nullptr;
-    srs.exportToWkt(&wkt);
-    const std::string working = wkt;
-    CPLFree(wkt);
+          "coordinates": [[500000, 4001000], [500010, 4001010]]}})"));
+    const std::string working = utm16Wkt();
     std::vector<std::string> warnings;
     RiverLoadOptions options;
     options.warn = [&](const std::string& w) { warnings.push_back(w); };
