@@ -108,7 +108,6 @@ std::unique_ptr<OGRCoordinateTransformation> toLonLat(const OGRSpatialReference&
         OGRCreateCoordinateTransformation(&srs, &wgs84));
 }
 
-// The centre of the raster (geotransform `gt`, w x h cells) in WGS 84 longitude, latitude.
 // The CRS coordinates of grid position (col, row) (0, 0: the upper-left corner of the first
 // cell) under GDAL's affine geotransform, rotation terms included.
 void gridToCrs(const double gt[6], double col, double row, double& x, double& y) {
@@ -116,6 +115,7 @@ void gridToCrs(const double gt[6], double col, double row, double& x, double& y)
     y = gt[3] + col * gt[4] + row * gt[5];
 }
 
+// The centre of the raster (geotransform `gt`, w x h cells) in WGS 84 longitude, latitude.
 bool centreLonLat(const OGRSpatialReference& srs, const double gt[6], int w, int h, double& lon,
                   double& lat) {
     const std::unique_ptr<OGRCoordinateTransformation> ct = toLonLat(srs);
