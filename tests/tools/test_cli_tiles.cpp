@@ -1,6 +1,7 @@
 // `unilod export --3dtiles` (tools/export/tiles3d.h) on the bundled Jacksboro model:
 // - the tileset's structure: every entry a chain of one tile per stored level (coarsest first),
-//   refine REPLACE, geometricError the level's stored `max` error and never rising going down,
+//   refine REPLACE, geometricError the level's stored `max` error and falling going down (levels
+//   a client would never draw at rest left out),
 //   every child's box inside its parent's, every content file a glTF that tinygltf loads, with
 //   the level's triangle and river edge counts;
 // - the georeference, checked against PROJ independently: tile positions (glTF, y-up, relative to
@@ -16,10 +17,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <memory>
 
 #include "testutil.h"
@@ -90,29 +93,53 @@ TEST_F(TilesTest, ChainsOfLevelsUnderTheHierarchy) {
     EXPECT_EQ(tileset["asset"]["version"], "1.1");
     const json& root = tileset["root"];
     ASSERT_TRUE(root.contains("transform"));
-    // Every entry's levels appear once each, as a chain: the tile of level l has the tile of
-    // level l - 1 as its only child; level 0's children are the child entries' top tiles. A
-    // child's chain holds its levels up to its parent's starting error (a child simplifies on
-    // past the state its parent starts from; REPLACE wants no child coarser than its parent):
-    // the levels within it, and at least its finest.
-    std::vector<std::size_t> kept(m.blocks.size());
-    for (std::size_t i = 0; i < m.blocks.size(); ++i)
-        kept[i] = m.blocks[i].levels.size();
-    std::size_t cut = 0;
-    for (const format::Block& b : m.blocks) {
-        for (std::uint32_t c = 0; c < b.childCount; ++c) {
-            const format::Block& child = m.blocks[b.firstChild + c];
-            std::size_t n = 1;
-            while (n < child.levels.size() && child.levels[n].errorMax <= b.levels.front().errorMax)
-                ++n;
-            cut += kept[b.firstChild + c] - n;
-            kept[b.firstChild + c] = n;
+    // A level is left out where a client would never draw it at rest: a child's level at or
+    // above its parent's starting error (a child simplifies on past the state its parent starts
+    // from; such a tile is refined along with its parent or would be coarser than it), and a
+    // level with the error of the entry's next coarser level. An entry whose only such level is
+    // its finest, at its parent's starting error, may be left out whole (its children, or for
+    // leaves nothing, in its place): checked below by what the tiles cover.
+    std::vector<double> cap(m.blocks.size(), std::numeric_limits<double>::infinity());
+    for (const format::Block& b : m.blocks)
+        for (std::uint32_t c = 0; c < b.childCount; ++c)
+            cap[b.firstChild + c] = b.levels.front().errorMax;
+    std::vector<std::vector<std::size_t>> kept(m.blocks.size());
+    std::size_t aboveCap = 0, sameError = 0;
+    for (std::size_t i = 0; i < m.blocks.size(); ++i) {
+        const std::vector<format::Level>& levels = m.blocks[i].levels;
+        for (std::size_t l = 0; l < levels.size(); ++l) {
+            if (l > 0 && levels[l].errorMax >= cap[i]) {
+                ++aboveCap;
+            } else if (l + 1 < levels.size() && levels[l + 1].errorMax == levels[l].errorMax &&
+                       levels[l].errorMax < cap[i]) {
+                ++sameError;
+            } else {
+                kept[i].push_back(l);
+            }
         }
+        ASSERT_FALSE(kept[i].empty()) << "entry " << i;
     }
-    EXPECT_GT(cut, 0u);  // the bundled model's leaves simplify past their hand-over
+    // The bundled model has all three: leaves simplify past their hand-over, a node's running
+    // maximum stays flat over several stored levels (the root's five coarsest share one), and
+    // nodes hand over at their start.
+    EXPECT_GT(aboveCap, 0u);
+    EXPECT_GT(sameError, 0u);
+    // The leaf blocks under an entry.
+    std::vector<std::vector<std::size_t>> leaves(m.blocks.size());
+    std::function<void(std::size_t, std::vector<std::size_t>&)> collect =
+        [&](std::size_t i, std::vector<std::size_t>& out) {
+            const format::Block& b = m.blocks[i];
+            if (b.firstChild == format::kNoChild) out.push_back(i);
+            for (std::uint32_t c = 0; c < b.childCount; ++c)
+                collect(b.firstChild + c, out);
+        };
+    for (std::size_t i = 0; i < m.blocks.size(); ++i) {
+        collect(i, leaves[i]);
+        std::sort(leaves[i].begin(), leaves[i].end());
+    }
     std::vector<std::vector<int>> seen(m.blocks.size());
     for (std::size_t i = 0; i < m.blocks.size(); ++i)
-        seen[i].assign(kept[i], 0);
+        seen[i].assign(m.blocks[i].levels.size(), 0);
     std::size_t tileCount = 0;
     std::function<void(const json&, const json*)> walk = [&](const json& t, const json* parent) {
         ++tileCount;
@@ -120,38 +147,67 @@ TEST_F(TilesTest, ChainsOfLevelsUnderTheHierarchy) {
         ASSERT_TRUE(t.contains("content"));
         const auto [e, l] = parseUri(t["content"]["uri"]);
         ASSERT_LT(e, m.blocks.size());
-        ASSERT_LT(l, kept[e]);
+        ASSERT_LT(l, m.blocks[e].levels.size());
         ++seen[e][l];
         const format::Block& b = m.blocks[e];
         EXPECT_GE(double(t["geometricError"]), double(b.levels[l].errorMax));
         if (parent != nullptr) {
-            EXPECT_LE(double(t["geometricError"]), double((*parent)["geometricError"]));
+            // Strictly: a child with its parent's error is never drawn at rest.
+            EXPECT_LT(double(t["geometricError"]), double((*parent)["geometricError"]))
+                << t["content"]["uri"];
             EXPECT_TRUE(inside(t["boundingVolume"]["box"], (*parent)["boundingVolume"]["box"]))
                 << t["content"]["uri"];
         }
         const json children = t.value("children", json::array());
-        if (l > 0) {
+        const auto at = std::find(kept[e].begin(), kept[e].end(), l);
+        ASSERT_NE(at, kept[e].end()) << "entry " << e << " level " << l << " is left out";
+        if (at != kept[e].begin()) {
             ASSERT_EQ(children.size(), 1u);
-            EXPECT_EQ(parseUri(children[0]["content"]["uri"]), std::make_pair(e, l - 1));
+            EXPECT_EQ(parseUri(children[0]["content"]["uri"]), std::make_pair(e, *(at - 1)));
+        } else if (children.empty()) {
+            // A finest tile without children: a leaf block, or a node whose leaves hold no
+            // smaller error at full resolution.
+            for (std::size_t leaf : leaves[e])
+                EXPECT_GE(m.blocks[leaf].levels.front().errorMax, b.levels.front().errorMax)
+                    << "entry " << e << " leaf " << leaf;
         } else {
-            ASSERT_EQ(children.size(), b.childCount);
-            for (std::size_t c = 0; c < children.size(); ++c) {
-                const auto [ce, cl] = parseUri(children[c]["content"]["uri"]);
-                EXPECT_EQ(ce, b.firstChild + c);
-                EXPECT_EQ(cl, kept[ce] - 1);  // the child's coarsest kept level first
+            // The finest tile's children cover the entry's leaf blocks once each, each child the
+            // coarsest kept level of an entry below.
+            std::vector<std::size_t> covered;
+            for (const json& c : children) {
+                const auto [ce, cl] = parseUri(c["content"]["uri"]);
+                EXPECT_EQ(cl, kept[ce].back()) << "entry " << ce;
+                covered.insert(covered.end(), leaves[ce].begin(), leaves[ce].end());
             }
+            std::sort(covered.begin(), covered.end());
+            EXPECT_EQ(covered, leaves[e]) << "entry " << e;
         }
         for (const json& c : children)
             walk(c, &t);
     };
     walk(root, nullptr);
-    std::size_t levels = 0;
+    // Every kept level of an entry that has tiles appears once; an entry without tiles had one
+    // kept level, its finest, at its parent's starting error.
+    std::size_t levels = 0, omitted = 0;
     for (std::size_t i = 0; i < m.blocks.size(); ++i) {
-        for (std::size_t l = 0; l < seen[i].size(); ++l)
-            EXPECT_EQ(seen[i][l], 1) << "entry " << i << " level " << l;
-        levels += seen[i].size();
+        const bool anySeen = std::any_of(seen[i].begin(), seen[i].end(), [](int n) { return n; });
+        if (!anySeen) {
+            ++omitted;
+            EXPECT_EQ(kept[i].size(), 1u) << "entry " << i;
+            EXPECT_GE(m.blocks[i].levels.front().errorMax, cap[i]) << "entry " << i;
+            continue;
+        }
+        for (std::size_t l = 0; l < seen[i].size(); ++l) {
+            const bool isKept = std::find(kept[i].begin(), kept[i].end(), l) != kept[i].end();
+            EXPECT_EQ(seen[i][l], isKept ? 1 : 0) << "entry " << i << " level " << l;
+        }
+        levels += kept[i].size();
     }
+    EXPECT_GT(omitted, 0u);
     EXPECT_EQ(tileCount, levels);
+    EXPECT_EQ(std::size_t(std::distance(fs::directory_iterator(tiles + "/tiles"),
+                                        fs::directory_iterator())),
+              tileCount);  // no file that no tile names
     // The root is the hierarchy's root entry at its coarsest level.
     EXPECT_EQ(parseUri(root["content"]["uri"]).first, m.blocks.size() - 1);
 }

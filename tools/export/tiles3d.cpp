@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -154,33 +155,37 @@ struct LevelTile {
 };
 
 struct Entry {
-    std::vector<LevelTile> levels;  // index = stored level (0 = finest)
+    std::vector<LevelTile> levels;  // the stored levels kept as tiles, finest first
     std::uint32_t firstChild = format::kNoChild, childCount = 0;
+    bool omitted = false;  // no tile; its children take its place (planTiles)
 };
 
-// The chain of entry `i` (coarsest level first) as a tile; `depth` receives its longest path.
-json chainTile(const std::vector<Entry>& entries, std::size_t i, Box& box, double& error,
-               std::size_t& depth) {
+// The chain of entry `i` (coarsest level first) as a tile (planTiles: which levels and entries).
+json chainTile(const std::vector<Entry>& entries, std::size_t i, Box& box, double& error) {
     const Entry& e = entries[i];
     if (e.levels.empty()) return json::object();  // the reader refuses such a block
-    // Children of the finest level: the child entries' chains.
+    // Children of the finest level: the child entries' chains, an omitted child's children in
+    // its place.
     json below = json::array();
     Box belowBox;
     double belowError = 0;
-    std::size_t belowDepth = 0;
-    if (e.firstChild != format::kNoChild) {
-        for (std::uint32_t c = 0; c < e.childCount; ++c) {
-            Box b;
-            double err = 0;
-            std::size_t d = 0;
-            below.push_back(chainTile(entries, e.firstChild + c, b, err, d));
-            belowBox.add(b);
-            belowError = std::max(belowError, err);
-            belowDepth = std::max(belowDepth, d);
+    const std::function<void(std::size_t)> place = [&](std::size_t c) {
+        const Entry& child = entries[c];
+        if (child.omitted) {
+            for (std::uint32_t g = 0; g < child.childCount; ++g)
+                place(child.firstChild + g);
+            return;
         }
-    }
-    for (std::size_t l = 0; l < e.levels.size(); ++l) {
-        const LevelTile& t = e.levels[l];
+        Box b;
+        double err = 0;
+        below.push_back(chainTile(entries, c, b, err));
+        belowBox.add(b);
+        belowError = std::max(belowError, err);
+    };
+    if (e.firstChild != format::kNoChild)
+        for (std::uint32_t c = 0; c < e.childCount; ++c)
+            place(e.firstChild + c);
+    for (const LevelTile& t : e.levels) {
         Box b = t.box;
         b.add(belowBox);
         const double err = std::max(t.error, belowError);
@@ -192,12 +197,86 @@ json chainTile(const std::vector<Entry>& entries, std::size_t i, Box& box, doubl
         below = json::array({std::move(tile)});
         belowBox = b;
         belowError = err;
-        ++belowDepth;
     }
     box = belowBox;
     error = belowError;
-    depth = belowDepth;
     return std::move(below[0]);
+}
+
+// Tiles on the longest path from `tile` down.
+std::size_t depthOf(const json& tile) {
+    std::size_t below = 0;
+    if (tile.contains("children"))
+        for (const json& c : tile["children"])
+            below = std::max(below, depthOf(c));
+    return below + 1;
+}
+
+// Which stored levels of each entry become tiles, from the directory's level errors alone.
+// Under REPLACE refinement a tile with its parent's error is refined along with it (the same error
+// over a box no farther away), and a child coarser than its parent is not wanted, so errors fall
+// strictly going down:
+// - a level with the error of the entry's next coarser level is left out (the engine, too, draws
+//   the coarsest level within a bound);
+// - a tree node starts from its children's hand-over states (preprocess/nodebuild.h) and a child
+//   goes on simplifying past that for its own drawing, so a child's chain keeps only its levels
+//   below its parent's starting (finest) error, and always its finest;
+// - a child whose finest level has its parent's starting error (a node handed over at its start)
+//   is left out whole: its own children take its place, and leaves at that error are left out
+//   when all children of the parent are such (the parent's finest tile is then a leaf).
+struct EntryPlan {
+    std::vector<std::size_t> levels;  // the stored levels kept, finest first
+    bool omitted = false;             // no tile at all (above)
+};
+
+std::vector<EntryPlan> planTiles(const std::vector<format::BlockInfo>& infos,
+                                 const std::function<double(const format::Level&)>& errorOf) {
+    const std::size_t count = infos.size();
+    std::vector<double> cap(count, std::numeric_limits<double>::infinity());
+    for (const format::BlockInfo& info : infos) {
+        if (info.firstChild == format::kNoChild || info.levels.empty()) continue;
+        for (std::uint32_t c = 0; c < info.childCount; ++c)
+            cap[info.firstChild + c] = errorOf(info.levels.front());
+    }
+    std::vector<EntryPlan> plans(count);
+    for (std::size_t i = 0; i < count; ++i) {
+        const std::vector<format::Level>& levels = infos[i].levels;
+        for (std::size_t l = 0; l < levels.size(); ++l) {
+            const double e = errorOf(levels[l]);
+            if (l > 0 && e >= cap[i]) break;  // levels ascend in error: the rest too
+            if (l + 1 < levels.size() && errorOf(levels[l + 1]) == e && e < cap[i]) continue;
+            plans[i].levels.push_back(l);
+        }
+    }
+    const auto atCap = [&](std::size_t c) {
+        return plans[c].levels.size() == 1 && errorOf(infos[c].levels.front()) >= cap[c];
+    };
+    const auto leaf = [&](std::size_t c) { return infos[c].firstChild == format::kNoChild; };
+    for (std::size_t c = 0; c < count; ++c)
+        plans[c].omitted = atCap(c) && !leaf(c);
+    // The children that take the place of an entry's finest tile's: omitted ones replaced by
+    // theirs.
+    std::vector<std::size_t> placed;
+    const std::function<void(std::size_t)> place = [&](std::size_t c) {
+        if (!plans[c].omitted) {
+            placed.push_back(c);
+            return;
+        }
+        for (std::uint32_t g = 0; g < infos[c].childCount; ++g)
+            place(infos[c].firstChild + g);
+    };
+    for (std::size_t i = 0; i < count; ++i) {
+        if (plans[i].omitted || leaf(i)) continue;
+        placed.clear();
+        for (std::uint32_t c = 0; c < infos[i].childCount; ++c)
+            place(infos[i].firstChild + c);
+        if (std::all_of(placed.begin(), placed.end(),
+                        [&](std::size_t c) { return leaf(c) && atCap(c); })) {
+            for (std::size_t c : placed)
+                plans[c].omitted = true;
+        }
+    }
+    return plans;
 }
 
 }  // namespace
@@ -231,31 +310,29 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
     }
 
     const std::size_t count = reader.blocks().size();
-    // A tree node starts from its children's hand-over states (preprocess/nodebuild.h); a child
-    // goes on simplifying past that for its own drawing, to errors above its parent's start.
-    // Under REPLACE refinement a child tile never has a larger error than its parent, so a
-    // child's chain stops at its last level within its parent's starting (finest-level) error.
-    std::vector<double> cap(count, std::numeric_limits<double>::infinity());
-    for (const format::BlockInfo& info : reader.blocks()) {
-        if (info.firstChild == format::kNoChild || info.levels.empty()) continue;
-        const format::Level& start = info.levels.front();
-        for (std::uint32_t c = 0; c < info.childCount; ++c)
-            cap[info.firstChild + c] =
-                metric == format::kMetricPaper ? start.errorPaper : start.errorMax;
-    }
+    const auto errorOf = [metric](const format::Level& level) {
+        return double(metric == format::kMetricPaper ? level.errorPaper : level.errorMax);
+    };
+    const std::vector<EntryPlan> plans = planTiles(reader.blocks(), errorOf);
     std::vector<Entry> entries(count);
     std::vector<bool> isChild(count, false);
     format::Block block;
     std::vector<double> xs, ys, zs, xyz;
     for (std::size_t i = 0; i < count; ++i) {
-        if (!reader.readBlock(i, block, error)) return false;
+        const format::BlockInfo& info = reader.blocks()[i];
         Entry& entry = entries[i];
-        entry.firstChild = block.firstChild;
-        entry.childCount = block.childCount;
-        if (block.firstChild != format::kNoChild) {
-            for (std::uint32_t c = 0; c < block.childCount; ++c)
-                isChild[block.firstChild + c] = true;
+        entry.firstChild = info.firstChild;
+        entry.childCount = info.childCount;
+        entry.omitted = plans[i].omitted;
+        if (info.firstChild != format::kNoChild) {
+            for (std::uint32_t c = 0; c < info.childCount; ++c)
+                isChild[info.firstChild + c] = true;
         }
+        if (entry.omitted) {
+            if (options.progress) options.progress(i + 1, count);
+            continue;
+        }
+        if (!reader.readBlock(i, block, error)) return false;
         const std::size_t n = block.vertices.size();
         xs.resize(n);
         ys.resize(n);
@@ -270,15 +347,11 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
                     ": a vertex does not transform to WGS84 longitude/latitude";
             return false;
         }
-        entry.levels.resize(block.levels.size());
-        for (std::size_t l = 0; l < block.levels.size(); ++l) {
+        entry.levels.clear();
+        for (const std::size_t l : plans[i].levels) {
             const format::Level& level = block.levels[l];
-            LevelTile& t = entry.levels[l];
-            t.error = metric == format::kMetricPaper ? level.errorPaper : level.errorMax;
-            if (l > 0 && t.error > cap[i]) {  // levels ascend in error: the rest too
-                entry.levels.resize(l);
-                break;
-            }
+            LevelTile& t = entry.levels.emplace_back();
+            t.error = errorOf(level);
             for (std::size_t v = 0; v < level.vertexCount; ++v) {
                 const double p[3] = {xs[v], ys[v], zs[v]};
                 t.box.add(p);
@@ -323,9 +396,8 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
     json root;
     Box modelBox;
     double rootError = 0;
-    std::size_t depth = 0;
     if (roots.size() == 1) {
-        root = chainTile(entries, roots[0], modelBox, rootError, depth);
+        root = chainTile(entries, roots[0], modelBox, rootError);
     } else {
         // Several roots: a root without content that always refines (its error is the model's
         // diagonal, more than any level's).
@@ -333,13 +405,10 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
         for (std::size_t r : roots) {
             Box b;
             double err = 0;
-            std::size_t d = 0;
-            children.push_back(chainTile(entries, r, b, err, d));
+            children.push_back(chainTile(entries, r, b, err));
             modelBox.add(b);
             rootError = std::max(rootError, err);
-            depth = std::max(depth, d);
         }
-        ++depth;
         const double diagonal = std::hypot(header.maxX - header.minX, header.maxY - header.minY,
                                            header.maxZ - header.minZ);
         rootError = std::max(rootError, diagonal);
@@ -349,13 +418,12 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
                 {"children", std::move(children)}};
     }
     root["transform"] = geo.transform();
+    const std::size_t depth = depthOf(root);
     const double diagonal = std::hypot(header.maxX - header.minX, header.maxY - header.minY,
                                        header.maxZ - header.minZ);
     json tileset = {
         {"asset",
-         {{"version", "1.1"},
-          {"generator", "unilod export --3dtiles"},
-          {"tilesetVersion", "1"}}},
+         {{"version", "1.1"}, {"generator", "unilod export --3dtiles"}, {"tilesetVersion", "1"}}},
         {"geometricError", std::max(diagonal, rootError)},
         {"root", std::move(root)},
         {"extras",
@@ -369,8 +437,10 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
            "WGS84, to ECEF; vertices exact (file CRS -> WGS84 via PROJ, z as ellipsoidal "
            "height). Every .ulod entry (block or hierarchy node) is a chain of tiles, one per "
            "stored level, coarsest first (refine REPLACE); the finest level's children are the "
-           "child entries' chains. geometricError = the level's stored error (metric), never "
-           "below a descendant's. Content tiles/<entry>-<level>.glb."}}}};
+           "child entries' chains. geometricError = the level's stored error (metric), falling "
+           "strictly going down: a level with the error of the next coarser one, a child's levels "
+           "at or above its parent's finest error, and a node handed over at its start (its "
+           "children in its place) are left out. Content tiles/<entry>-<level>.glb."}}}};
     const std::string text = tileset.dump(1) + "\n";
     if (!folder.writeInside("tileset.json", text, error)) return false;
     summary.bytes += text.size();

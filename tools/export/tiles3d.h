@@ -11,8 +11,9 @@
 // by its children otherwise (`refine: REPLACE`); a chain lets the client stop at any stored level.
 // The price is depth: a client that loads ancestors first loads up to k + 1 tiles per block.
 // - geometricError of a tile = its level's stored error (the file's metric or --metric: `max`
-//   bounds the vertical error of the level against the full-resolution DEM), raised to its
-//   children's geometricError where a child's is larger, so that it never decreases going up.
+//   bounds the vertical error of the level against the full-resolution DEM), strictly falling
+//   going down: levels a client would never draw at rest (a tile with its parent's error is
+//   refined along with it) are left out (tiles3d.cpp planTiles).
 //   Cesium's screen-space error of a tile is geometricError · H / (2 · S · tan(fov / 2)), the
 //   paper's Eq. 11 solved for P: Cesium's maximumScreenSpaceError is our P.
 // - boundingVolume: an axis-aligned `box` in the tileset frame (east, north, up metres around the
