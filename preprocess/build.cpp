@@ -33,6 +33,12 @@ namespace {
 
 // The output rules: replace only with --overwrite, and never one of the inputs (also with
 // --overwrite: `build dem.tif rivers.geojson -o dem.tif --overwrite` must not destroy the DEM).
+// How messages name the inputs: "DEM 'a.tif' + rivers 'b.shp'", or the DEM alone.
+std::string inputsName(const BuildOptions& o) {
+    return "DEM '" + o.demPath + "'" +
+           (o.riversPath.empty() ? "" : " + rivers '" + o.riversPath + "'");
+}
+
 format::OutputOptions outputOptions(const BuildOptions& o) {
     format::OutputOptions out;
     out.replace = o.force;
@@ -456,9 +462,8 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
     for (std::size_t i = 0; i < n; ++i) {
         if (!errors[i].empty()) {
             const Item& it = items[i];
-            error = "DEM '" + o.demPath + "' + rivers '" + o.riversPath +
-                    "': " + (it.level == 0 ? "block (" : "tree node (") + std::to_string(it.col) +
-                    "," + std::to_string(it.row) + ")" +
+            error = inputsName(o) + ": " + (it.level == 0 ? "block (" : "tree node (") +
+                    std::to_string(it.col) + "," + std::to_string(it.row) + ")" +
                     (it.level == 0 ? "" : " of level " + std::to_string(it.level)) + ": " +
                     errors[i];
             return false;
@@ -549,7 +554,7 @@ bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) 
     } catch (const std::bad_alloc&) {
         // Outside the workers (reading the DEM, splitting into blocks): the output's temporary
         // is removed on the way out (atomicfile.h).
-        error = "DEM '" + o.demPath + "' + rivers '" + o.riversPath + "': " + outOfMemory;
+        error = inputsName(o) + ": " + outOfMemory;
         return false;
     }
 }

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <utility>
 
 #include "predicates.h"
 #include "ulod.h"
@@ -64,6 +65,17 @@ bool ingest(const IngestOptions& o, Ingested& data, std::string& error) {
     auto warn = [&](const std::string& w) {
         if (o.warn) o.warn(w);
     };
+    if (o.riversPath.empty()) {
+        // A terrain-only model: the options that select or filter rivers would be ignored.
+        for (const auto& [name, given] :
+             {std::pair{"--layer", !o.layer.empty()}, std::pair{"--where", !o.where.empty()},
+              std::pair{"--min-river-length", o.minRiverLength > 0}}) {
+            if (given) {
+                error = std::string(name) + " selects rivers, but no RIVERS file is given";
+                return false;
+            }
+        }
+    }
     DemLoadOptions demOptions;
     demOptions.band = o.band;
     demOptions.targetSrs = o.targetSrs;
@@ -96,6 +108,7 @@ bool ingest(const IngestOptions& o, Ingested& data, std::string& error) {
     riverOptions.assumeSrs = o.assumeSrs;
     riverOptions.warn = warn;
     RiverLines rivers;
+    if (o.riversPath.empty()) return true;  // a terrain-only model
     if (!loadRivers(o.riversPath, riverOptions, dem.wkt, rivers, error)) return false;
     warnDegenerateLines(rivers, o);
     if (rivers.empty()) {

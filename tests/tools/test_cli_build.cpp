@@ -1,8 +1,8 @@
 // `unilod build` end to end on bad and odd input (STYLE.md "Errors": a message naming the file
 // and the problem, exit code != 0, no partial output). Inputs are made here: small GeoTIFFs
 // through GDAL's C++ API, GeoJSON as text, a CRS-less Shapefile through OGR. Then the accepted
-// odd cases (NaN cells, empty river layer, crossing / degenerate / 3D lines) must pass `unilod
-// check`, and the bundled data set builds, checks, reports its block grid, is byte-identical for
+// odd cases (NaN cells, an empty river layer or none, crossing / degenerate / 3D lines) must pass
+// `unilod check`, and the bundled data set builds, checks, reports its block grid, is byte-identical for
 // any thread count and keeps every locked river vertex at the coarsest level.
 #include <gdal_priv.h>
 #include <gtest/gtest.h>
@@ -454,6 +454,32 @@ TEST(CliBuildOdd, EmptyRiverLayerBuildsTerrainOnly) {
         ASSERT_TRUE(reader.readBlock(i, b, error)) << error;
         for (const format::Vertex& v : b.vertices)
             EXPECT_EQ(v.flags & format::kVertexRiver, 0u);
+    }
+}
+
+// RIVERS may be left out: the terrain-only model, without a warning (it was asked for), block for
+// block the model of an empty river layer; river options without RIVERS are named.
+TEST(CliBuildOdd, WithoutRiversBuildsTerrainOnly) {
+    Case c("rivers_none");
+    c.writeGood();
+    writeText(c.in("empty.geojson"), geoJson({}));
+    const Result r = run("build " + q(c.in("dem.tif")) + " -o " + q(c.out()) + " --block-size 16");
+    expectAcceptedAndChecked(c, r);
+    EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
+    EXPECT_NE(r.out.find("rivers           none (terrain-only model)"), std::string::npos) << r.out;
+    const std::string withEmpty = c.out("empty.ulod");
+    ASSERT_EQ(run("build -q " + q(c.in("dem.tif")) + " " + q(c.in("empty.geojson")) + " -o " +
+                  q(withEmpty) + " --block-size 16")
+                  .code,
+              0);
+    expectSameBlocks(c.out(), withEmpty);
+    fs::remove(withEmpty);
+    fs::remove(c.out());
+    for (const std::string option :
+         {"--layer rivers", "--where 'id = 1'", "--min-river-length 10"}) {
+        const Result bad = run("build " + q(c.in("dem.tif")) + " -o " + q(c.out()) + " " + option);
+        expectRejected(c, bad, 1, option.substr(0, option.find(' ')),
+                       "selects rivers, but no RIVERS file is given");
     }
 }
 

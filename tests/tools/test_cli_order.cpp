@@ -182,7 +182,7 @@ TEST(CliOrder, DataErrorsNameTheFileAndLeaveNoOutput) {
 
 TEST(CliOrder, UsageErrorsExitWith2) {
     for (const std::string& args : std::vector<std::string>{
-             "", "order", "order " + q(kDem), "order " + q(kDem) + " " + q(kRivers) + " --stride 0",
+             "", "order", "order " + q(kDem) + " " + q(kRivers) + " --stride 0",
              "order " + q(kDem) + " " + q(kRivers) + " --band 0",
              "order " + q(kDem) + " " + q(kRivers) + " --bai-row 123",
              "order " + q(kDem) + " " + q(kRivers) + " --no-such-option", "synth",

@@ -330,7 +330,7 @@ TEST(CliReadme, UnknownCommandIsNamed) {
     // where the usage is.
     r = runCli("build only_a_dem.tif");
     EXPECT_EQ(r.code, 2);
-    EXPECT_EQ(r.err.rfind("unilod build: error: RIVERS is required\n", 0), 0u) << r.err;
+    EXPECT_EQ(r.err.rfind("unilod build: error: --output is required\n", 0), 0u) << r.err;
     EXPECT_NE(r.err.find("unilod build --help"), std::string::npos) << r.err;
     r = runCli("--frobnicate");
     EXPECT_EQ(r.code, 2);

@@ -6,7 +6,7 @@
 // are equal are named in report.md); --no-annotate changes only the annotation corners; the
 // frame-time plot has a line per benchmark run; the curves match the file's error arrays; the
 // river comparison has rows for the landform classes present and is exact at a 100 % budget;
-// failures leave no folder behind.
+// failures leave no folder behind; a terrain-only model's river tables are empty.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -426,4 +426,19 @@ TEST_F(ReportTest, FailuresLeaveNothing) {
     EXPECT_TRUE(fs::exists(other + "/grid_50km.png"));
     EXPECT_FALSE(fs::exists(other + "/rivers.csv"));
     EXPECT_EQ(runCli("report --help").code, 0);
+}
+
+// A terrain-only model (`build DEM` without RIVERS) has no rivers to compare: the report is
+// written, its river tables empty and saying so.
+TEST(ReportTerrainOnly, NoRiversToCompare) {
+    test::TempDir dir("report_terrain");
+    const std::string model = dir.file("t.ulod"), out = dir.file("report");
+    auto r = runCli("build -q " + q(kDem) + " -o " + q(model) + " --stride 4");
+    ASSERT_EQ(r.code, 0) << r.err;
+    r = runCli("report -q " + q(model) + " -o " + q(out) +
+               " --distance 30km --budget 10 --image-size 64 --bench-frames 0");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(readCsv(out + "/rivers.csv").size(), 1u);  // the header alone
+    EXPECT_NE(slurp(out + "/rivers.md").find("(no river with points to simplify)"),
+              std::string::npos);
 }

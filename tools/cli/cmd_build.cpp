@@ -1,4 +1,4 @@
-// `unilod build DEM RIVERS -o OUT.ulod`: the unified LOD model file (issue 4; pipeline in
+// `unilod build DEM [RIVERS] -o OUT.ulod`: the unified LOD model file (issue 4; pipeline in
 // preprocess/build.h). Progress on stderr (progress.h), a summary on stdout; errors name the file
 // and the problem, exit 1, and leave no output file. An existing OUT needs --overwrite
 // (outputopts.h).
@@ -42,11 +42,14 @@ int run(BuildCli& c) {
     c.o.outPath = c.output.path;
     c.o.force = c.output.overwrite;
     if (!c.quiet) {
-        std::fprintf(stderr, "unilod build: %s + %s -> %s\n", c.o.demPath.c_str(),
-                     c.o.riversPath.c_str(), c.o.outPath.c_str());
+        std::fprintf(stderr, "unilod build: %s%s%s -> %s\n", c.o.demPath.c_str(),
+                     c.o.riversPath.empty() ? "" : " + ", c.o.riversPath.c_str(),
+                     c.o.outPath.c_str());
     }
     // The first line at once: reading and splitting the inputs takes seconds on large DEMs.
-    Progress progress("build", !c.quiet, "reading the DEM and the rivers");
+    Progress progress(
+        "build", !c.quiet,
+        c.o.riversPath.empty() ? "reading the DEM" : "reading the DEM and the rivers");
     c.o.stage = [&progress](const std::string& stage, std::size_t total) {
         progress.stage(stage, total);
     };
@@ -74,9 +77,13 @@ int run(BuildCli& c) {
             "  DEM nodata       %zu cells (nodata value, NaN or infinite): %zu filled in "
             "small interior holes, the rest outside the domain\n",
             s.nodataCells, s.filledNodataCells);
-    std::printf("  rivers           %s (%zu lines after cleaning)\n", c.o.riversPath.c_str(),
-                s.riverLines);
-    std::printf("  river cleaning   %s\n", s.cleaning.c_str());
+    if (c.o.riversPath.empty()) {
+        std::printf("  rivers           none (terrain-only model)\n");
+    } else {
+        std::printf("  rivers           %s (%zu lines after cleaning)\n", c.o.riversPath.c_str(),
+                    s.riverLines);
+        std::printf("  river cleaning   %s\n", s.cleaning.c_str());
+    }
     std::printf(
         "  points           %zu DEM + %zu river (%zu locked, %zu border crossings, "
         "%zu DEM points dropped next to rivers)\n",
@@ -115,7 +122,8 @@ int run(BuildCli& c) {
 void addBuildCommand(CLI::App& app, int& exitCode) {
     auto c = std::make_shared<BuildCli>();
     CLI::App* sub = app.add_subcommand(
-        "build", "Build the unified LOD model (.ulod) of a DEM and a river network");
+        "build",
+        "Build the unified LOD model (.ulod) of a DEM and a river network (or the DEM alone)");
     addIngestOptions(*sub, c->o);
     addOutputOptions(sub, c->output, "output .ulod file");
     sub->add_option("--block-size", c->o.blockSize,

@@ -1,4 +1,4 @@
-// `unilod order DEM RIVERS`: the importance order of the improved 3D_DP (paper §2, §3.1) on real
+// `unilod order DEM [RIVERS]`: the importance order of the improved 3D_DP (paper §2, §3.1) on real
 // data: ingest the DEM and the rivers exactly as `unilod build` does (preprocess/ingest.h), take
 // the point set of ONE block covering the DEM as `build --order 3ddp` makes it (the DEM's outer
 // edge locked), rank it, print a summary (text or JSON) and optionally the deletion order as CSV
@@ -76,7 +76,8 @@ void printText(const json& s) {
     std::printf("  DEM            %s (%d x %d cells, %s)\n", in["dem"].get<std::string>().c_str(),
                 in["width"].get<int>(), in["height"].get<int>(),
                 in["crs"].get<std::string>().c_str());
-    std::printf("  rivers         %s\n", in["rivers"].get<std::string>().c_str());
+    const std::string rivers = in["rivers"].get<std::string>();
+    std::printf("  rivers         %s\n", rivers.empty() ? "none (terrain only)" : rivers.c_str());
     std::printf("  DEM points     %zu (stride %d, %zu dropped next to rivers)\n",
                 pts["dem"].get<std::size_t>(), in["stride"].get<int>(),
                 pts["demDroppedNearRivers"].get<std::size_t>());

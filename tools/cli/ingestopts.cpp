@@ -19,7 +19,8 @@ void addSrsOptions(CLI::App& sub, IngestOptions& o) {
 
 void addIngestOptions(CLI::App& sub, IngestOptions& o) {
     sub.add_option("DEM", o.demPath, "DEM raster (any single-band raster GDAL reads)")->required();
-    sub.add_option("RIVERS", o.riversPath, "river lines (any OGR line layer)")->required();
+    sub.add_option("RIVERS", o.riversPath,
+                   "river lines (any OGR line layer); leave out for a terrain-only model");
     sub.add_option("--band", o.band, "raster band (1-based) for multi-band rasters")
         ->check(positive());
     addSrsOptions(sub, o);

@@ -170,7 +170,8 @@ void plotFrameTimes(const FrameTimes& t, std::uint32_t width, std::uint32_t heig
 namespace unilod::report {
 
 // The BAI vs plain 3D_DP comparison (definitions above) on the inputs named by the file's build
-// info `buildInfo` (JSON) or the options' overrides. `progress` may be empty.
+// info `buildInfo` (JSON) or the options' overrides (no rows for a terrain-only build).
+// `progress` may be empty.
 bool compareRivers(const ReportOptions& options, const std::string& buildInfo,
                    std::vector<RiverRow>& rows, std::string& error);
 

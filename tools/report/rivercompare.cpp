@@ -86,6 +86,12 @@ bool compareRivers(const ReportOptions& options, const std::string& buildInfo,
     IngestOptions in = ingestOptionsFromInfo(info);
     if (!options.demPath.empty()) in.demPath = options.demPath;
     if (!options.riversPath.empty()) in.riversPath = options.riversPath;
+    // A terrain-only build (no RIVERS): nothing to compare.
+    if (options.riversPath.empty() && info.is_object() && info.contains("rivers") &&
+        info.at("rivers") == "") {
+        rows.clear();
+        return true;
+    }
     if (in.demPath.empty() || in.riversPath.empty()) {
         error = options.path +
                 ": its build info names no DEM / rivers; give --dem and --rivers (or --no-rivers)";
