@@ -1,9 +1,10 @@
 // `unilod export --3dtiles` (tools/export/tiles3d.h) on the bundled Jacksboro model:
-// - the tileset's structure: every entry a chain of one tile per stored level (coarsest first),
-//   refine REPLACE, geometricError the level's stored `max` error and falling going down (levels
-//   a client would never draw at rest left out),
-//   every child's box inside its parent's, every content file a glTF that tinygltf loads, with
-//   the level's triangle and river edge counts;
+// - the tileset's structure (with --tile-ratio 1): every entry a chain of one tile per stored
+//   level (coarsest first), refine REPLACE, geometricError the level's stored `max` error and
+//   falling going down (levels a client would never draw at rest left out), every child's box
+//   inside its parent's, every content file a glTF that tinygltf loads, with the level's
+//   triangle and river edge counts;
+// - the default thinning of the chains by triangle counts (--tile-ratio 0.5);
 // - the georeference, checked against PROJ independently: tile positions (glTF, y-up, relative to
 //   the node translation) mapped through the root transform must land on the ECEF coordinates
 //   that GDAL/PROJ gives for the block's world vertices (file CRS -> EPSG:4978);
@@ -23,6 +24,7 @@
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <map>
 #include <memory>
 
 #include "testutil.h"
@@ -43,9 +45,9 @@ const std::string kRivers = std::string(UNILOD_ASSETS_DIR) + "/jacksboro_rivers_
 class TilesTest : public ::testing::Test {
 protected:
     static inline test::TempDir* dir = nullptr;
-    static inline std::string model, tiles;
+    static inline std::string model, tiles, tilesAll;
     static inline test::Model m;
-    static inline json tileset;
+    static inline json tileset, tilesetAll;  // default; --tile-ratio 1 (every level drawn at rest)
 
     static void SetUpTestSuite() {
         dir = new test::TempDir("tiles");
@@ -57,9 +59,13 @@ protected:
         r = runCli("export -q " + q(model) + " --3dtiles " + q(tiles));
         ASSERT_EQ(r.code, 0) << r.err;
         EXPECT_NE(r.out.find("3D Tiles 1.1 tileset"), std::string::npos) << r.out;
+        tilesAll = dir->file("tiles_all");
+        r = runCli("export -q " + q(model) + " --3dtiles " + q(tilesAll) + " --tile-ratio 1");
+        ASSERT_EQ(r.code, 0) << r.err;
         std::string error;
         ASSERT_TRUE(test::readModel(model, m, error)) << error;
         tileset = json::parse(test::slurp(tiles + "/tileset.json"));
+        tilesetAll = json::parse(test::slurp(tilesAll + "/tileset.json"));
     }
     static void TearDownTestSuite() {
         delete dir;
@@ -90,8 +96,9 @@ bool inside(const json& child, const json& parent) {
 }
 
 TEST_F(TilesTest, ChainsOfLevelsUnderTheHierarchy) {
-    EXPECT_EQ(tileset["asset"]["version"], "1.1");
-    const json& root = tileset["root"];
+    // With --tile-ratio 1: every level a client would draw at rest is a tile.
+    EXPECT_EQ(tilesetAll["asset"]["version"], "1.1");
+    const json& root = tilesetAll["root"];
     ASSERT_TRUE(root.contains("transform"));
     // A level is left out where a client would never draw it at rest: a child's level at or
     // above its parent's starting error (a child simplifies on past the state its parent starts
@@ -205,11 +212,86 @@ TEST_F(TilesTest, ChainsOfLevelsUnderTheHierarchy) {
     }
     EXPECT_GT(omitted, 0u);
     EXPECT_EQ(tileCount, levels);
-    EXPECT_EQ(std::size_t(std::distance(fs::directory_iterator(tiles + "/tiles"),
+    EXPECT_EQ(std::size_t(std::distance(fs::directory_iterator(tilesAll + "/tiles"),
                                         fs::directory_iterator())),
               tileCount);  // no file that no tile names
     // The root is the hierarchy's root entry at its coarsest level.
     EXPECT_EQ(parseUri(root["content"]["uri"]).first, m.blocks.size() - 1);
+}
+
+// The default tileset thins the chains (--tile-ratio 0.5): its tiles are some of the
+// every-level tileset's, with the same structure rules, each entry's finest and coarsest kept;
+// going up a chain a tile has at most half the triangles of the one below (but where only the
+// two ends are left), so a chain's tiles hold at most twice its finest tile's triangles.
+TEST_F(TilesTest, DefaultChainsAreThinnedByTriangles) {
+    using Tile = std::pair<std::size_t, std::size_t>;  // entry, level
+    const auto collect = [](const json& t, std::map<Tile, const json*>& out) {
+        std::function<void(const json&)> walk = [&](const json& x) {
+            std::size_t e = 0, l = 0;
+            EXPECT_EQ(
+                std::sscanf(std::string(x["content"]["uri"]).c_str(), "tiles/%zu-%zu.glb", &e, &l),
+                2);
+            EXPECT_TRUE(out.emplace(Tile{e, l}, &x).second);
+            if (x.contains("children"))
+                for (const json& c : x["children"])
+                    walk(c);
+        };
+        walk(t);
+    };
+    std::map<Tile, const json*> thin, all;
+    collect(tileset["root"], thin);
+    collect(tilesetAll["root"], all);
+    EXPECT_LT(thin.size() * 2, all.size());  // the bundled model: 142 of 503
+    std::map<std::size_t, std::vector<std::size_t>> chainThin, chainAll;  // levels, finest first
+    for (const auto& [t, x] : thin) {
+        ASSERT_TRUE(all.count(t)) << t.first << "-" << t.second;
+        EXPECT_EQ(double((*x)["geometricError"]), double((*all.at(t))["geometricError"]));
+        chainThin[t.first].push_back(t.second);
+    }
+    for (const auto& [t, x] : all)
+        chainAll[t.first].push_back(t.second);
+    EXPECT_EQ(chainThin.size(), chainAll.size());  // the same entries have tiles
+    const auto triangles = [&](std::size_t e, std::size_t l) {
+        return double(m.blocks[e].levels[l].triangleCount);
+    };
+    std::size_t thinned = 0;
+    for (const auto& [e, levels] : chainAll) {
+        const std::vector<std::size_t>& kept = chainThin[e];
+        ASSERT_FALSE(kept.empty()) << "entry " << e;
+        EXPECT_EQ(kept.front(), levels.front()) << "entry " << e;
+        EXPECT_EQ(kept.back(), levels.back()) << "entry " << e;
+        double sum = 0;
+        for (std::size_t k = 0; k < kept.size(); ++k) {
+            sum += triangles(e, kept[k]);
+            if (k > 0 && kept.size() > 2) {
+                EXPECT_LE(triangles(e, kept[k]), 0.5 * triangles(e, kept[k - 1]))
+                    << "entry " << e << " level " << kept[k];
+            }
+            // Chained as in the every-level tileset: a tile above a finer one of its entry.
+            if (k > 0) {
+                const json& upper = *thin.at({e, kept[k]});
+                ASSERT_EQ(upper["children"].size(), 1u);
+                EXPECT_EQ(
+                    upper["children"][0]["content"]["uri"],
+                    "tiles/" + std::to_string(e) + "-" + std::to_string(kept[k - 1]) + ".glb");
+            }
+        }
+        EXPECT_LE(sum, 2 * triangles(e, kept.front())) << "entry " << e;
+        thinned += levels.size() - kept.size();
+    }
+    EXPECT_GT(thinned, 0u);
+    // No file that no tile names.
+    EXPECT_EQ(std::size_t(std::distance(fs::directory_iterator(tiles + "/tiles"),
+                                        fs::directory_iterator())),
+              thin.size());
+    // --tile-ratio is checked and belongs to --3dtiles.
+    for (const std::string& bad : {" --tile-ratio 0 --3dtiles " + q(dir->file("r0")),
+                                   " --tile-ratio 1.5 --3dtiles " + q(dir->file("r1")),
+                                   " --tile-ratio 0.5 -o " + q(dir->file("r.glb"))}) {
+        const auto r = runCli("export -q " + q(model) + bad);
+        EXPECT_EQ(r.code, 2) << bad << "\n" << r.err;
+        EXPECT_NE(r.err.find("tile-ratio"), std::string::npos) << r.err;
+    }
 }
 
 TEST_F(TilesTest, ContentIsTheLevelAndLandsWherePROJPutsIt) {

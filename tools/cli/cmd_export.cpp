@@ -40,6 +40,7 @@ struct ExportCli {
     OutputFlags output;     // -o/--output, --overwrite
     std::string tilesDir;   // --3dtiles
     std::string sourceSrs;  // --s-srs
+    double tileRatio = exporter::kDefaultTileRatio;  // --tile-ratio
 };
 
 bool parseSize(const std::string& s, double& width, double& height) {
@@ -57,6 +58,7 @@ int runTileset(ExportCli& c) {
     t.path = c.o.path;
     t.outDir = c.tilesDir;
     t.sourceSrs = c.sourceSrs;
+    t.tileRatio = c.tileRatio;
     if (c.metric == "paper") t.metric = format::kMetricPaper;
     if (c.metric == "max") t.metric = format::kMetricMax;
     // The folder rule of outputopts.h: an existing non-empty folder only with --overwrite, and
@@ -189,12 +191,18 @@ void addExportCommand(CLI::App& app, int& exitCode) {
     CLI::Option* tiles = sub->add_option(
         "--3dtiles", c->tilesDir,
         "write the whole model as a 3D Tiles 1.1 tileset into this new folder (tileset.json + "
-        "tiles/*.glb; every stored level a tile, refine REPLACE, on the WGS84 globe)");
+        "tiles/*.glb; the stored levels as chains of tiles, refine REPLACE, on the WGS84 globe)");
     out->excludes(tiles);
     tiles->excludes(out)->excludes(camera)->excludes(hLim);
     sub->add_option("--s-srs", c->sourceSrs,
                     "--3dtiles: CRS of the file's coordinates (any GDAL form, e.g. EPSG:32616); "
                     "default the file's own");
+    CLI::Option* ratio = sub->add_option(
+        "--tile-ratio", c->tileRatio,
+        "--3dtiles: a stored level becomes a tile where it has at most this share of the "
+        "triangles of the tile below it (default 0.5; 1: every level a client draws at rest)");
+    ratio->check(CLI::Range(0.01, 1.0));
+    ratio->needs(tiles);
     addQuietFlag(sub, c->quiet);
     sub->callback([c, sub, &exitCode] {
         if (!c->tilesDir.empty()) {

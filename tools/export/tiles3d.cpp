@@ -212,7 +212,8 @@ std::size_t depthOf(const json& tile) {
     return below + 1;
 }
 
-// Which stored levels of each entry become tiles, from the directory's level errors alone.
+// Which stored levels of each entry become tiles, from the directory alone (level errors and
+// triangle counts).
 // Under REPLACE refinement a tile with its parent's error is refined along with it (the same error
 // over a box no farther away), and a child coarser than its parent is not wanted, so errors fall
 // strictly going down:
@@ -224,13 +225,22 @@ std::size_t depthOf(const json& tile) {
 // - a child whose finest level has its parent's starting error (a node handed over at its start)
 //   is left out whole: its own children take its place, and leaves at that error are left out
 //   when all children of the parent are such (the parent's finest tile is then a leaf).
+// Then the chain is thinned (`ratio` < 1): going up from the finest, a level becomes a tile only
+// where it has at most `ratio` times the triangles of the tile below it; the coarsest is kept
+// (it takes over from the parent), in place of the last one kept before it where the two are
+// closer than `ratio`. Every tile still holds its level's whole mesh, so the stored levels'
+// fine spacing made the tiles hold about five times the full-resolution triangles and chains
+// of a hundred tiles a client walks down one by one; with ratio 0.5 a chain's tiles hold at
+// most twice its finest level's, and a client draws at most 1 / ratio times the triangles of
+// the coarsest stored level within its bound.
 struct EntryPlan {
     std::vector<std::size_t> levels;  // the stored levels kept, finest first
     bool omitted = false;             // no tile at all (above)
 };
 
 std::vector<EntryPlan> planTiles(const std::vector<format::BlockInfo>& infos,
-                                 const std::function<double(const format::Level&)>& errorOf) {
+                                 const std::function<double(const format::Level&)>& errorOf,
+                                 double ratio) {
     const std::size_t count = infos.size();
     std::vector<double> cap(count, std::numeric_limits<double>::infinity());
     for (const format::BlockInfo& info : infos) {
@@ -247,6 +257,16 @@ std::vector<EntryPlan> planTiles(const std::vector<format::BlockInfo>& infos,
             if (l + 1 < levels.size() && errorOf(levels[l + 1]) == e && e < cap[i]) continue;
             plans[i].levels.push_back(l);
         }
+        std::vector<std::size_t>& kept = plans[i].levels;
+        if (ratio >= 1 || kept.size() <= 2) continue;
+        const auto triangles = [&](std::size_t l) { return double(levels[l].triangleCount); };
+        std::vector<std::size_t> thinned = {kept.front()};
+        for (std::size_t k = 1; k + 1 < kept.size(); ++k)
+            if (triangles(kept[k]) <= ratio * triangles(thinned.back())) thinned.push_back(kept[k]);
+        if (thinned.size() > 1 && triangles(kept.back()) > ratio * triangles(thinned.back()))
+            thinned.pop_back();
+        thinned.push_back(kept.back());
+        kept = std::move(thinned);
     }
     const auto atCap = [&](std::size_t c) {
         return plans[c].levels.size() == 1 && errorOf(infos[c].levels.front()) >= cap[c];
@@ -313,7 +333,7 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
     const auto errorOf = [metric](const format::Level& level) {
         return double(metric == format::kMetricPaper ? level.errorPaper : level.errorMax);
     };
-    const std::vector<EntryPlan> plans = planTiles(reader.blocks(), errorOf);
+    const std::vector<EntryPlan> plans = planTiles(reader.blocks(), errorOf, options.tileRatio);
     std::vector<Entry> entries(count);
     std::vector<bool> isChild(count, false);
     format::Block block;
@@ -430,13 +450,15 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
          {{"source", validUtf8(options.path)},
           {"crs_wkt", validUtf8(options.sourceSrs.empty() ? header.crsWkt : options.sourceSrs)},
           {"metric", metric == format::kMetricPaper ? "paper" : "max"},
+          {"tile_ratio", options.tileRatio},
           {"origin_longitude_degrees", geo.longitude()},
           {"origin_latitude_degrees", geo.latitude()},
           {"layout",
            "root transform: east-north-up frame at the origin longitude/latitude, height 0 on "
            "WGS84, to ECEF; vertices exact (file CRS -> WGS84 via PROJ, z as ellipsoidal "
            "height). Every .ulod entry (block or hierarchy node) is a chain of tiles, one per "
-           "stored level, coarsest first (refine REPLACE); the finest level's children are the "
+           "kept stored level, coarsest first (refine REPLACE), going up a chain at most "
+           "--tile-ratio times the triangles of the tile below; the finest's children are the "
            "child entries' chains. geometricError = the level's stored error (metric), falling "
            "strictly going down: a level with the error of the next coarser one, a child's levels "
            "at or above its parent's finest error, and a node handed over at its start (its "

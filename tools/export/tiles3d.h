@@ -3,13 +3,17 @@
 //
 // Tile tree. Every directory entry of the .ulod file (a leaf block or a node of the block
 // hierarchy, issue 18) with stored levels L_0 (finest) .. L_k (coarsest) becomes a CHAIN of tiles:
-// the tile of L_k has the tile of L_(k-1) as its only child, and so on down to L_0, whose children
-// are the chains of the entry's child entries (none for a leaf block). Levels of one node are
-// child tiles of each other (not separate content of one tile) because 3D Tiles selects content
-// by exactly the rule the engine uses (engine/lod/cut.h): a tile is drawn when its geometric
-// error, projected to the screen, is within the viewer's maximum screen-space error, and replaced
-// by its children otherwise (`refine: REPLACE`); a chain lets the client stop at any stored level.
-// The price is depth: a client that loads ancestors first loads up to k + 1 tiles per block.
+// a kept level's tile has the next finer kept level's tile as its only child, down to the finest,
+// whose children are the chains of the entry's child entries (none for a leaf block). Kept: the
+// levels a client can draw at rest, thinned so that going up a chain a tile has at most
+// TilesetOptions::tileRatio times the triangles of the one below (tiles3d.cpp planTiles). Levels of
+// one node are child tiles of each other (not separate content of one tile) because 3D Tiles
+// selects content by exactly the rule the engine uses (engine/lod/cut.h): a tile is drawn when its
+// geometric error, projected to the screen, is within the viewer's maximum screen-space error, and
+// replaced by its children otherwise (`refine: REPLACE`); a chain lets the client stop at any
+// stored level. The price is depth and size: a client that loads ancestors first loads every tile
+// of a chain, and every tile holds its level's whole mesh (about twice the finest level's triangles
+// in all of a chain's tiles at the default ratio 0.5).
 // - geometricError of a tile = its level's stored error (the file's metric or --metric: `max`
 //   bounds the vertical error of the level against the full-resolution DEM), strictly falling
 //   going down: levels a client would never draw at rest (a tile with its parent's error is
@@ -40,11 +44,16 @@
 
 namespace unilod::exporter {
 
+inline constexpr double kDefaultTileRatio = 0.5;
+
 struct TilesetOptions {
     std::string path;          // the .ulod file
     std::string outDir;        // the tileset folder to create
     std::string sourceSrs;     // --s-srs: CRS of the file's coordinates (default: the file's own)
     std::uint32_t metric = 0;  // format::kMetricMax / kMetricPaper; 0 = the file's default
+    // A stored level becomes a tile where it has at most this share of the triangles of the tile
+    // below it in its chain (tiles3d.cpp planTiles); 1: every level a client draws at rest.
+    double tileRatio = kDefaultTileRatio;
     std::function<void(std::size_t, std::size_t)> progress;  // entries done, total
 };
 
