@@ -1,11 +1,11 @@
 // `unilod export` (tools/export/gltfexport.h): the bundled Jacksboro model exported with --h-lim
 // and with --camera, loaded back with tinygltf's own loader. Per block the triangle and line
-// counts, the index values and the positions are compared with the level that engine/lod/lod.h's
-// chooseLevel picks from the file's error table, with h_lim recomputed here (the camera formula
-// written out again); with a view direction the export equals what the engine draws (`unilod
-// capture` of the same view: same blocks, levels and counts); plus normals facing up (the axis
-// mapping keeps the winding), the georeference in asset.extras, and usage / data errors that
-// leave no output file.
+// counts, the index values (16-bit where the level's vertices fit, else 32-bit) and the
+// positions are compared with the level that engine/lod/lod.h's chooseLevel picks from the
+// file's error table, with h_lim recomputed here (the camera formula written out again); with a
+// view direction the export equals what the engine draws (`unilod capture` of the same view: same
+// blocks, levels and counts); plus normals facing up (the axis mapping keeps the winding), the
+// georeference in asset.extras, and usage / data errors that leave no output file.
 #include <gtest/gtest.h>
 #include <tiny_gltf.h>
 
@@ -179,9 +179,18 @@ protected:
                         ASSERT_LE(xyz[3 * v + k], pos.maxValues[std::size_t(k)]);
                     }
                 }
+                // 16-bit indices where the level's vertices fit (65 535 at most), else 32-bit.
                 const tinygltf::Accessor& idx = m.accessors[std::size_t(p.indices)];
-                ASSERT_EQ(idx.componentType, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT);
-                const std::uint32_t* ix = accessorData<std::uint32_t>(m, p.indices, 1);
+                std::vector<std::uint32_t> ix(idx.count);
+                if (level.vertexCount <= 65535) {
+                    ASSERT_EQ(idx.componentType, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT);
+                    const std::uint16_t* s = accessorData<std::uint16_t>(m, p.indices, 1);
+                    ix.assign(s, s + idx.count);
+                } else {
+                    ASSERT_EQ(idx.componentType, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT);
+                    const std::uint32_t* l = accessorData<std::uint32_t>(m, p.indices, 1);
+                    ix.assign(l, l + idx.count);
+                }
                 for (std::size_t k = 0; k < idx.count; ++k)
                     ASSERT_LT(ix[k], level.vertexCount);
                 if (p.mode == TINYGLTF_MODE_TRIANGLES) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <sstream>
 
@@ -137,17 +138,31 @@ int addLevelMesh(tinygltf::Model& model, const format::Block& block, std::size_t
                                         TINYGLTF_TARGET_ARRAY_BUFFER);
         const int normAcc =
             addAccessor(model, normView, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
-        // One indexed primitive over the POSITION accessor (NORMAL only for the terrain).
+        // One indexed primitive over the POSITION accessor (NORMAL only for the terrain). Indices
+        // are 16-bit where the level's vertices fit (glTF reserves the type's largest value, so
+        // at most 65 535 vertices), half the bytes of 32-bit ones.
+        const bool shortIndices = n <= 65535;
+        std::vector<std::uint16_t> narrow;
         auto addPrimitive = [&](const std::vector<std::uint32_t>& indices, int mode, int material,
                                 int normalAccessor) {
             if (indices.empty()) return;
-            const int view =
-                appendView(model, indices.data(), indices.size() * sizeof(std::uint32_t),
-                           TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+            int view = 0;
+            if (shortIndices) {
+                narrow.resize(indices.size());
+                std::transform(indices.begin(), indices.end(), narrow.begin(),
+                               [](std::uint32_t i) { return static_cast<std::uint16_t>(i); });
+                view = appendView(model, narrow.data(), narrow.size() * sizeof(std::uint16_t),
+                                  TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+            } else {
+                view = appendView(model, indices.data(), indices.size() * sizeof(std::uint32_t),
+                                  TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+            }
             tinygltf::Primitive p;
             p.attributes["POSITION"] = posAcc;
             if (normalAccessor >= 0) p.attributes["NORMAL"] = normalAccessor;
-            p.indices = addAccessor(model, view, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT,
+            p.indices = addAccessor(model, view,
+                                    shortIndices ? TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT
+                                                 : TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT,
                                     TINYGLTF_TYPE_SCALAR, indices.size());
             p.mode = mode;
             p.material = material;

@@ -47,7 +47,8 @@ struct LevelCounts {
 
 // Appends stored level `level` of `block` as a mesh + node named `name` and adds the node to
 // scene 0. `xyz`: 3 doubles per vertex of the level's prefix (file axes, relative to
-// `translation`). Returns the node's index (its extras are the caller's).
+// `translation`). Indices are 16-bit where the level has at most 65 535 vertices, else 32-bit.
+// Returns the node's index (its extras are the caller's).
 int addLevelMesh(tinygltf::Model& model, const format::Block& block, std::size_t level,
                  const std::vector<double>& xyz, const std::array<double, 3>& translation,
                  const std::string& name, const GltfMaterials& materials, LevelCounts& counts);
