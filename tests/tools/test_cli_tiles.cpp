@@ -287,6 +287,7 @@ TEST_F(TilesTest, DefaultChainsAreThinnedByTriangles) {
     // --tile-ratio is checked and belongs to --3dtiles.
     for (const std::string& bad : {" --tile-ratio 0 --3dtiles " + q(dir->file("r0")),
                                    " --tile-ratio 1.5 --3dtiles " + q(dir->file("r1")),
+                                   " --tile-ratio nan --3dtiles " + q(dir->file("r2")),
                                    " --tile-ratio 0.5 -o " + q(dir->file("r.glb"))}) {
         const auto r = runCli("export -q " + q(model) + bad);
         EXPECT_EQ(r.code, 2) << bad << "\n" << r.err;

@@ -201,7 +201,7 @@ void addExportCommand(CLI::App& app, int& exitCode) {
         "--tile-ratio", c->tileRatio,
         "--3dtiles: a stored level becomes a tile where it has at most this share of the "
         "triangles of the tile below it (default 0.5; 1: every level a client draws at rest)");
-    ratio->check(CLI::Range(0.01, 1.0));
+    ratio->check(numberIn(0.01, 1.0));
     ratio->needs(tiles);
     addQuietFlag(sub, c->quiet);
     sub->callback([c, sub, &exitCode] {
