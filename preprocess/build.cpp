@@ -31,14 +31,14 @@ namespace unilod {
 
 namespace {
 
-// The output rules: replace only with --overwrite, and never one of the inputs (also with
-// --overwrite: `build dem.tif rivers.geojson -o dem.tif --overwrite` must not destroy the DEM).
 // How messages name the inputs: "DEM 'a.tif' + rivers 'b.shp'", or the DEM alone.
 std::string inputsName(const BuildOptions& o) {
     return "DEM '" + o.demPath + "'" +
            (o.riversPath.empty() ? "" : " + rivers '" + o.riversPath + "'");
 }
 
+// The output rules: replace only with --overwrite, and never one of the inputs (also with
+// --overwrite: `build dem.tif rivers.geojson -o dem.tif --overwrite` must not destroy the DEM).
 format::OutputOptions outputOptions(const BuildOptions& o) {
     format::OutputOptions out;
     out.replace = o.force;
