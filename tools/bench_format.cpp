@@ -17,9 +17,7 @@
 #include <string>
 #include <vector>
 
-#if UNILOD_HAVE_MESHOPTIMIZER
 #include <meshoptimizer.h>
-#endif
 #include <zstd.h>
 
 #include <algorithm>
@@ -58,7 +56,6 @@ double secondsSince(std::chrono::steady_clock::time_point t) {
 // alternative to deriving it from the records) and on the full-resolution mesh alone, each also
 // with zstd on top. Adds bytes to `sums`.
 void meshoptimizerBaseline(const unilod::format::Block& b, double q, json& sums) {
-#if UNILOD_HAVE_MESHOPTIMIZER
     const std::size_t n = b.vertices.size();
     std::vector<std::uint32_t> order(n);
     for (std::uint32_t i = 0; i < n; ++i)
@@ -123,10 +120,6 @@ void meshoptimizerBaseline(const unilod::format::Block& b, double q, json& sums)
                    b.terrainIndices.begin() + full.triangleFirst,
                    b.terrainIndices.begin() + full.triangleFirst + full.triangleCount),
                "index_codec_full_resolution");
-#else
-    (void)b, (void)q;
-    sums["unavailable"] = "built without meshoptimizer (Debian libmeshoptimizer-dev)";
-#endif
 }
 
 // Sizes per stream and decode speed of a compact model; `raw` is the same model with raw blocks.

@@ -22,6 +22,7 @@
 #include "lod.h"
 #include "testutil.h"
 #include "tools/cliutil.h"
+#include "tools/glbcheck.h"
 #include "ulod.h"
 
 using namespace unilod;
@@ -485,4 +486,62 @@ TEST_F(ExportTest, ErrorsLeaveNoFile) {
     for (const auto& e : fs::directory_iterator(dir->path))
         EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
     EXPECT_EQ(runCli("export --help").code, 0);
+}
+
+// --compress (gltfmodel.h): the same blocks, vertices (within the bound the export prints),
+// triangles and river edges as the plain export; a vertex two blocks share decodes to one point
+// in both (no crack between a leaf and a node beside it); and the file is much smaller.
+TEST_F(ExportTest, CompressedIsTheSameMeshWithoutCracks) {
+    // 64-cell blocks: a cut of leaves and nodes of several tree levels side by side.
+    const std::string small = dir->file("j64.ulod");
+    const auto built = runCli("build -q " + q(kDem) + " " + q(kRivers) + " --block-size 64 -o " +
+                              q(small) + " --overwrite");
+    ASSERT_EQ(built.code, 0) << built.err;
+    std::set<int> treeLevels;
+    std::ostringstream cam;
+    cam.precision(17);
+    cam << header.minX + 1500 << "," << header.maxY - 1500 << "," << header.maxZ + 300
+        << ",135,-20";
+    for (const std::string& view :
+         {" --camera " + cam.str() + " --pixels 1", std::string(" --h-lim 4")}) {
+        SCOPED_TRACE(view);
+        const std::string plainPath = dir->file("plain.glb"), packedPath = dir->file("packed.glb");
+        const auto r =
+            runCli("export -q " + q(small) + view + " -o " + q(plainPath) + " --overwrite");
+        ASSERT_EQ(r.code, 0) << r.err;
+        const auto c = runCli("export -q " + q(small) + view + " --compress -o " + q(packedPath) +
+                              " --overwrite");
+        ASSERT_EQ(c.code, 0) << c.err;
+        EXPECT_NE(c.out.find("compressed: positions within"), std::string::npos) << c.out;
+        const std::string plainBytes = test::slurp(plainPath),
+                          packedBytes = test::slurp(packedPath);
+        EXPECT_LT(packedBytes.size(), plainBytes.size() / 2);
+        const tinygltf::Model plain = load(plainPath);
+        const std::string decoded = test::decodeMeshoptGlb(packedBytes);
+        ASSERT_FALSE(decoded.empty());
+        const tinygltf::Model packed = test::loadGlbBytes(decoded);
+        const double bound = packed.asset.extras.Get("max_quantization_error_m").Get<double>();
+        EXPECT_GT(bound, 0.0);
+        EXPECT_LT(bound, 1.0);
+        ASSERT_EQ(plain.nodes.size(), packed.nodes.size());
+        ASSERT_GE(plain.nodes.size(), 4u);
+        std::vector<test::GlbMesh> a(plain.nodes.size()), b(plain.nodes.size());
+        std::vector<
+            std::tuple<const test::GlbMesh*, const test::GlbMesh*, std::vector<std::uint32_t>, int>>
+            meshes;
+        for (std::size_t i = 0; i < plain.nodes.size(); ++i) {
+            EXPECT_EQ(plain.nodes[i].name, packed.nodes[i].name);
+            treeLevels.insert(plain.nodes[i].extras.Get("tree_level").GetNumberAsInt());
+            a[i] = test::readGlbMesh(plain, int(i));
+            b[i] = test::readGlbMesh(packed, int(i));
+            auto map = test::expectSameMesh(a[i], b[i], bound, plain.nodes[i].name);
+            ASSERT_FALSE(map.empty() && !a[i].positions.empty());
+            meshes.emplace_back(&a[i], &b[i], std::move(map), int(i));
+        }
+        // One node per block of the cut: any two may be side by side.
+        const std::size_t shared =
+            test::expectNoCracks(meshes, [](int x, int y) { return x != y; });
+        EXPECT_GT(shared, 100u);
+    }
+    EXPECT_GE(treeLevels.size(), 2u);
 }

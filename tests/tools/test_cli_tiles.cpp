@@ -10,8 +10,10 @@
 //   that GDAL/PROJ gives for the block's world vertices (file CRS -> EPSG:4978);
 // - usage and data errors: no CRS without --s-srs, an existing folder, --3dtiles with -o;
 // - the real client: CesiumJS in headless Chromium (tests/cesium/run.mjs) loads it, draws the
-//   terrain and blue rivers, and selects fewer tiles from far away. Skipped only where Chromium
-//   cannot start (run.mjs exits 77 and says why).
+//   terrain and blue rivers, and selects fewer tiles from far away, for the plain and the
+//   --compress tileset. Skipped only where Chromium cannot start (run.mjs exits 77 and says why);
+// - --compress: the same tree and tiles, each tile the same mesh within the reported bound, no
+//   crack between tiles of entries a client may draw side by side, a fraction of the bytes.
 #include <gtest/gtest.h>
 #include <ogr_spatialref.h>
 #include <tiny_gltf.h>
@@ -29,6 +31,7 @@
 
 #include "testutil.h"
 #include "tools/cliutil.h"
+#include "tools/glbcheck.h"
 #include "ulod.h"
 
 using namespace unilod;
@@ -45,7 +48,7 @@ const std::string kRivers = std::string(UNILOD_ASSETS_DIR) + "/jacksboro_rivers_
 class TilesTest : public ::testing::Test {
 protected:
     static inline test::TempDir* dir = nullptr;
-    static inline std::string model, tiles, tilesAll;
+    static inline std::string model, tiles, tilesAll, packed;
     static inline test::Model m;
     static inline json tileset, tilesetAll;  // default; --tile-ratio 1 (every level drawn at rest)
 
@@ -59,6 +62,10 @@ protected:
         r = runCli("export -q " + q(model) + " --3dtiles " + q(tiles));
         ASSERT_EQ(r.code, 0) << r.err;
         EXPECT_NE(r.out.find("3D Tiles 1.1 tileset"), std::string::npos) << r.out;
+        packed = dir->file("tiles_packed");
+        r = runCli("export -q " + q(model) + " --3dtiles " + q(packed) + " --compress");
+        ASSERT_EQ(r.code, 0) << r.err;
+        EXPECT_NE(r.out.find("compressed: positions within"), std::string::npos) << r.out;
         tilesAll = dir->file("tiles_all");
         r = runCli("export -q " + q(model) + " --3dtiles " + q(tilesAll) + " --tile-ratio 1");
         ASSERT_EQ(r.code, 0) << r.err;
@@ -434,17 +441,80 @@ TEST_F(TilesTest, AModelWithoutCrsNeedsSSrs) {
 
 TEST_F(TilesTest, CesiumJSInHeadlessChromiumDrawsIt) {
     const std::string script = std::string(UNILOD_SOURCE_DIR) + "/tests/cesium/run.mjs";
-    const std::string log = dir->file("cesium.log");
-    const std::string shots = dir->file("cesium");
-    const std::string command = "node " + q(script) + " --tileset " + q(tiles) + " --out " +
-                                q(shots) + " >" + q(log) + " 2>&1";
-    const int status = std::system(command.c_str());
-    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    const std::string text = test::slurp(log);
-    if (code == 77) GTEST_SKIP() << text;
-    EXPECT_EQ(code, 0) << text;
-    std::printf("%s", text.c_str());
-    EXPECT_TRUE(fs::exists(shots + "_near.png"));
+    for (const std::string& set : {tiles, packed}) {
+        SCOPED_TRACE(set);
+        const std::string log = dir->file("cesium.log");
+        const std::string shots = set + "_cesium";
+        const std::string command = "node " + q(script) + " --tileset " + q(set) + " --out " +
+                                    q(shots) + " >" + q(log) + " 2>&1";
+        const int status = std::system(command.c_str());
+        const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+        const std::string text = test::slurp(log);
+        if (code == 77) GTEST_SKIP() << text;
+        EXPECT_EQ(code, 0) << text;
+        std::printf("%s", text.c_str());
+        EXPECT_TRUE(fs::exists(shots + "_near.png"));
+    }
+}
+
+TEST_F(TilesTest, CompressedTilesetIsTheSameTilesWithoutCracks) {
+    const json p = json::parse(test::slurp(packed + "/tileset.json"));
+    const double bound = p["extras"]["max_quantization_error_m"];
+    EXPECT_GT(bound, 0.0);
+    EXPECT_LT(bound, 1.0);
+    EXPECT_LE(double(p["extras"]["max_quantization_error_full_resolution_m"]), bound);
+    // The same tree: content, errors, refinement, children, node for node.
+    std::vector<std::string> uris;
+    std::function<void(const json&, const json&)> same = [&](const json& a, const json& b) {
+        EXPECT_EQ(a.value("geometricError", -1.0), b.value("geometricError", -1.0));
+        EXPECT_EQ(a.value("refine", ""), b.value("refine", ""));
+        EXPECT_EQ(a.contains("content"), b.contains("content"));
+        if (a.contains("content") && b.contains("content")) {
+            EXPECT_EQ(a["content"]["uri"], b["content"]["uri"]);
+            uris.push_back(a["content"]["uri"]);
+        }
+        const json none = json::array();
+        const json& ca = a.contains("children") ? a["children"] : none;
+        const json& cb = b.contains("children") ? b["children"] : none;
+        ASSERT_EQ(ca.size(), cb.size());
+        for (std::size_t i = 0; i < ca.size(); ++i)
+            same(ca[i], cb[i]);
+    };
+    same(tileset["root"], p["root"]);
+    ASSERT_GT(uris.size(), 100u);
+    // Each tile the same mesh; the bytes.
+    std::uintmax_t plainBytes = 0, packedBytes = 0;
+    std::vector<test::GlbMesh> a(uris.size()), b(uris.size());
+    std::vector<
+        std::tuple<const test::GlbMesh*, const test::GlbMesh*, std::vector<std::uint32_t>, int>>
+        meshes;
+    for (std::size_t i = 0; i < uris.size(); ++i) {
+        const std::string bytes = test::slurp(packed + "/" + uris[i]);
+        plainBytes += fs::file_size(tiles + "/" + uris[i]);
+        packedBytes += bytes.size();
+        const std::string decoded = test::decodeMeshoptGlb(bytes);
+        ASSERT_FALSE(decoded.empty()) << uris[i];
+        a[i] = test::readGlbMesh(load(tiles + "/" + uris[i]), 0);
+        b[i] = test::readGlbMesh(test::loadGlbBytes(decoded), 0);
+        auto map = test::expectSameMesh(a[i], b[i], bound, uris[i]);
+        ASSERT_FALSE(map.empty()) << uris[i];
+        meshes.emplace_back(&a[i], &b[i], std::move(map), int(parseUri(uris[i]).first));
+    }
+    EXPECT_LT(packedBytes, plainBytes * 2 / 5) << packedBytes << " of " << plainBytes;
+    // Cracks: tiles of two entries neither of which is the other's ancestor may be drawn side by
+    // side (a leaf next to a node of another branch).
+    std::vector<int> parent(m.blocks.size(), -1);
+    for (std::size_t i = 0; i < m.blocks.size(); ++i)
+        for (std::uint32_t c = 0; c < m.blocks[i].childCount; ++c)
+            parent[m.blocks[i].firstChild + c] = int(i);
+    const auto ancestor = [&](int x, int y) {  // x is y's ancestor
+        for (int at = parent[std::size_t(y)]; at >= 0; at = parent[std::size_t(at)])
+            if (at == x) return true;
+        return false;
+    };
+    const std::size_t shared = test::expectNoCracks(
+        meshes, [&](int x, int y) { return x != y && !ancestor(x, y) && !ancestor(y, x); });
+    EXPECT_GT(shared, 1000u);
 }
 
 }  // namespace

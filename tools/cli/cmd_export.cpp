@@ -59,6 +59,7 @@ int runTileset(ExportCli& c) {
     t.outDir = c.tilesDir;
     t.sourceSrs = c.sourceSrs;
     t.tileRatio = c.tileRatio;
+    t.compress = c.o.encoding.compress;
     if (c.metric == "paper") t.metric = format::kMetricPaper;
     if (c.metric == "max") t.metric = format::kMetricMax;
     // The folder rule of outputopts.h: an existing non-empty folder only with --overwrite, and
@@ -91,6 +92,11 @@ int runTileset(ExportCli& c) {
                 static_cast<unsigned long long>(summary.riverEdges),
                 static_cast<unsigned long long>(summary.bytes), summary.rootError,
                 summary.longitude, summary.latitude);
+    if (t.compress)
+        std::printf(
+            "  compressed: positions within %.4f m of the model's (half a step of each "
+            "tile's 16-bit grid), within %.4f m on the full-resolution tiles\n",
+            summary.maxQuantizationError, summary.maxQuantizationErrorFinest);
     return 0;
 }
 
@@ -144,6 +150,11 @@ int run(ExportCli& c) {
                 static_cast<unsigned long long>(summary.triangles),
                 static_cast<unsigned long long>(summary.riverEdges),
                 static_cast<unsigned long long>(summary.bytes));
+    if (c.o.encoding.compress)
+        std::printf(
+            "  compressed: positions within %.4f m of the model's (half a step of each "
+            "block's 16-bit grid)\n",
+            summary.maxQuantizationError);
     return 0;
 }
 
@@ -203,6 +214,11 @@ void addExportCommand(CLI::App& app, int& exitCode) {
         "triangles of the tile below it (default 0.5; 1: every level a client draws at rest)");
     ratio->check(numberIn(0.01, 1.0));
     ratio->needs(tiles);
+    sub->add_flag("--compress", c->o.encoding.compress,
+                  "smaller files for the web: 16-bit positions on each mesh's box grid and 8-bit "
+                  "normals (KHR_mesh_quantization) in meshopt-compressed buffers "
+                  "(EXT_meshopt_compression; CesiumJS, three.js, Babylon.js and Blender read "
+                  "them); a coordinate is then within half a grid step of the model's (printed)");
     addQuietFlag(sub, c->quiet);
     sub->callback([c, sub, &exitCode] {
         if (!c->tilesDir.empty()) {

@@ -3,6 +3,7 @@
 #include "gltfmodel.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -19,23 +20,61 @@ using tinygltf::Value;
 
 // One block's mesh + node.
 // `drawn`: the level written (the cut's, or a refined mesh appended to `block`).
-void addBlock(tinygltf::Model& model, const format::Header& header, const format::Block& block,
-              const ExportedBlock& sel, std::size_t drawn, const GltfMaterials& materials) {
+// Returns the largest distance per coordinate of a compressed vertex from the exact one (0
+// uncompressed).
+double addBlock(tinygltf::Model& model, const format::Header& header, const format::Block& block,
+                const ExportedBlock& sel, std::size_t drawn, GltfEncoding encoding,
+                const QuantizationGrid& grid, const GltfMaterials& materials) {
     const format::Level& level = block.levels[drawn];
-    // The file's own block-relative floats, translated by the block origin (in double).
-    std::vector<double> xyz(3 * std::size_t(level.vertexCount));
-    for (std::size_t i = 0; i < level.vertexCount; ++i) {
-        const format::Vertex& v = block.vertices[i];
-        xyz[3 * i] = v.x;
-        xyz[3 * i + 1] = v.y;
-        xyz[3 * i + 2] = v.z;
+    const std::size_t n = level.vertexCount;
+    std::vector<double> xyz(3 * n), unsnapped;
+    double snapped = 0;  // the largest move of a border vertex onto its grid
+    std::array<double, 3> translation = {block.originX - header.originX,
+                                         block.originY - header.originY, 0.0};
+    if (encoding.compress && n > 0) {
+        // Exact positions relative to the file origin, border vertices on their level's grid,
+        // the node's origin on this entry's (gltfmodel.h QuantizationGrid).
+        double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+        for (std::size_t i = 0; i < n; ++i) {
+            double x = 0, y = 0;
+            exactXY(block, i, x, y);
+            double* p = &xyz[3 * i];
+            p[0] = x - header.originX;
+            p[1] = y - header.originY;
+            p[2] = block.vertices[i].z;
+            unsnapped.insert(unsnapped.end(), p, p + 3);
+            grid.snap(x, y, block.level, p);
+            for (int k = 0; k < 3; ++k)
+                snapped = std::max(snapped, std::fabs(p[k] - unsnapped[3 * i + std::size_t(k)]));
+            for (int k = 0; k < 3; ++k) {
+                lo[k] = std::min(lo[k], p[k]);
+                hi[k] = std::max(hi[k], p[k]);
+            }
+        }
+        for (int k = 0; k < 3; ++k)
+            translation[std::size_t(k)] = 0.5 * (lo[k] + hi[k]);
+        grid.origin(block.level, translation.data());
+        for (std::size_t i = 0; i < n; ++i)
+            for (std::size_t k = 0; k < 3; ++k) {
+                xyz[3 * i + k] -= translation[k];
+                unsnapped[3 * i + k] -= translation[k];
+            }
+        encoding.step = grid.step(block.level);
+        encoding.unsnapped = &unsnapped;
+    } else {
+        // The file's own block-relative floats, translated by the block origin (in double).
+        for (std::size_t i = 0; i < n; ++i) {
+            const format::Vertex& v = block.vertices[i];
+            xyz[3 * i] = v.x;
+            xyz[3 * i + 1] = v.y;
+            xyz[3 * i + 2] = v.z;
+        }
     }
     LevelCounts counts;
     tinygltf::Node& node = model.nodes[std::size_t(
-        addLevelMesh(model, block, drawn, xyz,
-                     {block.originX - header.originX, block.originY - header.originY, 0.0},
+        addLevelMesh(model, block, drawn, xyz, translation,
                      "block_" + std::to_string(block.col) + "_" + std::to_string(block.row),
-                     materials, counts))];
+                     encoding, materials, counts))];
     Value::Object extras;
     extras["index"] = Value(int(sel.block));
     extras["col"] = Value(int(block.col));
@@ -55,6 +94,10 @@ void addBlock(tinygltf::Model& model, const format::Header& header, const format
     extras["vertical_sin"] = Value(sel.box.verticalSin);
     extras["rivers"] = Value(sel.box.horizontal);
     node.extras = Value(extras);
+    // A snapped vertex is on the node's grid (or, off it, rounded once more); the others move
+    // by at most half a step.
+    const double half = 0.5 * counts.quantizationStep;
+    return counts.offGrid ? snapped + half : std::max(snapped, half);
 }
 
 }  // namespace
@@ -73,7 +116,7 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
     const format::Header& header = reader.header();
 
     GltfMaterials materials;
-    tinygltf::Model model = newGltfModel("unilod export", materials);
+    tinygltf::Model model = newGltfModel("unilod export", options.encoding, materials);
     Value::Object assetExtras;
     // glTF is JSON: text from the outside (a CRS, a path) must be valid UTF-8 (jsontext.h).
     assetExtras["crs_wkt"] = Value(validUtf8(header.crsWkt));
@@ -116,6 +159,16 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
         nodes[i] = engine::lodNode(reader.blocks()[i]);
     std::vector<engine::NodeChoice> cut;
     engine::selectCut(viewSpec(so), nodes, metric, cut);
+    QuantizationGrid grid;  // --compress: sized from the directory's boxes
+    if (options.encoding.compress) {
+        std::vector<double> halfExtent(count);
+        for (std::size_t i = 0; i < count; ++i) {
+            const format::BlockInfo& b = reader.blocks()[i];
+            halfExtent[i] =
+                0.5 * std::max({b.maxX - b.minX, b.maxY - b.minY, b.maxZ - b.minZ}) + 1.0;
+        }
+        grid.init(header, reader.blocks(), halfExtent);
+    }
     std::vector<std::uint32_t> drawn;
     for (const engine::NodeChoice& c : cut)
         drawn.push_back(c.block);
@@ -141,7 +194,9 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
                 s.riverEdges = block.levels[level].riverCount;
             }
         }
-        addBlock(model, header, block, s, level, materials);
+        summary.maxQuantizationError =
+            std::max(summary.maxQuantizationError,
+                     addBlock(model, header, block, s, level, options.encoding, grid, materials));
         summary.blocks.push_back(s);
         summary.vertices += s.vertexCount;
         summary.triangles += s.triangles;
@@ -149,8 +204,15 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
         if (options.progress) options.progress(k + 1, drawn.size());
     }
 
+    if (options.encoding.compress) {
+        Value::Object& ax = model.asset.extras.Get<Value::Object>();
+        ax["compression"] = Value(std::string(
+            "KHR_mesh_quantization (16-bit positions on each node's box grid, 8-bit normals) + "
+            "EXT_meshopt_compression"));
+        ax["max_quantization_error_m"] = Value(summary.maxQuantizationError);
+    }
     std::string glb;
-    if (!writeGlb(model, glb)) {
+    if (!writeGlb(model, options.encoding, glb)) {
         error = options.outPath + ": cannot serialize the glTF model";
         return false;
     }

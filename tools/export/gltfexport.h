@@ -10,6 +10,9 @@
 //   above in words, "source": the .ulod path, "metric": "max"|"paper", "selection": the options}.
 // - One node and one mesh per block (node name "block_COL_ROW", extras: col, row, level, step,
 //   h_lim, error, distance), translated as above.
+// - --compress: quantized and meshopt-compressed (gltfmodel.h); each node then translates to its
+//   level's box centre and scales by its step, asset.extras "compression" names the encoding
+//   and "max_quantization_error_m" the largest half step.
 #pragma once
 
 #include <cstdint>
@@ -17,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "gltfmodel.h"
 #include "selection.h"
 
 namespace unilod::exporter {
@@ -25,6 +29,7 @@ struct ExportOptions {
     std::string path;     // the .ulod file
     std::string outPath;  // the .glb to write (format::AtomicFile; never the input)
     bool overwrite = false;  // replace an existing outPath (--overwrite)
+    GltfEncoding encoding;   // --compress (gltfmodel.h)
     SelectionOptions selection;
     std::function<void(std::size_t, std::size_t)> progress;  // blocks done, total
 };
@@ -33,6 +38,7 @@ struct ExportSummary {
     std::vector<ExportedBlock> blocks;  // file order
     std::uint64_t vertices = 0, triangles = 0, riverEdges = 0;
     std::uint64_t bytes = 0;
+    double maxQuantizationError = 0;  // compressed: the largest half step of a node (metres)
 };
 
 // Returns false with a message naming the file on a data error; no output file is left then.

@@ -24,7 +24,11 @@
 //   model centre), the union of the tile's own vertices and its children's boxes.
 // - content: `tiles/<entry>-<level>.glb`, one glTF 2.0 binary per tile (gltfmodel.h: terrain
 //   triangles, river edges as LINES with an unlit blue material), positions relative to the
-//   tile's centre (glTF node translation in double).
+//   tile's centre (glTF node translation in double). --compress: 16-bit positions on the tile's
+//   box grid and meshopt-compressed buffers (gltfmodel.h; CesiumJS decodes both), a coordinate
+//   within half a step of the exact one (the tile's largest half-side / 32 767: 3 cm on a
+//   2 km tile); tileset extras "compression" and "max_quantization_error_m" say so. The
+//   geometricErrors stay the levels' stored errors.
 // - Georeference: the root tile's `transform` is the east-north-up frame at the model centre
 //   (longitude/latitude of the extent's centre, height 0 on the WGS84 ellipsoid) to Earth-centred
 //   Earth-fixed (ECEF) coordinates. Every vertex goes file CRS -> WGS84 longitude/latitude through
@@ -54,6 +58,7 @@ struct TilesetOptions {
     // A stored level becomes a tile where it has at most this share of the triangles of the tile
     // below it in its chain (tiles3d.cpp planTiles); 1: every level a client draws at rest.
     double tileRatio = kDefaultTileRatio;
+    bool compress = false;  // --compress: quantized, meshopt-compressed content (gltfmodel.h)
     std::function<void(std::size_t, std::size_t)> progress;  // entries done, total
 };
 
@@ -64,6 +69,9 @@ struct TilesetSummary {
     std::uint64_t bytes = 0;                                    // tileset.json + content
     double rootError = 0;                                       // the root tile's geometricError
     double longitude = 0, latitude = 0;                         // of the frame's origin, degrees
+    double maxQuantizationError = 0;        // --compress: the largest half step of a tile (metres)
+    double maxQuantizationErrorFinest = 0;  // the same over the leaves' full-resolution tiles
+    std::size_t offGridTiles = 0;  // tiles outside their level's grid (QuantizationGrid; 0 here)
 };
 
 // False with a message naming the file on a data error (no CRS and no --s-srs, a CRS GDAL cannot
