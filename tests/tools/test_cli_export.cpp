@@ -522,7 +522,9 @@ TEST_F(ExportTest, CompressedIsTheSameMeshWithoutCracks) {
         const tinygltf::Model packed = test::loadGlbBytes(decoded);
         const double bound = packed.asset.extras.Get("max_quantization_error_m").Get<double>();
         EXPECT_GT(bound, 0.0);
-        EXPECT_LT(bound, 1.0);
+        const double step = packed.asset.extras.Get("quantization_step_m").Get<double>();
+        EXPECT_EQ(std::exp2(std::round(std::log2(step))), step);
+        EXPECT_LE(bound, 0.5 * step);
         ASSERT_EQ(plain.nodes.size(), packed.nodes.size());
         ASSERT_GE(plain.nodes.size(), 4u);
         std::vector<test::GlbMesh> a(plain.nodes.size()), b(plain.nodes.size());

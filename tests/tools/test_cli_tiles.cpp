@@ -462,7 +462,9 @@ TEST_F(TilesTest, CompressedTilesetIsTheSameTilesWithoutCracks) {
     const double bound = p["extras"]["max_quantization_error_m"];
     EXPECT_GT(bound, 0.0);
     EXPECT_LT(bound, 1.0);
-    EXPECT_LE(double(p["extras"]["max_quantization_error_full_resolution_m"]), bound);
+    const double step = p["extras"]["quantization_step_m"];  // a power of two, bounding moves
+    EXPECT_EQ(std::exp2(std::round(std::log2(step))), step);
+    EXPECT_LE(bound, 0.5 * step);
     // The same tree: content, errors, refinement, children, node for node.
     std::vector<std::string> uris;
     std::function<void(const json&, const json&)> same = [&](const json& a, const json& b) {

@@ -94,9 +94,9 @@ int runTileset(ExportCli& c) {
                 summary.longitude, summary.latitude);
     if (t.compress)
         std::printf(
-            "  compressed: positions within %.4f m of the model's (half a step of each "
-            "tile's 16-bit grid), within %.4f m on the full-resolution tiles\n",
-            summary.maxQuantizationError, summary.maxQuantizationErrorFinest);
+            "  compressed: positions within %.4f m of the model's (one grid; %zu of the "
+            "tiles too large for 16-bit positions keep floats)\n",
+            summary.maxQuantizationError, summary.floatTiles);
     return 0;
 }
 
@@ -151,10 +151,8 @@ int run(ExportCli& c) {
                 static_cast<unsigned long long>(summary.riverEdges),
                 static_cast<unsigned long long>(summary.bytes));
     if (c.o.encoding.compress)
-        std::printf(
-            "  compressed: positions within %.4f m of the model's (half a step of each "
-            "block's 16-bit grid)\n",
-            summary.maxQuantizationError);
+        std::printf("  compressed: positions within %.4f m of the model's (one grid)\n",
+                    summary.maxQuantizationError);
     return 0;
 }
 

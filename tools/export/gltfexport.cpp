@@ -20,21 +20,21 @@ using tinygltf::Value;
 
 // One block's mesh + node.
 // `drawn`: the level written (the cut's, or a refined mesh appended to `block`).
-// Returns the largest distance per coordinate of a compressed vertex from the exact one (0
-// uncompressed).
+// Returns the largest move of a vertex onto the grid (0 uncompressed).
 double addBlock(tinygltf::Model& model, const format::Header& header, const format::Block& block,
                 const ExportedBlock& sel, std::size_t drawn, GltfEncoding encoding,
                 const QuantizationGrid& grid, const GltfMaterials& materials) {
     const format::Level& level = block.levels[drawn];
     const std::size_t n = level.vertexCount;
     std::vector<double> xyz(3 * n), unsnapped;
-    double snapped = 0;  // the largest move of a border vertex onto its grid
+    double moved = 0;
     std::array<double, 3> translation = {block.originX - header.originX,
                                          block.originY - header.originY, 0.0};
     if (encoding.compress && n > 0) {
-        // Exact positions relative to the file origin, border vertices on their level's grid,
-        // the node's origin on this entry's (gltfmodel.h QuantizationGrid).
+        // Exact positions relative to the file origin moved onto the grid, the node's origin a
+        // grid point near the block's centre (gltfmodel.h).
         double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+        unsnapped.resize(3 * n);
         for (std::size_t i = 0; i < n; ++i) {
             double x = 0, y = 0;
             exactXY(block, i, x, y);
@@ -42,24 +42,21 @@ double addBlock(tinygltf::Model& model, const format::Header& header, const form
             p[0] = x - header.originX;
             p[1] = y - header.originY;
             p[2] = block.vertices[i].z;
-            unsnapped.insert(unsnapped.end(), p, p + 3);
-            grid.snap(x, y, block.level, p);
-            for (int k = 0; k < 3; ++k)
-                snapped = std::max(snapped, std::fabs(p[k] - unsnapped[3 * i + std::size_t(k)]));
+            std::copy(p, p + 3, &unsnapped[3 * i]);
+            moved = std::max(moved, grid.snap(p));
             for (int k = 0; k < 3; ++k) {
                 lo[k] = std::min(lo[k], p[k]);
                 hi[k] = std::max(hi[k], p[k]);
             }
         }
-        for (int k = 0; k < 3; ++k)
-            translation[std::size_t(k)] = 0.5 * (lo[k] + hi[k]);
-        grid.origin(block.level, translation.data());
-        for (std::size_t i = 0; i < n; ++i)
-            for (std::size_t k = 0; k < 3; ++k) {
-                xyz[3 * i + k] -= translation[k];
-                unsnapped[3 * i + k] -= translation[k];
-            }
-        encoding.step = grid.step(block.level);
+        for (std::size_t k = 0; k < 3; ++k)
+            translation[k] = 0.5 * (lo[k] + hi[k]);
+        grid.snap(translation.data());
+        for (std::size_t i = 0; i < 3 * n; ++i) {
+            xyz[i] -= translation[i % 3];
+            unsnapped[i] -= translation[i % 3];
+        }
+        encoding.step = grid.step();
         encoding.unsnapped = &unsnapped;
     } else {
         // The file's own block-relative floats, translated by the block origin (in double).
@@ -94,10 +91,7 @@ double addBlock(tinygltf::Model& model, const format::Header& header, const form
     extras["vertical_sin"] = Value(sel.box.verticalSin);
     extras["rivers"] = Value(sel.box.horizontal);
     node.extras = Value(extras);
-    // A snapped vertex is on the node's grid (or, off it, rounded once more); the others move
-    // by at most half a step.
-    const double half = 0.5 * counts.quantizationStep;
-    return counts.offGrid ? snapped + half : std::max(snapped, half);
+    return moved;
 }
 
 }  // namespace
@@ -159,16 +153,13 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
         nodes[i] = engine::lodNode(reader.blocks()[i]);
     std::vector<engine::NodeChoice> cut;
     engine::selectCut(viewSpec(so), nodes, metric, cut);
-    QuantizationGrid grid;  // --compress: sized from the directory's boxes
-    if (options.encoding.compress) {
-        std::vector<double> halfExtent(count);
-        for (std::size_t i = 0; i < count; ++i) {
-            const format::BlockInfo& b = reader.blocks()[i];
-            halfExtent[i] =
-                0.5 * std::max({b.maxX - b.minX, b.maxY - b.minY, b.maxZ - b.minZ}) + 1.0;
-        }
-        grid.init(header, reader.blocks(), halfExtent);
-    }
+    // --compress: the grid sized from the leaves' boxes in the directory (+ 1 m).
+    double leafHalfExtent = 0;
+    for (const format::BlockInfo& b : reader.blocks())
+        if (b.level == 0)
+            leafHalfExtent = std::max({leafHalfExtent, 0.5 * (b.maxX - b.minX) + 1,
+                                       0.5 * (b.maxY - b.minY) + 1, 0.5 * (b.maxZ - b.minZ) + 1});
+    const QuantizationGrid grid(leafHalfExtent);
     std::vector<std::uint32_t> drawn;
     for (const engine::NodeChoice& c : cut)
         drawn.push_back(c.block);
@@ -207,8 +198,9 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
     if (options.encoding.compress) {
         Value::Object& ax = model.asset.extras.Get<Value::Object>();
         ax["compression"] = Value(std::string(
-            "KHR_mesh_quantization (16-bit positions on each node's box grid, 8-bit normals) + "
-            "EXT_meshopt_compression"));
+            "positions on one grid (16-bit with KHR_mesh_quantization where a node fits, else "
+            "float), 8-bit normals, EXT_meshopt_compression"));
+        ax["quantization_step_m"] = Value(grid.step());
         ax["max_quantization_error_m"] = Value(summary.maxQuantizationError);
     }
     std::string glb;

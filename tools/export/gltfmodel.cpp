@@ -137,7 +137,7 @@ int addLevelMesh(tinygltf::Model& model, const format::Block& block, std::size_t
     counts.riverEdges = level.riverCount;
 
     // glTF axes, in double: the node's translation, then the positions relative to it.
-    std::array<double, 3> origin = {translation[0], translation[2], -translation[1]};
+    const std::array<double, 3> origin = {translation[0], translation[2], -translation[1]};
     std::vector<double> g(3 * n);
     for (std::size_t i = 0; i < n; ++i) {
         g[3 * i] = xyz[3 * i];
@@ -146,7 +146,7 @@ int addLevelMesh(tinygltf::Model& model, const format::Block& block, std::size_t
     }
     double scale = 1.0;
     // Compressed: triangles in vertex-cache order and vertices by their first use (what the
-    // codecs compress best), positions on the box's 16-bit grid (see gltfmodel.h).
+    // codecs compress best), 16-bit positions where they fit (see gltfmodel.h).
     std::vector<std::uint32_t> order(n);  // new index -> old index
     for (std::size_t i = 0; i < n; ++i)
         order[i] = std::uint32_t(i);
@@ -168,80 +168,63 @@ int addLevelMesh(tinygltf::Model& model, const format::Block& block, std::size_t
             v = remap[v];
         for (std::uint32_t& v : lineIndices)
             v = remap[v];
-        // The caller's grid where every position fits its 16 bits, else the level's own box grid.
+        // 16-bit where every position fits (the grid's points), else floats.
         bool fits = encoding.step > 0;
         for (std::size_t i = 0; fits && i < 3 * n; ++i)
             fits = std::fabs(std::round(g[i] / encoding.step)) <= kQuantizationMax;
-        if (fits) {
-            scale = encoding.step;
-        } else {
-            double lo[3], hi[3];
-            for (int k = 0; k < 3; ++k) {
-                lo[k] = std::numeric_limits<double>::infinity();
-                hi[k] = -std::numeric_limits<double>::infinity();
-            }
-            for (std::size_t i = 0; i < n; ++i)
-                for (int k = 0; k < 3; ++k) {
-                    lo[k] = std::min(lo[k], g[3 * i + k]);
-                    hi[k] = std::max(hi[k], g[3 * i + k]);
-                }
-            double half = 0;
-            for (int k = 0; k < 3; ++k) {
-                const double mid = 0.5 * (lo[k] + hi[k]);
-                origin[std::size_t(k)] += mid;
-                for (std::size_t i = 0; i < n; ++i)
-                    g[3 * i + k] -= mid;
-                half = std::max(half, 0.5 * (hi[k] - lo[k]));
-            }
-            scale = half > 0 ? half / kQuantizationMax : 1.0;
-            counts.offGrid = encoding.step > 0;
-        }
-        counts.quantizationStep = scale;
+        counts.shortPositions = fits;
+        if (fits) scale = encoding.step;
     }
 
     tinygltf::Mesh mesh;
     mesh.name = name;
     if (n > 0) {
         int posView = 0, posAcc = 0, normView = 0, normAcc = 0;
-        if (encoding.compress) {
-            // 16-bit positions (x, y, z, padding: glTF aligns vertex elements to 4 bytes) and
-            // normalised 8-bit normals, both in the new vertex order.
+        // Compressed views declare their stride (the meshopt codec's element size).
+        const std::size_t floatStride = encoding.compress ? 3 * sizeof(float) : 0;
+        if (counts.shortPositions) {
+            // 16-bit positions (x, y, z, padding: glTF aligns vertex elements to 4 bytes).
             std::vector<std::int16_t> q(4 * n, 0);
-            std::vector<std::int8_t> qn(4 * n, 0);
             std::vector<double> lo(3, std::numeric_limits<double>::infinity());
             std::vector<double> hi(3, -std::numeric_limits<double>::infinity());
-            for (std::size_t i = 0; i < n; ++i) {
-                const std::size_t old = order[i];
+            for (std::size_t i = 0; i < n; ++i)
                 for (std::size_t k = 0; k < 3; ++k) {
-                    const double v = std::clamp(std::round(g[3 * old + k] / scale),
-                                                -kQuantizationMax, kQuantizationMax);
+                    const double v = std::round(g[3 * std::size_t(order[i]) + k] / scale);
                     q[4 * i + k] = static_cast<std::int16_t>(v);
                     lo[k] = std::min(lo[k], v);
                     hi[k] = std::max(hi[k], v);
-                    qn[4 * i + k] = static_cast<std::int8_t>(std::clamp(
-                        std::round(double(normals[3 * old + k]) * 127.0), -127.0, 127.0));
                 }
-            }
             posView = appendView(model, q.data(), q.size() * sizeof(std::int16_t),
                                  TINYGLTF_TARGET_ARRAY_BUFFER, 4 * sizeof(std::int16_t));
             posAcc = addAccessor(model, posView, TINYGLTF_COMPONENT_TYPE_SHORT, TINYGLTF_TYPE_VEC3,
                                  n, lo, hi);
-            normView = appendView(model, qn.data(), qn.size(), TINYGLTF_TARGET_ARRAY_BUFFER, 4);
-            normAcc = addAccessor(model, normView, TINYGLTF_COMPONENT_TYPE_BYTE, TINYGLTF_TYPE_VEC3,
-                                  n, {}, {}, true);
         } else {
+            // Floats: exact on the grid when compressed (see gltfmodel.h).
             std::vector<float> positions(3 * n);
             std::vector<double> lo(3, std::numeric_limits<double>::infinity());
             std::vector<double> hi(3, -std::numeric_limits<double>::infinity());
             for (std::size_t i = 0; i < 3 * n; ++i) {
-                positions[i] = static_cast<float>(g[i]);
+                positions[i] = static_cast<float>(g[3 * std::size_t(order[i / 3]) + i % 3]);
                 lo[i % 3] = std::min(lo[i % 3], double(positions[i]));
                 hi[i % 3] = std::max(hi[i % 3], double(positions[i]));
             }
             posView = appendView(model, positions.data(), positions.size() * sizeof(float),
-                                 TINYGLTF_TARGET_ARRAY_BUFFER);
+                                 TINYGLTF_TARGET_ARRAY_BUFFER, floatStride);
             posAcc = addAccessor(model, posView, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3,
                                  n, lo, hi);
+        }
+        if (encoding.compress) {
+            // Normalised 8-bit normals (x, y, z, padding).
+            std::vector<std::int8_t> qn(4 * n, 0);
+            for (std::size_t i = 0; i < n; ++i)
+                for (std::size_t k = 0; k < 3; ++k)
+                    qn[4 * i + k] = static_cast<std::int8_t>(std::clamp(
+                        std::round(double(normals[3 * std::size_t(order[i]) + k]) * 127.0), -127.0,
+                        127.0));
+            normView = appendView(model, qn.data(), qn.size(), TINYGLTF_TARGET_ARRAY_BUFFER, 4);
+            normAcc = addAccessor(model, normView, TINYGLTF_COMPONENT_TYPE_BYTE, TINYGLTF_TYPE_VEC3,
+                                  n, {}, {}, true);
+        } else {
             normView = appendView(model, normals.data(), normals.size() * sizeof(float),
                                   TINYGLTF_TARGET_ARRAY_BUFFER);
             normAcc =
@@ -284,7 +267,7 @@ int addLevelMesh(tinygltf::Model& model, const format::Block& block, std::size_t
     node.name = name;
     // In double (toGltf's float would lose the translation's precision).
     node.translation = {origin[0], origin[1], origin[2]};
-    if (encoding.compress && n > 0) node.scale = {scale, scale, scale};
+    if (counts.shortPositions) node.scale = {scale, scale, scale};
     if (!mesh.primitives.empty()) {
         model.meshes.push_back(mesh);
         node.mesh = int(model.meshes.size() - 1);
@@ -465,68 +448,18 @@ bool writeGlb(tinygltf::Model& model, const GltfEncoding& encoding, std::string&
     return !encoding.compress || meshoptCompress(glb);
 }
 
-void QuantizationGrid::init(const format::Header& header,
-                            const std::vector<format::BlockInfo>& entries,
-                            const std::vector<double>& halfExtent) {
-    originX_ = header.originX;
-    originY_ = header.originY;
-    blockWidth_ = header.blockWidth;
-    blockHeight_ = header.blockHeight;
-    blocksX_ = header.blocksX;
-    blocksY_ = header.blocksY;
-    std::vector<double> largest;
-    for (std::size_t i = 0; i < entries.size(); ++i) {
-        const std::size_t level = entries[i].level;
-        if (largest.size() <= level) largest.resize(level + 1, 0.0);
-        largest[level] = std::max(largest[level], halfExtent[i]);
+QuantizationGrid::QuantizationGrid(double leafHalfExtent) {
+    step_ = std::exp2(std::ceil(std::log2(std::max(leafHalfExtent, 1e-3) / 32000.0)));
+}
+
+double QuantizationGrid::snap(double p[3]) const {
+    double moved = 0;
+    for (int k = 0; k < 3; ++k) {
+        const double q = std::round(p[k] / step_) * step_;
+        moved = std::max(moved, std::fabs(q - p[k]));
+        p[k] = q;
     }
-    if (largest.empty()) largest.push_back(0.0);
-    // 32 000 of the 32 767 steps: room for a vertex snapped to a coarser level's grid.
-    constexpr double kSteps = 32000.0;
-    const double base = largest[0] > 0 ? largest[0] / kSteps : 1e-3;
-    steps_.assign(largest.size(), base);
-    double m = 0;
-    for (std::size_t l = 0; l < largest.size(); ++l) {
-        while (base * std::exp2(m) * kSteps < largest[l])
-            m += 1;
-        steps_[l] = base * std::exp2(m);
-    }
-}
-
-double QuantizationGrid::step(std::uint32_t treeLevel) const {
-    return steps_[std::min<std::size_t>(treeLevel, steps_.size() - 1)];
-}
-
-int QuantizationGrid::borderLevel(double x, double y) const {
-    // Leaf borders run through the origin's cell centre every block width / height (the blocks
-    // tile the DEM from cell (0, 0) on, away from it); level L's node borders every 2^L of them.
-    const auto level = [&](double d, double size, std::uint32_t count) {
-        if (!(size > 0)) return -1;
-        const double k = std::round(std::fabs(d) / size);
-        if (k <= 0 || k >= double(count) || std::fabs(std::fabs(d) - k * size) > format::kGridUnit)
-            return -1;
-        int l = 0;
-        for (auto i = static_cast<std::uint64_t>(k); i % 2 == 0 && l + 1 < int(steps_.size());
-             i /= 2)
-            ++l;
-        return l;
-    };
-    return std::max(level(x - originX_, blockWidth_, blocksX_),
-                    level(y - originY_, blockHeight_, blocksY_));
-}
-
-void QuantizationGrid::snap(double x, double y, std::uint32_t treeLevel, double p[3]) const {
-    const int level = borderLevel(x, y);
-    if (level < 0 || level < int(std::min<std::size_t>(treeLevel, steps_.size() - 1))) return;
-    const double s = steps_[std::size_t(level)];
-    for (int k = 0; k < 3; ++k)
-        p[k] = std::round(p[k] / s) * s;
-}
-
-void QuantizationGrid::origin(std::uint32_t treeLevel, double c[3]) const {
-    const double s = step(treeLevel);
-    for (int k = 0; k < 3; ++k)
-        c[k] = std::round(c[k] / s) * s;
+    return moved;
 }
 
 void exactXY(const format::Block& block, std::size_t v, double& x, double& y) {

@@ -13,17 +13,19 @@
 //   indices = the level's triangles, material "terrain". Second primitive (only when the level
 //   has river edges): mode LINES on the same POSITION accessor, indices = the level's river
 //   edges, material "river" (unlit blue: KHR_materials_unlit).
-// - Compressed (`export --compress`, GltfEncoding::compress), the layout gltfpack and CesiumJS
-//   use for web delivery: POSITION as 16-bit integers (KHR_mesh_quantization; the node's
-//   translation moves to the centre of the level's box and its uniform scale is the step, so a
-//   coordinate is off by at most half a step: the box's largest half-side / 32 767), NORMAL as
-//   normalised 8-bit integers; vertices reordered by first use of the triangles in vertex-cache
+// - Compressed (`export --compress`, GltfEncoding), the layout gltfpack and CesiumJS use for web
+//   delivery: every position snapped to one grid of power-of-two step S for the whole export
+//   (QuantizationGrid), each node's translation a grid point; POSITION as 16-bit integers with
+//   the node's uniform scale S (KHR_mesh_quantization) where the level's box fits 32 767 steps
+//   around it (the leaves: S is sized from them), else as floats, which hold grid points exactly
+//   (multiples of a power of two below 2^24 steps); NORMAL as normalised 8-bit integers (from the
+//   positions before snapping); vertices reordered by first use of the triangles in vertex-cache
 //   order (meshoptimizer), the same vertices and triangles; every buffer view compressed with
 //   meshoptimizer's codecs (EXT_meshopt_compression; the uncompressed layout is described by a
-//   fallback buffer without data, as the extension allows when it is required).
-//   Meshes drawn side by side share their border vertices, so the exports quantize on one grid
-//   per tree level (QuantizationGrid below) rather than per mesh: a shared vertex decodes to the
-//   same point in both meshes and no crack opens between them.
+//   fallback buffer without data, as the extension allows when it is required). A vertex moves
+//   by at most S / 2 per coordinate, and one point shared by two meshes (a border of a leaf and
+//   of a node drawn beside it) decodes to the same point in both: no crack opens between them,
+//   which separate per-mesh grids would leave.
 #pragma once
 
 #include <tiny_gltf.h>
@@ -46,44 +48,27 @@ inline void toGltf(double dx, double dy, double z, float out[3]) {
 
 struct GltfEncoding {
     bool compress = false;  // see above
-    // > 0: the positions given to addLevelMesh already lie on this step's grid relative to the
-    // translation, which is used as it is (QuantizationGrid); 0: the level's own box grid.
+    // Compressed: the grid step S; the positions given to addLevelMesh lie on its grid
+    // relative to the translation, which is a grid point too (QuantizationGrid).
     double step = 0;
-    // With `step`: the positions before the border vertices were snapped (same frame), which
-    // the normals are computed from; null: from the positions given.
+    // Compressed: the positions before snapping (same frame), which the normals are computed
+    // from; null: from the positions given.
     const std::vector<double>* unsnapped = nullptr;
 };
 
-// The grids of --compress (see above). Tree level L quantizes with step S_L = S_0 * 2^m_L,
-// non-decreasing in L, the smallest that holds every entry of levels <= L on 16 bits (S_0 from
-// the leaves'). A vertex on the border between two nodes of tree level B (and so of every level
-// below: node borders nest) is snapped to S_B's grid before any mesh quantizes it, and a mesh of
-// an entry at level L <= B puts its origin on S_L's grid: S_B is a multiple of S_L, so the vertex
-// is exactly on that mesh's grid and decodes to the same point in every mesh whose border it is
-// on. A vertex inside an entry is rounded by that entry's own grid (an ancestor or descendant is
-// never drawn beside it). Cost: a vertex on a high-level border is off by up to S_B / 2 in the
-// leaves too (the exports report the largest move).
+// The grid of --compress (see above).
 class QuantizationGrid {
 public:
-    // `halfExtent[i]`: a bound of |p - c| per axis, in the export's frame, for every vertex p of
-    // entry i and the centre c of its box; 0 for an entry not exported.
-    void init(const format::Header& header, const std::vector<format::BlockInfo>& entries,
-              const std::vector<double>& halfExtent);
-    double step(std::uint32_t treeLevel) const;
-    // The highest tree level whose node borders pass through (x, y) (file CRS), -1 where no two
-    // entries meet (inside a leaf, on the model's outer edge).
-    int borderLevel(double x, double y) const;
-    // `p` (3 coordinates in the export's frame) of a vertex of an entry at `treeLevel`, rounded
-    // to the grid of B = borderLevel(x, y) where B >= treeLevel (a border of the entry); left
-    // alone inside the entry (B < treeLevel: the entry's own rounding is all it needs).
-    void snap(double x, double y, std::uint32_t treeLevel, double p[3]) const;
-    // The point of tree level L's grid nearest `c` (3 coordinates).
-    void origin(std::uint32_t treeLevel, double c[3]) const;
+    // `leafHalfExtent`: a bound of |p - c| per axis, in the export's frame, for every vertex p of
+    // a leaf entry and the centre c of its box. S = the smallest power of two with which that
+    // fits 32 000 steps (the rest of the 32 767 leaves room for the rounding).
+    explicit QuantizationGrid(double leafHalfExtent = 0);
+    double step() const { return step_; }
+    // `p` (3 coordinates) moved to the nearest grid point; returns the largest move.
+    double snap(double p[3]) const;
 
 private:
-    std::vector<double> steps_;
-    double originX_ = 0, originY_ = 0, blockWidth_ = 0, blockHeight_ = 0;
-    std::uint32_t blocksX_ = 0, blocksY_ = 0;
+    double step_ = 1;
 };
 
 // Vertex v's x, y in the file CRS from its exact grid position (the same double for a point in
@@ -102,8 +87,7 @@ tinygltf::Model newGltfModel(const std::string& generator, const GltfEncoding& e
 // Counts of what addLevelMesh wrote.
 struct LevelCounts {
     std::uint32_t vertices = 0, triangles = 0, riverEdges = 0;
-    double quantizationStep = 0;  // compressed: the node's scale (a coordinate is within half)
-    bool offGrid = false;  // GltfEncoding::step given but too fine for the level (own grid used)
+    bool shortPositions = false;  // compressed: 16-bit positions (else floats)
 };
 
 // Appends stored level `level` of `block` as a mesh + node named `name` and adds the node to

@@ -338,40 +338,38 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
     std::vector<bool> isChild(count, false);
     format::Block block;
     std::vector<double> xs, ys, zs, xyz;
-    // --compress: one grid per tree level (gltfmodel.h QuantizationGrid), sized from each entry's
-    // directory box: its 8 corners in the tileset frame, grown by the sagitta of the Earth's
-    // curvature over its diagonal, 1 % and 1 m (a tile outside its bound takes its own grid).
-    QuantizationGrid grid;
-    if (options.compress) {
-        std::vector<double> halfExtent(count, 0.0);
-        for (std::size_t i = 0; i < count; ++i) {
-            const format::BlockInfo& b = reader.blocks()[i];
-            if (plans[i].omitted) continue;
-            xs.clear(), ys.clear(), zs.clear();
-            for (int corner = 0; corner < 8; ++corner) {
-                xs.push_back(corner & 1 ? b.maxX : b.minX);
-                ys.push_back(corner & 2 ? b.maxY : b.minY);
-                zs.push_back(corner & 4 ? b.maxZ : b.minZ);
-            }
-            if (!geo.toEnu(xs, ys, zs)) {
-                error = options.path + ": " + format::blockName(b.col, b.row, b.level) +
-                        ": its box does not transform to WGS84 longitude/latitude";
-                return false;
-            }
-            Box box;
-            for (int corner = 0; corner < 8; ++corner) {
-                const double p[3] = {xs[corner], ys[corner], zs[corner]};
-                box.add(p);
-            }
-            const double diagonal = std::hypot(b.maxX - b.minX, b.maxY - b.minY);
-            double half = 0;
-            for (int k = 0; k < 3; ++k)
-                half = std::max(half, 0.5 * (box.hi[k] - box.lo[k]));
-            halfExtent[i] = (half + diagonal * diagonal / (8 * 6.35e6)) * 1.01 + 1.0;
+    // --compress: one grid (gltfmodel.h QuantizationGrid), sized from the leaves' directory
+    // boxes: their 8 corners in the tileset frame, grown by the sagitta of the Earth's curvature
+    // over the diagonal, 1 % and 1 m (a tile that does not fit 16 bits keeps float positions).
+    double leafHalfExtent = 0;
+    for (std::size_t i = 0; i < count && options.compress; ++i) {
+        const format::BlockInfo& b = reader.blocks()[i];
+        if (b.level != 0) continue;
+        xs.clear(), ys.clear(), zs.clear();
+        for (int corner = 0; corner < 8; ++corner) {
+            xs.push_back(corner & 1 ? b.maxX : b.minX);
+            ys.push_back(corner & 2 ? b.maxY : b.minY);
+            zs.push_back(corner & 4 ? b.maxZ : b.minZ);
         }
-        grid.init(header, reader.blocks(), halfExtent);
+        if (!geo.toEnu(xs, ys, zs)) {
+            error = options.path + ": " + format::blockName(b.col, b.row, b.level) +
+                    ": its box does not transform to WGS84 longitude/latitude";
+            return false;
+        }
+        Box box;
+        for (int corner = 0; corner < 8; ++corner) {
+            const double p[3] = {xs[corner], ys[corner], zs[corner]};
+            box.add(p);
+        }
+        const double diagonal = std::hypot(b.maxX - b.minX, b.maxY - b.minY);
+        double half = 0;
+        for (int k = 0; k < 3; ++k)
+            half = std::max(half, 0.5 * (box.hi[k] - box.lo[k]));
+        leafHalfExtent =
+            std::max(leafHalfExtent, (half + diagonal * diagonal / (8 * 6.35e6)) * 1.01 + 1.0);
     }
-    std::vector<double> fileX, fileY, enu, unsnapped, snapMoves;
+    const QuantizationGrid grid(leafHalfExtent);
+    std::vector<double> enu, unsnapped, snapMoves;
     for (std::size_t i = 0; i < count; ++i) {
         const format::BlockInfo& info = reader.blocks()[i];
         Entry& entry = entries[i];
@@ -400,10 +398,6 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
             }
             zs[v] = block.vertices[v].z;
         }
-        if (options.compress) {
-            fileX = xs;
-            fileY = ys;
-        }
         if (!geo.toEnu(xs, ys, zs)) {
             error = options.path + ": " + format::blockName(block.col, block.row, block.level) +
                     ": a vertex does not transform to WGS84 longitude/latitude";
@@ -415,12 +409,8 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
             for (std::size_t v = 0; v < n; ++v) {
                 enu[3 * v] = xs[v], enu[3 * v + 1] = ys[v], enu[3 * v + 2] = zs[v];
                 double p[3] = {xs[v], ys[v], zs[v]};
-                grid.snap(fileX[v], fileY[v], block.level, p);
-                // The largest move onto a grid of the vertex prefix [0, v] (a level's vertices).
-                double moved = v > 0 ? snapMoves[v - 1] : 0.0;
-                moved = std::max({moved, std::fabs(p[0] - xs[v]), std::fabs(p[1] - ys[v]),
-                                  std::fabs(p[2] - zs[v])});
-                snapMoves[v] = moved;
+                // The largest move onto the grid of the vertex prefix [0, v] (a level's).
+                snapMoves[v] = std::max(v > 0 ? snapMoves[v - 1] : 0.0, grid.snap(p));
                 xs[v] = p[0], ys[v] = p[1], zs[v] = p[2];
             }
         }
@@ -439,12 +429,8 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
                                             0.5 * (t.box.lo[2] + t.box.hi[2])};
             GltfEncoding encoding{.compress = options.compress};
             if (options.compress) {
-                grid.origin(block.level, centre.data());
-                encoding.step = grid.step(block.level);
-                for (int k = 0; k < 3; ++k) {  // the box holds the rounded positions too
-                    t.box.lo[k] -= 0.5 * encoding.step;
-                    t.box.hi[k] += 0.5 * encoding.step;
-                }
+                grid.snap(centre.data());
+                encoding.step = grid.step();
             }
             xyz.resize(3 * std::size_t(level.vertexCount));
             for (std::size_t v = 0; v < level.vertexCount; ++v) {
@@ -464,16 +450,9 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
             const std::string name = std::to_string(i) + "-" + std::to_string(l);
             addLevelMesh(model, block, l, xyz, centre, name, encoding, materials, counts);
             if (options.compress) {
-                // A snapped vertex is on the tile's grid (or, off it, rounded once more); the
-                // others move by at most half a step.
-                const double half = 0.5 * counts.quantizationStep;
                 const double moved = snapMoves[level.vertexCount - 1];
-                const double bound = counts.offGrid ? moved + half : std::max(moved, half);
-                summary.maxQuantizationError = std::max(summary.maxQuantizationError, bound);
-                summary.offGridTiles += counts.offGrid ? 1 : 0;
-                if (block.level == 0 && l == 0)
-                    summary.maxQuantizationErrorFinest =
-                        std::max(summary.maxQuantizationErrorFinest, bound);
+                summary.maxQuantizationError = std::max(summary.maxQuantizationError, moved);
+                summary.floatTiles += counts.shortPositions ? 0 : 1;
             }
             std::string glb;
             if (!writeGlb(model, encoding, glb)) {
@@ -549,11 +528,10 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
            "children in its place) are left out. Content tiles/<entry>-<level>.glb."}}}};
     if (options.compress) {
         tileset["extras"]["compression"] =
-            "KHR_mesh_quantization (16-bit positions on each tile's box grid, 8-bit normals) + "
-            "EXT_meshopt_compression";
+            "positions on one grid (16-bit with KHR_mesh_quantization where a tile fits, else "
+            "float), 8-bit normals, EXT_meshopt_compression";
+        tileset["extras"]["quantization_step_m"] = grid.step();
         tileset["extras"]["max_quantization_error_m"] = summary.maxQuantizationError;
-        tileset["extras"]["max_quantization_error_full_resolution_m"] =
-            summary.maxQuantizationErrorFinest;
     }
     const std::string text = tileset.dump(1) + "\n";
     if (!folder.writeInside("tileset.json", text, error)) return false;

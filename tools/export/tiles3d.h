@@ -24,11 +24,12 @@
 //   model centre), the union of the tile's own vertices and its children's boxes.
 // - content: `tiles/<entry>-<level>.glb`, one glTF 2.0 binary per tile (gltfmodel.h: terrain
 //   triangles, river edges as LINES with an unlit blue material), positions relative to the
-//   tile's centre (glTF node translation in double). --compress: 16-bit positions on the tile's
-//   box grid and meshopt-compressed buffers (gltfmodel.h; CesiumJS decodes both), a coordinate
-//   within half a step of the exact one (the tile's largest half-side / 32 767: 3 cm on a
-//   2 km tile); tileset extras "compression" and "max_quantization_error_m" say so. The
-//   geometricErrors stay the levels' stored errors.
+//   tile's centre (glTF node translation in double). --compress: every vertex on one grid,
+//   16-bit positions where a tile fits (the leaves), meshopt-compressed buffers (gltfmodel.h;
+//   CesiumJS decodes both), a coordinate within half a step of the exact one (the step: the
+//   leaves' largest half-side / 32 000 rounded up to a power of two, 6 cm on the demo's 64-cell
+//   leaves); tileset extras "compression", "quantization_step_m" and "max_quantization_error_m"
+//   say so. The geometricErrors stay the levels' stored errors.
 // - Georeference: the root tile's `transform` is the east-north-up frame at the model centre
 //   (longitude/latitude of the extent's centre, height 0 on the WGS84 ellipsoid) to Earth-centred
 //   Earth-fixed (ECEF) coordinates. Every vertex goes file CRS -> WGS84 longitude/latitude through
@@ -69,9 +70,8 @@ struct TilesetSummary {
     std::uint64_t bytes = 0;                                    // tileset.json + content
     double rootError = 0;                                       // the root tile's geometricError
     double longitude = 0, latitude = 0;                         // of the frame's origin, degrees
-    double maxQuantizationError = 0;        // --compress: the largest half step of a tile (metres)
-    double maxQuantizationErrorFinest = 0;  // the same over the leaves' full-resolution tiles
-    std::size_t offGridTiles = 0;  // tiles outside their level's grid (QuantizationGrid; 0 here)
+    double maxQuantizationError = 0;  // --compress: the largest move of a vertex (metres)
+    std::size_t floatTiles = 0;       // --compress: tiles too large for 16-bit positions
 };
 
 // False with a message naming the file on a data error (no CRS and no --s-srs, a CRS GDAL cannot
