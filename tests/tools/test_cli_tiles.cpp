@@ -21,6 +21,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -302,36 +303,49 @@ TEST_F(TilesTest, DefaultChainsAreThinnedByTriangles) {
     }
 }
 
-TEST_F(TilesTest, ContentIsTheLevelAndLandsWherePROJPutsIt) {
-    // The root transform (column-major ENU -> ECEF).
-    const json& tr = tileset["root"]["transform"];
-    ASSERT_EQ(tr.size(), 16u);
+// Every tile of the tileset in `set` checked against the .ulod level (counts); on every 7th tile
+// (by name) every 13th vertex mapped through the root transform to ECEF, compared with what PROJ
+// gives from `src` (the file's CRS, with its heights' vertical CRS or without) to EPSG:4978.
+// Returns the worst distance; `mine` receives the ECEF points in order.
+double againstProj(const std::string& set, const test::Model& m, OGRSpatialReference& src,
+                   std::vector<std::array<double, 3>>& mine) {
+    const json ts = json::parse(test::slurp(set + "/tileset.json"));
+    const json& tr = ts["root"]["transform"];
+    EXPECT_EQ(tr.size(), 16u);
     auto toEcef = [&](const double enu[3], double out[3]) {
         for (int r = 0; r < 3; ++r)
             out[r] = double(tr[r]) * enu[0] + double(tr[4 + r]) * enu[1] +
                      double(tr[8 + r]) * enu[2] + double(tr[12 + r]);
     };
-    // PROJ's own answer: the file's CRS -> geocentric WGS84 (EPSG:4978), z as ellipsoidal height.
-    OGRSpatialReference src, ecef;
-    ASSERT_EQ(src.SetFromUserInput(m.header.crsWkt.c_str()), OGRERR_NONE);
-    ASSERT_EQ(ecef.importFromEPSG(4978), OGRERR_NONE);
+    OGRSpatialReference ecef;
+    EXPECT_EQ(ecef.importFromEPSG(4978), OGRERR_NONE);
     src.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
     ecef.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    OGRCoordinateTransformationOptions options;
+    options.SetBallparkAllowed(false);
     std::unique_ptr<OGRCoordinateTransformation> ct(
-        OGRCreateCoordinateTransformation(&src, &ecef));
-    ASSERT_TRUE(ct);
-
-    std::size_t checkedTiles = 0, checkedVertices = 0;
+        OGRCreateCoordinateTransformation(&src, &ecef, options));
+    EXPECT_TRUE(ct);
+    if (!ct) return HUGE_VAL;
+    std::vector<std::string> names;
+    for (const auto& file : fs::directory_iterator(set + "/tiles"))
+        names.push_back(file.path().filename().string());
+    std::sort(names.begin(), names.end());
+    std::size_t checkedTiles = 0;
     double worst = 0;
-    for (const auto& file : fs::directory_iterator(tiles + "/tiles")) {
-        const auto [e, l] = parseUri("tiles/" + file.path().filename().string());
+    for (const std::string& name : names) {
+        std::size_t e = 0, l = 0;
+        EXPECT_EQ(std::sscanf(name.c_str(), "%zu-%zu.glb", &e, &l), 2) << name;
         const format::Block& b = m.blocks.at(e);
         const format::Level& level = b.levels.at(l);
-        const tinygltf::Model g = load(file.path().string());
-        ASSERT_EQ(g.nodes.size(), 1u);
-        ASSERT_EQ(g.meshes.size(), 1u);
+        tinygltf::Model g;
+        tinygltf::TinyGLTF loader;
+        std::string err, warn;
+        EXPECT_TRUE(loader.LoadBinaryFromFile(&g, &err, &warn, set + "/tiles/" + name)) << err;
+        EXPECT_EQ(g.nodes.size(), 1u);
+        EXPECT_EQ(g.meshes.size(), 1u);
+        if (g.meshes.size() != 1 || g.meshes[0].primitives.empty()) return HUGE_VAL;
         const tinygltf::Mesh& mesh = g.meshes[0];
-        ASSERT_GE(mesh.primitives.size(), 1u);
         const tinygltf::Primitive& terrain = mesh.primitives[0];
         EXPECT_EQ(terrain.mode, TINYGLTF_MODE_TRIANGLES);
         EXPECT_EQ(g.accessors[std::size_t(terrain.indices)].count, 3u * level.triangleCount);
@@ -343,31 +357,73 @@ TEST_F(TilesTest, ContentIsTheLevelAndLandsWherePROJPutsIt) {
             EXPECT_EQ(mesh.primitives[1].mode, TINYGLTF_MODE_LINE);
         }
         const tinygltf::Accessor& pa = g.accessors[std::size_t(terrain.attributes.at("POSITION"))];
-        ASSERT_EQ(pa.count, level.vertexCount);
-        // Every 7th file, every 13th vertex: positions against PROJ.
+        EXPECT_EQ(pa.count, level.vertexCount);
         if (++checkedTiles % 7 != 0) continue;
         const tinygltf::BufferView& v = g.bufferViews[std::size_t(pa.bufferView)];
         const float* p =
             reinterpret_cast<const float*>(g.buffers[0].data.data() + v.byteOffset + pa.byteOffset);
         const std::vector<double>& t = g.nodes[0].translation;
-        ASSERT_EQ(t.size(), 3u);
-        for (std::size_t i = 0; i < pa.count; i += 13) {
+        EXPECT_EQ(t.size(), 3u);
+        for (std::size_t i = 0; i < pa.count && t.size() == 3; i += 13) {
             // glTF (x, y, z) y-up -> ENU (x, -z, y).
             const double gx = t[0] + p[3 * i], gy = t[1] + p[3 * i + 1], gz = t[2] + p[3 * i + 2];
             const double enu[3] = {gx, -gz, gy};
-            double mine[3];
-            toEcef(enu, mine);
+            std::array<double, 3> at{};
+            toEcef(enu, at.data());
+            mine.push_back(at);
             double x = b.originX + double(b.vertices[i].x), y = b.originY + double(b.vertices[i].y),
                    z = b.vertices[i].z;
-            ASSERT_TRUE(ct->Transform(1, &x, &y, &z));
-            const double d = std::hypot(mine[0] - x, mine[1] - y, mine[2] - z);
-            worst = std::max(worst, d);
-            ++checkedVertices;
+            EXPECT_TRUE(ct->Transform(1, &x, &y, &z));
+            worst = std::max(worst, std::hypot(at[0] - x, at[1] - y, at[2] - z));
         }
     }
-    EXPECT_GT(checkedVertices, 1000u);
+    return worst;
+}
+
+TEST_F(TilesTest, ContentIsTheLevelAndLandsWherePROJPutsIt) {
+    // PROJ's own answer: the file's CRS -> geocentric WGS84 (EPSG:4978), z as ellipsoidal height.
+    OGRSpatialReference src;
+    ASSERT_EQ(src.SetFromUserInput(m.header.crsWkt.c_str()), OGRERR_NONE);
+    std::vector<std::array<double, 3>> mine;
+    const double worst = againstProj(tiles, m, src, mine);
+    EXPECT_GT(mine.size(), 1000u);
     // Float positions relative to tile centres a few km away: millimetres.
     EXPECT_LT(worst, 0.02) << "worst distance to PROJ's ECEF point " << worst << " m";
+}
+
+// --vertical-crs EPSG:5773: the file's z are EGM96 heights; PROJ (Debian's proj-data has the
+// EGM96 grid) makes them ellipsoidal, about 30 m lower at Jacksboro.
+TEST_F(TilesTest, VerticalCrsMakesHeightsEllipsoidal) {
+    const std::string egm = dir->file("tiles_egm96");
+    const auto r =
+        runCli("export -q " + q(model) + " --3dtiles " + q(egm) + " --vertical-crs EPSG:5773");
+    ASSERT_EQ(r.code, 0) << r.err;
+    const json ts = json::parse(test::slurp(egm + "/tileset.json"));
+    EXPECT_NE(std::string(ts["extras"]["heights"]).find("EPSG:5773"), std::string::npos);
+    OGRSpatialReference horizontal, vertical, compound;
+    ASSERT_EQ(horizontal.SetFromUserInput(m.header.crsWkt.c_str()), OGRERR_NONE);
+    ASSERT_EQ(vertical.importFromEPSG(5773), OGRERR_NONE);
+    ASSERT_EQ(compound.SetCompoundCS("test", &horizontal, &vertical), OGRERR_NONE);
+    std::vector<std::array<double, 3>> shifted, plain;
+    const double worst = againstProj(egm, m, compound, shifted);
+    EXPECT_GT(shifted.size(), 1000u);
+    EXPECT_LT(worst, 0.02) << "worst distance to PROJ's ECEF point " << worst << " m";
+    // The same vertices in the plain tileset: the geoid undulation apart.
+    againstProj(tiles, m, horizontal, plain);
+    ASSERT_EQ(plain.size(), shifted.size());
+    for (std::size_t i = 0; i < plain.size(); i += 97) {
+        const double d = std::hypot(plain[i][0] - shifted[i][0], plain[i][1] - shifted[i][1],
+                                    plain[i][2] - shifted[i][2]);
+        EXPECT_GT(d, 25.0);
+        EXPECT_LT(d, 40.0);
+    }
+    // Not a vertical CRS: refused, no folder.
+    const std::string bad = dir->file("tiles_bad_vertical");
+    const auto b =
+        runCli("export -q " + q(model) + " --3dtiles " + q(bad) + " --vertical-crs EPSG:4326");
+    EXPECT_EQ(b.code, 1);
+    EXPECT_NE(b.err.find("not a vertical CRS"), std::string::npos) << b.err;
+    EXPECT_FALSE(fs::exists(bad));
 }
 
 TEST_F(TilesTest, ErrorsLeaveNoFolder) {

@@ -40,6 +40,7 @@ struct ExportCli {
     OutputFlags output;     // -o/--output, --overwrite
     std::string tilesDir;   // --3dtiles
     std::string sourceSrs;  // --s-srs
+    std::string verticalSrs;                         // --vertical-crs
     double tileRatio = exporter::kDefaultTileRatio;  // --tile-ratio
 };
 
@@ -58,6 +59,7 @@ int runTileset(ExportCli& c) {
     t.path = c.o.path;
     t.outDir = c.tilesDir;
     t.sourceSrs = c.sourceSrs;
+    t.verticalSrs = c.verticalSrs;
     t.tileRatio = c.tileRatio;
     t.compress = c.o.encoding.compress;
     if (c.metric == "paper") t.metric = format::kMetricPaper;
@@ -206,6 +208,12 @@ void addExportCommand(CLI::App& app, int& exitCode) {
     sub->add_option("--s-srs", c->sourceSrs,
                     "--3dtiles: CRS of the file's coordinates (any GDAL form, e.g. EPSG:32616); "
                     "default the file's own");
+    sub->add_option("--vertical-crs", c->verticalSrs,
+                    "--3dtiles: the vertical CRS of the file's heights (e.g. EPSG:5773, EGM96 "
+                    "height, as SRTM-based DEMs): converted to WGS84 ellipsoidal heights through "
+                    "PROJ's geoid grid (an error where PROJ lacks it); default: heights are "
+                    "ellipsoidal already")
+        ->needs(tiles);
     CLI::Option* ratio = sub->add_option(
         "--tile-ratio", c->tileRatio,
         "--3dtiles: a stored level becomes a tile where it has at most this share of the "

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "atomicfile.h"
+#include "gdal_errors.h"
 #include "gltfmodel.h"
 #include "jsontext.h"
 #include "selection.h"
@@ -31,8 +32,10 @@ constexpr double kPi = 3.14159265358979323846;
 // File CRS -> WGS84 longitude/latitude -> ECEF -> the east-north-up frame at the model centre.
 class Georeference {
 public:
-    bool init(const std::string& srsText, const std::string& what, const format::Header& header,
-              std::string& error) {
+    // `verticalText`: the vertical CRS of the file's heights (--vertical-crs), empty: heights are
+    // ellipsoidal already.
+    bool init(const std::string& srsText, const std::string& verticalText, const std::string& what,
+              const format::Header& header, std::string& error) {
         OGRSpatialReference src;
         if (srsText.empty()) {
             error = what + ": has no CRS: give its CRS with --s-srs (e.g. EPSG:32616) to place it "
@@ -47,16 +50,58 @@ public:
         wgs84.importFromEPSG(4326);
         src.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
         wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
-        ct_.reset(OGRCreateCoordinateTransformation(&src, &wgs84));
+        if (!verticalText.empty()) {
+            // Heights of a vertical CRS: the compound CRS -> WGS84 3D (EPSG:4979) through PROJ,
+            // without the "ballpark" fallback that would keep the heights as they are where PROJ
+            // lacks the geoid grid.
+            OGRSpatialReference vertical, compound, wgs84h;
+            if (!parseSrs(verticalText, vertical) || !vertical.IsVertical()) {
+                error = "--vertical-crs '" + verticalText.substr(0, 80) +
+                        "' is not a vertical CRS GDAL reads (e.g. EPSG:5773, EGM96 height)";
+                return false;
+            }
+            if (src.IsCompound() || src.IsVertical()) {
+                error = what +
+                        ": its CRS names its heights already; --vertical-crs needs a "
+                        "horizontal CRS";
+                return false;
+            }
+            if (compound.SetCompoundCS("unilod heights", &src, &vertical) != OGRERR_NONE) {
+                error = what + ": GDAL cannot combine its CRS with --vertical-crs";
+                return false;
+            }
+            wgs84h.importFromEPSG(4979);
+            compound.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+            wgs84h.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+            OGRCoordinateTransformationOptions options;
+            options.SetBallparkAllowed(false);
+            {
+                const QuietGdalErrors quiet;  // PROJ's message names the whole compound CRS
+                ct_.reset(OGRCreateCoordinateTransformation(&compound, &wgs84h, options));
+            }
+            vertical_ = true;
+            const char* name = vertical.GetName();
+            if (!ct_) {
+                error = what + ": PROJ has no exact transformation from the vertical CRS '" +
+                        std::string(name ? name : verticalText) +
+                        "' to WGS84 ellipsoidal heights (its geoid grid is not installed? "
+                        "Debian's proj-data holds EGM96, EPSG:5773)";
+                return false;
+            }
+        } else {
+            ct_.reset(OGRCreateCoordinateTransformation(&src, &wgs84));
+        }
         if (!ct_) {
             error = what + ": GDAL/PROJ cannot transform its CRS to WGS84 longitude/latitude";
             return false;
         }
         double x = 0.5 * (header.minX + header.maxX), y = 0.5 * (header.minY + header.maxY);
+        double z = 0.5 * (header.minZ + header.maxZ);
         int ok = 0;
-        if (!ct_->Transform(1, &x, &y, nullptr, &ok) || !ok || !std::isfinite(x) ||
-            !std::isfinite(y)) {
-            error = what + ": the model centre does not transform to WGS84 longitude/latitude";
+        if (!ct_->Transform(1, &x, &y, vertical_ ? &z : nullptr, &ok) || !ok || !std::isfinite(x) ||
+            !std::isfinite(y) || !std::isfinite(z)) {
+            error = what + ": the model centre does not transform to WGS84 longitude/latitude" +
+                    (vertical_ ? " and ellipsoidal height (outside the geoid grid?)" : "");
             return false;
         }
         lon0_ = x;
@@ -74,9 +119,11 @@ public:
         const std::size_t n = xs.size();
         if (n == 0) return true;
         std::vector<int> ok(n, 0);
-        if (!ct_->Transform(n, xs.data(), ys.data(), nullptr, ok.data())) return false;
+        if (!ct_->Transform(n, xs.data(), ys.data(), vertical_ ? zs.data() : nullptr, ok.data()))
+            return false;
         for (std::size_t i = 0; i < n; ++i) {
-            if (!ok[i] || !std::isfinite(xs[i]) || !std::isfinite(ys[i])) return false;
+            if (!ok[i] || !std::isfinite(xs[i]) || !std::isfinite(ys[i]) || !std::isfinite(zs[i]))
+                return false;
             const std::array<double, 3> p =
                 ecef(xs[i] * kPi / 180, ys[i] * kPi / 180, zs[i]);
             const double d[3] = {p[0] - origin_[0], p[1] - origin_[1], p[2] - origin_[2]};
@@ -95,6 +142,7 @@ public:
     }
     double longitude() const { return lon0_; }
     double latitude() const { return lat0_; }
+    bool vertical() const { return vertical_; }
 
 private:
     // WGS84 geodetic (radians, metres) -> ECEF.
@@ -111,6 +159,7 @@ private:
         }
     };
     std::unique_ptr<OGRCoordinateTransformation, Release> ct_;
+    bool vertical_ = false;  // heights converted (--vertical-crs)
     double lon0_ = 0, lat0_ = 0;
     std::array<double, 3> origin_{}, east_{}, north_{}, up_{};
 };
@@ -317,8 +366,8 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
     if (!resolveMetric(reader, so, metric, error)) return false;
     const format::Header& header = reader.header();
     Georeference geo;
-    if (!geo.init(options.sourceSrs.empty() ? header.crsWkt : options.sourceSrs, options.path,
-                  header, error)) {
+    if (!geo.init(options.sourceSrs.empty() ? header.crsWkt : options.sourceSrs,
+                  options.verticalSrs, options.path, header, error)) {
         return false;
     }
     const fs::path temp = folder.tempPath();
@@ -400,7 +449,8 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
         }
         if (!geo.toEnu(xs, ys, zs)) {
             error = options.path + ": " + format::blockName(block.col, block.row, block.level) +
-                    ": a vertex does not transform to WGS84 longitude/latitude";
+                    ": a vertex does not transform to WGS84 longitude/latitude" +
+                    (geo.vertical() ? " and ellipsoidal height (outside the geoid grid?)" : "");
             return false;
         }
         if (options.compress) {
@@ -516,6 +566,10 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
           {"tile_ratio", options.tileRatio},
           {"origin_longitude_degrees", geo.longitude()},
           {"origin_latitude_degrees", geo.latitude()},
+          {"heights", options.verticalSrs.empty()
+                          ? "the file's z taken as WGS84 ellipsoidal heights (no geoid applied)"
+                          : "the file's z in the vertical CRS " + validUtf8(options.verticalSrs) +
+                                ", converted to WGS84 ellipsoidal heights by PROJ"},
           {"layout",
            "root transform: east-north-up frame at the origin longitude/latitude, height 0 on "
            "WGS84, to ECEF; vertices exact (file CRS -> WGS84 via PROJ, z as ellipsoidal "

@@ -35,8 +35,10 @@
 //   Earth-fixed (ECEF) coordinates. Every vertex goes file CRS -> WGS84 longitude/latitude through
 //   GDAL/PROJ (datum shifts included), then to ECEF with its z as ellipsoidal height, then into
 //   that frame: exact, so Earth curvature and the projection's scale and convergence are honoured
-//   over any extent. Heights are taken as ellipsoidal (no geoid model is applied: an
-//   orthometric DEM sits the local geoid undulation, -30 m to +60 m, off).
+//   over any extent. Heights are taken as ellipsoidal unless --vertical-crs names the vertical
+//   CRS of the file's z (e.g. EPSG:5773, EGM96 height: SRTM-based DEMs): then PROJ converts them
+//   to ellipsoidal heights with its geoid grid, and a missing grid is an error, not a silent
+//   no-op (without it an orthometric DEM sits the local geoid undulation, -107 m to +85 m, off).
 // - asset: version "1.1", generator, tilesetVersion; tileset `extras`: source path, CRS WKT,
 //   metric, centre longitude/latitude and the layout above in words.
 // The folder appears whole or not at all (format::AtomicFile::openFolder: a missing or empty
@@ -55,6 +57,8 @@ struct TilesetOptions {
     std::string path;          // the .ulod file
     std::string outDir;        // the tileset folder to create
     std::string sourceSrs;     // --s-srs: CRS of the file's coordinates (default: the file's own)
+    std::string verticalSrs;   // --vertical-crs: the vertical CRS of the file's z (default: none,
+                               // z is a WGS84 ellipsoidal height)
     std::uint32_t metric = 0;  // format::kMetricMax / kMetricPaper; 0 = the file's default
     // A stored level becomes a tile where it has at most this share of the triangles of the tile
     // below it in its chain (tiles3d.cpp planTiles); 1: every level a client draws at rest.
