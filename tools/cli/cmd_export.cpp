@@ -221,10 +221,10 @@ void addExportCommand(CLI::App& app, int& exitCode) {
     ratio->check(numberIn(0.01, 1.0));
     ratio->needs(tiles);
     sub->add_flag("--compress", c->o.encoding.compress,
-                  "smaller files for the web: 16-bit positions on each mesh's box grid and 8-bit "
-                  "normals (KHR_mesh_quantization) in meshopt-compressed buffers "
-                  "(EXT_meshopt_compression; CesiumJS, three.js, Babylon.js and Blender read "
-                  "them); a coordinate is then within half a grid step of the model's (printed)");
+                  "smaller files for the web: positions on one grid for the whole export (16-bit "
+                  "where a mesh fits: KHR_mesh_quantization), 8-bit normals, meshopt-compressed "
+                  "buffers (EXT_meshopt_compression; CesiumJS reads both, three.js with its "
+                  "meshopt decoder); a coordinate moves by at most half the grid step (printed)");
     addQuietFlag(sub, c->quiet);
     sub->callback([c, sub, &exitCode] {
         if (!c->tilesDir.empty()) {
