@@ -426,6 +426,36 @@ TEST_F(TilesTest, VerticalCrsMakesHeightsEllipsoidal) {
     EXPECT_FALSE(fs::exists(bad));
 }
 
+// The entries are exported on worker threads: the same bytes for any count (the fixture's
+// tileset used every core).
+TEST_F(TilesTest, SameTilesetForAnyThreadCount) {
+    for (const char* threads : {"1", "3"}) {
+        SCOPED_TRACE(threads);
+        const std::string out = dir->file(std::string("tiles_threads_") + threads);
+        const auto r =
+            runCli("export -q " + q(model) + " --3dtiles " + q(out) + " --threads " + threads);
+        ASSERT_EQ(r.code, 0) << r.err;
+        std::size_t files = 0;
+        for (const auto& f : fs::recursive_directory_iterator(tiles)) {
+            if (!f.is_regular_file()) continue;
+            const std::string rel = fs::relative(f.path(), tiles).string();
+            EXPECT_EQ(test::slurp(out + "/" + rel), test::slurp(f.path().string())) << rel;
+            ++files;
+        }
+        EXPECT_GT(files, 100u);
+        EXPECT_EQ(std::distance(fs::recursive_directory_iterator(out),
+                                fs::recursive_directory_iterator()),
+                  std::distance(fs::recursive_directory_iterator(tiles),
+                                fs::recursive_directory_iterator()));
+    }
+    EXPECT_EQ(
+        runCli("export -q " + q(model) + " --3dtiles " + q(dir->file("t17")) + " --threads 17")
+            .code,
+        2);
+    EXPECT_EQ(
+        runCli("export -q " + q(model) + " -o " + q(dir->file("t.glb")) + " --threads 2").code, 2);
+}
+
 TEST_F(TilesTest, ErrorsLeaveNoFolder) {
     // --3dtiles with -o, or with a camera: usage errors.
     const std::string out = dir->file("bad");

@@ -22,6 +22,7 @@
 #include "progress.h"
 #include "tiles3d.h"
 #include "ulod.h"
+#include "workers.h"
 
 namespace unilod::cli {
 
@@ -42,6 +43,7 @@ struct ExportCli {
     std::string sourceSrs;  // --s-srs
     std::string verticalSrs;                         // --vertical-crs
     double tileRatio = exporter::kDefaultTileRatio;  // --tile-ratio
+    std::size_t threads = 0;                         // --threads (--3dtiles)
 };
 
 bool parseSize(const std::string& s, double& width, double& height) {
@@ -62,6 +64,7 @@ int runTileset(ExportCli& c) {
     t.verticalSrs = c.verticalSrs;
     t.tileRatio = c.tileRatio;
     t.compress = c.o.encoding.compress;
+    t.threads = c.threads;
     if (c.metric == "paper") t.metric = format::kMetricPaper;
     if (c.metric == "max") t.metric = format::kMetricMax;
     // The folder rule of outputopts.h: an existing non-empty folder only with --overwrite, and
@@ -213,6 +216,12 @@ void addExportCommand(CLI::App& app, int& exitCode) {
                     "height, as SRTM-based DEMs): converted to WGS84 ellipsoidal heights through "
                     "PROJ's geoid grid (an error where PROJ lacks it); default: heights are "
                     "ellipsoidal already")
+        ->needs(tiles);
+    sub->add_option("--threads", c->threads,
+                    "--3dtiles: entries exported at once (default 0: every core, at most " +
+                        std::to_string(engine::WorkerPool::kMaxThreads) +
+                        "); the tileset is the same for any number")
+        ->check(CLI::Range(std::size_t(0), engine::WorkerPool::kMaxThreads))
         ->needs(tiles);
     CLI::Option* ratio = sub->add_option(
         "--tile-ratio", c->tileRatio,

@@ -9,6 +9,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <vector>
 
@@ -19,6 +20,7 @@
 #include "selection.h"
 #include "srs.h"
 #include "ulod.h"
+#include "workers.h"
 
 namespace unilod::exporter {
 
@@ -365,11 +367,9 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
     std::uint32_t metric = 0;
     if (!resolveMetric(reader, so, metric, error)) return false;
     const format::Header& header = reader.header();
+    const std::string srsText = options.sourceSrs.empty() ? header.crsWkt : options.sourceSrs;
     Georeference geo;
-    if (!geo.init(options.sourceSrs.empty() ? header.crsWkt : options.sourceSrs,
-                  options.verticalSrs, options.path, header, error)) {
-        return false;
-    }
+    if (!geo.init(srsText, options.verticalSrs, options.path, header, error)) return false;
     const fs::path temp = folder.tempPath();
     std::error_code ec;
     fs::create_directory(temp / "tiles", ec);
@@ -385,8 +385,7 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
     const std::vector<EntryPlan> plans = planTiles(reader.blocks(), errorOf, options.tileRatio);
     std::vector<Entry> entries(count);
     std::vector<bool> isChild(count, false);
-    format::Block block;
-    std::vector<double> xs, ys, zs, xyz;
+    std::vector<double> cx, cy, cz;  // box corners
     // --compress: one grid (gltfmodel.h QuantizationGrid), sized from the leaves' directory
     // boxes: their 8 corners in the tileset frame, grown by the sagitta of the Earth's curvature
     // over the diagonal, 1 % and 1 m (a tile that does not fit 16 bits keeps float positions).
@@ -394,20 +393,20 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
     for (std::size_t i = 0; i < count && options.compress; ++i) {
         const format::BlockInfo& b = reader.blocks()[i];
         if (b.level != 0) continue;
-        xs.clear(), ys.clear(), zs.clear();
+        cx.clear(), cy.clear(), cz.clear();
         for (int corner = 0; corner < 8; ++corner) {
-            xs.push_back(corner & 1 ? b.maxX : b.minX);
-            ys.push_back(corner & 2 ? b.maxY : b.minY);
-            zs.push_back(corner & 4 ? b.maxZ : b.minZ);
+            cx.push_back(corner & 1 ? b.maxX : b.minX);
+            cy.push_back(corner & 2 ? b.maxY : b.minY);
+            cz.push_back(corner & 4 ? b.maxZ : b.minZ);
         }
-        if (!geo.toEnu(xs, ys, zs)) {
+        if (!geo.toEnu(cx, cy, cz)) {
             error = options.path + ": " + format::blockName(b.col, b.row, b.level) +
                     ": its box does not transform to WGS84 longitude/latitude";
             return false;
         }
         Box box;
         for (int corner = 0; corner < 8; ++corner) {
-            const double p[3] = {xs[corner], ys[corner], zs[corner]};
+            const double p[3] = {cx[corner], cy[corner], cz[corner]};
             box.add(p);
         }
         const double diagonal = std::hypot(b.maxX - b.minX, b.maxY - b.minY);
@@ -418,22 +417,40 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
             std::max(leafHalfExtent, (half + diagonal * diagonal / (8 * 6.35e6)) * 1.01 + 1.0);
     }
     const QuantizationGrid grid(leafHalfExtent);
-    std::vector<double> enu, unsnapped, snapMoves;
+    // Which entries are some entry's child (the roots are the others).
     for (std::size_t i = 0; i < count; ++i) {
         const format::BlockInfo& info = reader.blocks()[i];
+        if (info.firstChild != format::kNoChild)
+            for (std::uint32_t c = 0; c < info.childCount; ++c)
+                isChild[info.firstChild + c] = true;
+    }
+    // The entries on worker threads (options.threads), one entry a task: each task reads its
+    // entry (Reader::readBlock is safe to share), transforms it with a Georeference of its own
+    // (a PROJ transformation is not), writes its tiles and keeps its sums apart; the sums are
+    // added in entry order afterwards, so the output does not depend on the thread count.
+    struct Sums {
+        std::size_t tiles = 0, floatTiles = 0;
+        std::uint64_t vertices = 0, triangles = 0, riverEdges = 0, bytes = 0;
+        double maxMove = 0;
+        std::string error;
+        bool ok = true;
+    };
+    std::vector<Sums> sums(count);
+    engine::WorkerPool pool(options.threads);
+    std::vector<std::unique_ptr<Georeference>> geos;  // free ones, under `mutex`
+    std::mutex mutex;
+    std::size_t done = 0;
+    bool failed = false;
+    const auto exportEntry = [&](std::size_t i, Georeference& g, Sums& sum) {
         Entry& entry = entries[i];
+        const format::BlockInfo& info = reader.blocks()[i];
         entry.firstChild = info.firstChild;
         entry.childCount = info.childCount;
         entry.omitted = plans[i].omitted;
-        if (info.firstChild != format::kNoChild) {
-            for (std::uint32_t c = 0; c < info.childCount; ++c)
-                isChild[info.firstChild + c] = true;
-        }
-        if (entry.omitted) {
-            if (options.progress) options.progress(i + 1, count);
-            continue;
-        }
-        if (!reader.readBlock(i, block, error)) return false;
+        if (entry.omitted) return true;
+        format::Block block;
+        std::vector<double> xs, ys, zs, xyz, enu, unsnapped, snapMoves;
+        if (!reader.readBlock(i, block, sum.error)) return false;
         const std::size_t n = block.vertices.size();
         xs.resize(n);
         ys.resize(n);
@@ -447,10 +464,10 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
             }
             zs[v] = block.vertices[v].z;
         }
-        if (!geo.toEnu(xs, ys, zs)) {
-            error = options.path + ": " + format::blockName(block.col, block.row, block.level) +
-                    ": a vertex does not transform to WGS84 longitude/latitude" +
-                    (geo.vertical() ? " and ellipsoidal height (outside the geoid grid?)" : "");
+        if (!g.toEnu(xs, ys, zs)) {
+            sum.error = options.path + ": " + format::blockName(block.col, block.row, block.level) +
+                        ": a vertex does not transform to WGS84 longitude/latitude" +
+                        (g.vertical() ? " and ellipsoidal height (outside the geoid grid?)" : "");
             return false;
         }
         if (options.compress) {
@@ -500,25 +517,68 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
             const std::string name = std::to_string(i) + "-" + std::to_string(l);
             addLevelMesh(model, block, l, xyz, centre, name, encoding, materials, counts);
             if (options.compress) {
-                const double moved = snapMoves[level.vertexCount - 1];
-                summary.maxQuantizationError = std::max(summary.maxQuantizationError, moved);
-                summary.floatTiles += counts.shortPositions ? 0 : 1;
+                sum.maxMove = std::max(sum.maxMove, snapMoves[level.vertexCount - 1]);
+                sum.floatTiles += counts.shortPositions ? 0 : 1;
             }
             std::string glb;
             if (!writeGlb(model, encoding, glb)) {
-                error = options.outDir + ": cannot serialize the glTF tile " + name;
+                sum.error = options.outDir + ": cannot serialize the glTF tile " + name;
                 return false;
             }
             t.uri = "tiles/" + name + ".glb";
             t.hasContent = true;
-            if (!folder.writeInside(t.uri, glb, error)) return false;
-            summary.bytes += glb.size();
-            summary.vertices += counts.vertices;
-            summary.triangles += counts.triangles;
-            summary.riverEdges += counts.riverEdges;
-            ++summary.tiles;
+            {
+                const std::lock_guard lock(mutex);  // AtomicFile is not shared-safe
+                if (!folder.writeInside(t.uri, glb, sum.error)) return false;
+            }
+            sum.bytes += glb.size();
+            sum.vertices += counts.vertices;
+            sum.triangles += counts.triangles;
+            sum.riverEdges += counts.riverEdges;
+            ++sum.tiles;
         }
-        if (options.progress) options.progress(i + 1, count);
+        return true;
+    };
+    pool.run(count, [&](std::size_t i) {
+        std::unique_ptr<Georeference> g;
+        {
+            const std::lock_guard lock(mutex);
+            if (failed) return;  // a task failed: the export stops
+            if (!geos.empty()) {
+                g = std::move(geos.back());
+                geos.pop_back();
+            }
+        }
+        Sums& sum = sums[i];
+        if (!g) {
+            g = std::make_unique<Georeference>();
+            if (!g->init(srsText, options.verticalSrs, options.path, header, sum.error)) {
+                sum.ok = false;
+            }
+        }
+        if (sum.ok) sum.ok = exportEntry(i, *g, sum);
+        const std::lock_guard lock(mutex);
+        geos.push_back(std::move(g));
+        failed = failed || !sum.ok;
+        ++done;
+        if (options.progress) options.progress(done, count);
+    });
+    for (const Sums& sum : sums) {
+        if (!sum.ok) {
+            error = sum.error;
+            return false;
+        }
+        summary.tiles += sum.tiles;
+        summary.floatTiles += sum.floatTiles;
+        summary.vertices += sum.vertices;
+        summary.triangles += sum.triangles;
+        summary.riverEdges += sum.riverEdges;
+        summary.bytes += sum.bytes;
+        summary.maxQuantizationError = std::max(summary.maxQuantizationError, sum.maxMove);
+    }
+    if (failed) {
+        error = options.path + ": the export stopped";  // not reached: a failed task has its error
+        return false;
     }
     summary.entries = count;
 

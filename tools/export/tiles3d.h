@@ -41,10 +41,12 @@
 //   no-op (without it an orthometric DEM sits the local geoid undulation, -107 m to +85 m, off).
 // - asset: version "1.1", generator, tilesetVersion; tileset `extras`: source path, CRS WKT,
 //   metric, centre longitude/latitude and the layout above in words.
+// Entries are exported on worker threads (TilesetOptions::threads), the same bytes for any count.
 // The folder appears whole or not at all (format::AtomicFile::openFolder: a missing or empty
 // folder; the CLI moves an old one aside for --overwrite).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -64,6 +66,7 @@ struct TilesetOptions {
     // below it in its chain (tiles3d.cpp planTiles); 1: every level a client draws at rest.
     double tileRatio = kDefaultTileRatio;
     bool compress = false;  // --compress: quantized, meshopt-compressed content (gltfmodel.h)
+    std::size_t threads = 0;  // --threads: entries exported at once (0: every core, at most 16)
     std::function<void(std::size_t, std::size_t)> progress;  // entries done, total
 };
 
