@@ -1,6 +1,7 @@
 // Reading `unilod export --compress` output back (test_cli_export, test_cli_tiles): the .glb's
 // meshopt-compressed buffer views decoded with meshoptimizer's decoders into the plain layout
-// tinygltf loads, and a compressed level compared with the same level exported without
+// tinygltf loads (meshopt's octahedral filter undone), and a compressed level compared with the
+// same level exported without
 // --compress: the same vertices (each within the reported bound), the same triangles with the
 // same winding, the same river edges, normals within the 8-bit rounding.
 #pragma once
@@ -68,6 +69,13 @@ inline std::string decodeMeshoptGlb(const std::string& glb) {
             rc = meshopt_decodeIndexSequence(out, count, stride, in, length);
         EXPECT_EQ(rc, 0) << "mode " << mode;
         if (rc != 0) return "";
+        const std::string filter = e.value("filter", "NONE");
+        if (filter == "OCTAHEDRAL") {
+            EXPECT_TRUE(mode == "ATTRIBUTES" && (stride == 4 || stride == 8));
+            meshopt_decodeFilterOct(out, count, stride);
+        } else {
+            EXPECT_EQ(filter, "NONE");
+        }
         v.erase("extensions");
         v["buffer"] = 0;
     }

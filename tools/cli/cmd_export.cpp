@@ -229,11 +229,12 @@ void addExportCommand(CLI::App& app, int& exitCode) {
         "triangles of the tile below it (default 0.5; 1: every level a client draws at rest)");
     ratio->check(numberIn(0.01, 1.0));
     ratio->needs(tiles);
-    sub->add_flag("--compress", c->o.encoding.compress,
-                  "smaller files for the web: positions on one grid for the whole export (16-bit "
-                  "where a mesh fits: KHR_mesh_quantization), 8-bit normals, meshopt-compressed "
-                  "buffers (EXT_meshopt_compression; CesiumJS reads both, three.js with its "
-                  "meshopt decoder); a coordinate moves by at most half the grid step (printed)");
+    sub->add_flag(
+        "--compress", c->o.encoding.compress,
+        "smaller files for the web: positions on one grid for the whole export (16-bit "
+        "where a mesh fits: KHR_mesh_quantization), 8-bit octahedral normals, meshopt-compressed "
+        "buffers (EXT_meshopt_compression; CesiumJS reads both, three.js with its "
+        "meshopt decoder); a coordinate moves by at most half the grid step (printed)");
     addQuietFlag(sub, c->quiet);
     sub->callback([c, sub, &exitCode] {
         if (!c->tilesDir.empty()) {

@@ -199,7 +199,7 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
         Value::Object& ax = model.asset.extras.Get<Value::Object>();
         ax["compression"] = Value(std::string(
             "positions on one grid (16-bit with KHR_mesh_quantization where a node fits, else "
-            "float), 8-bit normals, EXT_meshopt_compression"));
+            "float), 8-bit octahedral normals (meshopt filter), EXT_meshopt_compression"));
         ax["quantization_step_m"] = Value(grid.step());
         ax["max_quantization_error_m"] = Value(summary.maxQuantizationError);
     }

@@ -643,7 +643,7 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
     if (options.compress) {
         tileset["extras"]["compression"] =
             "positions on one grid (16-bit with KHR_mesh_quantization where a tile fits, else "
-            "float), 8-bit normals, EXT_meshopt_compression";
+            "float), 8-bit octahedral normals (meshopt filter), EXT_meshopt_compression";
         tileset["extras"]["quantization_step_m"] = grid.step();
         tileset["extras"]["max_quantization_error_m"] = summary.maxQuantizationError;
     }
