@@ -191,40 +191,47 @@ bool runCapture(const CaptureOptions& options, CaptureResult& result, std::strin
     }
 
     std::error_code ec;
-    std::filesystem::create_directories(options.outDir, ec);
+    const bool created = std::filesystem::create_directories(options.outDir, ec);
     if (ec) {
         error = options.outDir + ": cannot create the output folder: " + ec.message();
         return false;
     }
+    // A folder this run created goes again when nothing could be written into it.
+    struct RemoveCreated {
+        std::string dir;
+        bool keep = false;
+        ~RemoveCreated() {
+            std::error_code ignored;
+            if (!keep && !dir.empty()) std::filesystem::remove(dir, ignored);  // only if empty
+        }
+    } removeCreated{created ? options.outDir : std::string()};
     const std::filesystem::path dir(options.outDir);
-    std::vector<std::string> written;
-    auto cleanup = [&] {
-        for (const std::string& f : written) std::filesystem::remove(f, ec);
-    };
-    // Frames replace those of an earlier capture, never a file this run read.
+    // Frames replace those of an earlier capture, never a file this run read; all of them or
+    // none (a failure leaves the old frames as they were: AtomicFileSet).
     format::OutputOptions output;
     output.replace = true;
     output.inputs = options.inputs;
     output.inputs.push_back(options.path);
+    format::AtomicFileSet files;
+    std::string png;
     for (std::size_t i = 0; i < result.frames.size(); ++i) {
         CaptureFrame& f = result.frames[i];
         char name[32];
         std::snprintf(name, sizeof name, "frame_%04zu", i);
         f.pngPath = (dir / (std::string(name) + ".png")).string();
         f.jsonPath = (dir / (std::string(name) + ".json")).string();
-        if (!format::writePng(f.pngPath, options.width, options.height, images[i], output, error)) {
-            cleanup();
+        if (!format::encodePng(options.width, options.height, images[i], png)) {
+            error = f.pngPath + ": cannot encode the PNG";
             return false;
         }
-        written.push_back(f.pngPath);
+        std::vector<std::uint8_t>().swap(images[i]);  // encoded: the pixels are not needed
+        if (!files.add(f.pngPath, png, output, error)) return false;
         const nlohmann::json json =
             frameJson(options, options.cameras[i], f, metric, result.deviceName);
-        if (!format::writeFileAtomically(f.jsonPath, jsonText(json, 2) + "\n", output, error)) {
-            cleanup();
-            return false;
-        }
-        written.push_back(f.jsonPath);
+        if (!files.add(f.jsonPath, jsonText(json, 2) + "\n", output, error)) return false;
     }
+    if (!files.commit(error)) return false;
+    removeCreated.keep = true;
     return true;
 }
 

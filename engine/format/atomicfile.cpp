@@ -358,6 +358,53 @@ bool AtomicFile::commit(std::string& error) {
     return true;
 }
 
+bool AtomicFileSet::add(const std::string& path, std::string_view data,
+                        const OutputOptions& options, std::string& error) {
+    auto file = std::make_unique<AtomicFile>();
+    if (!file->open(path, options, error) || !file->write(data, error)) return false;
+    files_.push_back(std::move(file));
+    return true;
+}
+
+bool AtomicFileSet::commit(std::string& error) {
+    struct Moved {
+        std::string path, aside;  // aside: where the old file went ("" when there was none)
+    };
+    std::vector<Moved> moved;
+    const auto rollback = [&] {
+        for (auto m = moved.rbegin(); m != moved.rend(); ++m) {
+            if (m->aside.empty())
+                ::unlink(m->path.c_str());
+            else
+                ::rename(m->aside.c_str(), m->path.c_str());
+        }
+        files_.clear();  // the temporaries not moved yet
+    };
+    for (std::unique_ptr<AtomicFile>& file : files_) {
+        Moved m{file->path(), ""};
+        struct stat st {};
+        if (::lstat(m.path.c_str(), &st) == 0) {
+            m.aside = m.path + ".old-" + std::to_string(::getpid());
+            if (::rename(m.path.c_str(), m.aside.c_str()) != 0) {
+                error =
+                    m.path + ": cannot move the old file aside to " + m.aside + ": " + errnoText();
+                rollback();
+                return false;
+            }
+        }
+        if (!file->commit(error)) {
+            if (!m.aside.empty()) ::rename(m.aside.c_str(), m.path.c_str());
+            rollback();
+            return false;
+        }
+        moved.push_back(std::move(m));
+    }
+    for (const Moved& m : moved)
+        if (!m.aside.empty()) ::unlink(m.aside.c_str());
+    files_.clear();
+    return true;
+}
+
 bool writeFileAtomically(const std::string& path, std::string_view data,
                          const OutputOptions& options, std::string& error) {
     AtomicFile file;

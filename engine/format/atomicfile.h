@@ -31,6 +31,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -95,6 +96,25 @@ private:
     int fd_ = -1;
     bool folder_ = false, unsynced_ = false;
     std::uint64_t offset_ = 0, bytes_ = 0;
+};
+
+// Several files that replace their old versions together or not at all (capture's frames with
+// --overwrite): add() writes each file to its temporary (AtomicFile; nothing at PATH changes);
+// commit() moves them into place one by one, each old file first renamed aside to
+// PATH.old-<pid>, and where a move fails it moves back what it had moved, so that a failed set
+// leaves every old file as it was; the old files are removed after the last move. A set
+// destroyed before commit() removes its temporaries.
+class AtomicFileSet {
+public:
+    // Opens PATH's temporary (AtomicFile::open: the same checks) and writes `data` to it.
+    bool add(const std::string& path, std::string_view data, const OutputOptions& options,
+             std::string& error);
+    // False with `error` naming the file that failed; the old files are back then.
+    bool commit(std::string& error);
+    std::size_t size() const { return files_.size(); }
+
+private:
+    std::vector<std::unique_ptr<AtomicFile>> files_;
 };
 
 // The checks open() makes before creating anything (also for a command that wants to fail before

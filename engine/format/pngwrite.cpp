@@ -39,12 +39,18 @@ bool encode(std::string& out, std::uint32_t width, std::uint32_t height, const s
 
 }  // namespace
 
+bool encodePng(std::uint32_t width, std::uint32_t height, const std::vector<std::uint8_t>& rgba,
+               std::string& png) {
+    assert(rgba.size() == std::size_t(width) * height * 4);
+    png.clear();
+    return encode(png, width, height, rgba.data());
+}
+
 bool writePng(const std::string& path, std::uint32_t width, std::uint32_t height,
               const std::vector<std::uint8_t>& rgba, const OutputOptions& output,
               std::string& error) {
-    assert(rgba.size() == std::size_t(width) * height * 4);
     std::string bytes;
-    if (!encode(bytes, width, height, rgba.data())) {
+    if (!encodePng(width, height, rgba, bytes)) {
         error = path + ": cannot encode the PNG";
         return false;
     }

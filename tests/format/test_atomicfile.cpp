@@ -3,7 +3,8 @@
 // the same new file: exactly one wins; the output is never an input (also through a hard link or
 // one moved there meanwhile); stale temporaries of dead writers are removed, living ones kept; a
 // failing write (RLIMIT_FSIZE in a child: EFBIG, as a full disk gives ENOSPC) is reported with
-// the file and strerror and leaves nothing; non-regular inputs are refused without opening them.
+// the file and strerror and leaves nothing; non-regular inputs are refused without opening them;
+// a set of files (AtomicFileSet) replaces its old files all together or not at all.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/resource.h>
@@ -13,6 +14,7 @@
 
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <set>
 
 #include "atomicfile.h"
@@ -259,6 +261,60 @@ TEST(AtomicFile, WriteInsideAFolderSyncedOnceAtCommit) {
     ASSERT_TRUE(file.open(dir.file("f"), kNoReplace, error)) << error;
     EXPECT_FALSE(file.writeInside("z", "1", error));
     EXPECT_EQ(names(dir), std::set<std::string>{"tiles"});
+}
+
+// A set replaces its old files together or not at all. The second file's move is made to fail
+// in the middle of the commit: its old file cannot be moved aside because a non-empty folder
+// holds the name it would go to. The first file, already moved into place, goes back.
+TEST(AtomicFileSet, FailedCommitPutsEveryOldFileBack) {
+    TempDir dir("set");
+    const std::string a = dir.file("a.txt"), b = dir.file("b.txt"), c = dir.file("c.txt");
+    for (const std::string& p : {a, b}) {
+        std::string error;
+        ASSERT_TRUE(writeFileAtomically(p, "old " + p, kNoReplace, error)) << error;
+    }
+    const std::string blocker = b + ".old-" + std::to_string(getpid());
+    fs::create_directory(blocker);
+    std::ofstream(blocker + "/x") << "x";
+    {
+        AtomicFileSet set;
+        std::string error;
+        ASSERT_TRUE(set.add(a, "new a", kReplace, error)) << error;
+        ASSERT_TRUE(set.add(b, "new b", kReplace, error)) << error;
+        ASSERT_TRUE(set.add(c, "new c", kReplace, error)) << error;
+        EXPECT_EQ(slurp(a), "old " + a);  // nothing moves before commit()
+        EXPECT_FALSE(set.commit(error));
+        EXPECT_NE(error.find(b), std::string::npos) << error;
+    }
+    EXPECT_EQ(slurp(a), "old " + a);
+    EXPECT_EQ(slurp(b), "old " + b);
+    EXPECT_FALSE(fs::exists(c));
+    const std::string blockerName = fs::path(blocker).filename().string();
+    EXPECT_EQ(names(dir), (std::set<std::string>{"a.txt", "b.txt", blockerName}));
+    // Without the blocker the same set commits, and no old file is left aside.
+    fs::remove_all(blocker);
+    AtomicFileSet set;
+    std::string error;
+    ASSERT_TRUE(set.add(a, "new a", kReplace, error)) << error;
+    ASSERT_TRUE(set.add(b, "new b", kReplace, error)) << error;
+    ASSERT_TRUE(set.add(c, "new c", kReplace, error)) << error;
+    ASSERT_TRUE(set.commit(error)) << error;
+    EXPECT_EQ(slurp(a), "new a");
+    EXPECT_EQ(slurp(b), "new b");
+    EXPECT_EQ(slurp(c), "new c");
+    EXPECT_EQ(names(dir), (std::set<std::string>{"a.txt", "b.txt", "c.txt"}));
+}
+
+// A set destroyed before commit() leaves no temporary and no file.
+TEST(AtomicFileSet, UncommittedSetLeavesNothing) {
+    TempDir dir("setdrop");
+    {
+        AtomicFileSet set;
+        std::string error;
+        ASSERT_TRUE(set.add(dir.file("a.txt"), "a", kNoReplace, error)) << error;
+        EXPECT_EQ(names(dir).size(), 1u);  // the temporary
+    }
+    EXPECT_TRUE(names(dir).empty());
 }
 
 TEST(CheckInputFile, RefusesWhatIsNotARegularFileWithoutOpeningIt) {

@@ -208,6 +208,38 @@ TEST_F(CliOutputs, StaleTemporariesOfKilledRunsRemoved) {
     fs::remove(built);
 }
 
+// capture --overwrite replaces the frames all together or not at all: here the second frame's
+// JSON cannot be written (a folder holds its name), and the first frame, which could, must not
+// replace its old file either (the frames were written one by one and the written ones removed
+// on failure, which lost the old frame_0000 files).
+TEST_F(CliOutputs, FailedCaptureOverwriteKeepsEveryOldFrame) {
+    const std::string frames = dir->file("keepframes");
+    fs::create_directories(frames + "/frame_0001.json/blocker");
+    std::ofstream(frames + "/frame_0000.png") << "old png 0";
+    std::ofstream(frames + "/frame_0000.json") << "old json 0";
+    std::ofstream(frames + "/frame_0001.png") << "old png 1";
+    const std::string path = dir->file("twoframes.json");
+    std::ofstream(path) << R"({"keyframes": [{"eye": [0, 0, 3000], "yaw": 0, "pitch": -60},
+                                              {"eye": [0, 0, 2500], "yaw": 10, "pitch": -60}]})";
+    const auto r = runCli("capture -q " + q(model) + " --path " + q(path) +
+                          " --frames 2 --size 32x24 --overwrite -o " + q(frames));
+    EXPECT_EQ(r.code, 1) << r.out << r.err;
+    EXPECT_NE(r.err.find("frame_0001.json"), std::string::npos) << r.err;
+    EXPECT_EQ(slurp(frames + "/frame_0000.png"), "old png 0");
+    EXPECT_EQ(slurp(frames + "/frame_0000.json"), "old json 0");
+    EXPECT_EQ(slurp(frames + "/frame_0001.png"), "old png 1");
+    EXPECT_EQ(entries(frames, ""), (std::set<std::string>{"frame_0000.json", "frame_0000.png",
+                                                          "frame_0001.json", "frame_0001.png"}));
+    // Once the name is free, the same capture replaces the old frames.
+    fs::remove_all(frames + "/frame_0001.json");
+    const auto ok = runCli("capture -q " + q(model) + " --path " + q(path) +
+                           " --frames 2 --size 32x24 --overwrite -o " + q(frames));
+    ASSERT_EQ(ok.code, 0) << ok.err;
+    EXPECT_EQ(slurp(frames + "/frame_0000.png").rfind("\x89PNG", 0), 0u);
+    EXPECT_EQ(entries(frames, ""), (std::set<std::string>{"frame_0000.json", "frame_0000.png",
+                                                          "frame_0001.json", "frame_0001.png"}));
+}
+
 TEST_F(CliOutputs, ViewScreenshotRefusesAnExistingFileBeforeAWindowOpens) {
     // No display is needed: the rule is checked before the window (and exit 1, not a GLFW error).
     const std::string shot = dir->file("shot.png");
