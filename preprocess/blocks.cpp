@@ -515,6 +515,99 @@ std::vector<RiverPiece> BlockSource::cutAtOutline(const std::vector<RiverPiece>&
         }
         return false;
     };
+    // A vertex a river may have: inside a full lattice square, at least the margin away from
+    // the outline, with a finite altitude.
+    auto vertexOk = [&](const RiverVertex& v) {
+        return std::isfinite(v.z) && vertexInside(v) && !segmentNear(v, v);
+    };
+    // The point at parameter t of p -> q on the 1 mm grid, with its DEM altitude.
+    auto pointAt = [&](const RiverVertex& p, const RiverVertex& q, double t) {
+        RiverVertex v;
+        v.x = std::round((p.x + t * (q.x - p.x)) * 1000.0) / 1000.0;
+        v.y = std::round((p.y + t * (q.y - p.y)) * 1000.0) / 1000.0;
+        v.z = dem.sample(v.x, v.y);
+        return v;
+    };
+    auto same = [](const RiverVertex& a, const RiverVertex& b) { return a.x == b.x && a.y == b.y; };
+    // The parts of segment p -> q that stay inside full lattice squares and the margin away from
+    // the outline, in order from p: the parameter intervals within the margin of each outline edge
+    // near it (the distance to an edge is convex along the segment: its minimum, then each side
+    // bisected), their complement, each part's middle inside the domain, its ends pulled 2 cm
+    // further in (grid rounding) and then checked exactly as any vertex and segment (pulled in
+    // further, up to 2^8 times as far, where the check fails). A part that starts at p starts
+    // exactly at p, one that ends at q exactly at q.
+    std::vector<std::pair<RiverVertex, RiverVertex>> parts;
+    auto safeParts = [&](const RiverVertex& p, const RiverVertex& q) {
+        parts.clear();
+        const double len = std::hypot(q.x - p.x, q.y - p.y);
+        if (!(len > 0)) return;
+        double fi0, fj0, fi1, fj1;
+        lattice(p, fi0, fj0);
+        lattice(q, fi1, fj1);
+        const int ilo = int(std::floor(std::min(fi0, fi1))) - 1,
+                  ihi = int(std::floor(std::max(fi0, fi1))) + 1;
+        const int jlo = int(std::floor(std::min(fj0, fj1))) - 1,
+                  jhi = int(std::floor(std::max(fj0, fj1))) + 1;
+        std::vector<std::pair<double, double>> unsafe;
+        for (int j = std::max(0, jlo); j <= std::min(nodesY_ - 1, jhi); ++j) {
+            for (int i = std::max(0, ilo); i <= std::min(nodesX_ - 1, ihi); ++i) {
+                const int cand[4][4] = {
+                    {i, j, i + 1, j}, {i, j, i, j + 1}, {i, j, i + 1, j + 1}, {i + 1, j, i, j + 1}};
+                for (const auto& e : cand) {
+                    if (!outlineEdge(e[0], e[1], e[2], e[3])) continue;
+                    double u[2], w[2];
+                    node(e[0], e[1], u);
+                    node(e[2], e[3], w);
+                    const auto f = [&](double t) {  // squared distance of P(t) to the edge
+                        const double m[2] = {p.x + t * (q.x - p.x), p.y + t * (q.y - p.y)};
+                        return segmentSegmentDistance2(m, m, u, w);
+                    };
+                    double lo = 0, hi = 1;
+                    for (int it = 0; it < 100; ++it) {  // the minimum (ternary search)
+                        const double a = lo + (hi - lo) / 3, b = hi - (hi - lo) / 3;
+                        (f(a) < f(b) ? hi : lo) = f(a) < f(b) ? b : a;
+                    }
+                    const double tm = 0.5 * (lo + hi);
+                    if (!(f(tm) < margin2)) continue;
+                    double l0 = 0, l1 = tm, r0 = tm, r1 = 1;  // bisect each side
+                    for (int it = 0; it < 60; ++it) {
+                        const double ml = 0.5 * (l0 + l1), mr = 0.5 * (r0 + r1);
+                        (f(ml) < margin2 ? l1 : l0) = ml;
+                        (f(mr) < margin2 ? r0 : r1) = mr;
+                    }
+                    unsafe.emplace_back(f(0) < margin2 ? 0.0 : l0, f(1) < margin2 ? 1.0 : r1);
+                }
+            }
+        }
+        std::sort(unsafe.begin(), unsafe.end());
+        std::vector<std::pair<double, double>> safe;
+        double from = 0;
+        bool open = true;  // [from, ...) is not covered yet
+        for (const auto& [a, b] : unsafe) {
+            if (open && a > from) safe.emplace_back(from, a);
+            if (!open || b > from) from = std::max(from, b);
+            open = from < 1;
+            if (!open) break;
+        }
+        if (open) safe.emplace_back(from, 1.0);
+        const double pad = 2 * kOutlineMargin / len;
+        for (const auto& [a, b] : safe) {
+            RiverVertex middle = pointAt(p, q, 0.5 * (a + b));
+            if (!vertexInside(middle)) continue;  // a stretch outside the domain
+            for (int attempt = 0; attempt <= 8; ++attempt) {
+                const double grow = pad * double(1 << attempt);
+                const double ta = a == 0 ? 0 : a + grow, tb = b == 1 ? 1 : b - grow;
+                if (!(ta < tb)) break;
+                const RiverVertex va = ta == 0 ? p : pointAt(p, q, ta);
+                const RiverVertex vb = tb == 1 ? q : pointAt(p, q, tb);
+                if (same(va, vb)) break;
+                if (vertexOk(va) && vertexOk(vb) && !segmentNear(va, vb)) {
+                    parts.emplace_back(va, vb);
+                    break;
+                }
+            }
+        }
+    };
     std::vector<RiverPiece> out;
     for (const RiverPiece& piece : pieces) {
         RiverPiece run;
@@ -522,15 +615,25 @@ std::vector<RiverPiece> BlockSource::cutAtOutline(const std::vector<RiverPiece>&
             if (run.size() >= 2) out.push_back(run);
             run.clear();
         };
-        for (std::size_t k = 0; k < piece.size(); ++k) {
+        bool previousOk = !piece.empty() && vertexOk(piece[0]);
+        for (std::size_t k = 1; k < piece.size(); ++k) {
+            const RiverVertex& u = piece[k - 1];
             const RiverVertex& v = piece[k];
-            const bool ok = vertexInside(v) && !segmentNear(v, v);
-            if (!ok) {
-                flush();
-                continue;
+            const bool ok = vertexOk(v);
+            if (previousOk && ok && !segmentNear(u, v)) {
+                parts.assign(1, {u, v});
+            } else {
+                safeParts(u, v);  // cut where the segment leaves the domain or nears its outline
             }
-            if (!run.empty() && segmentNear(run.back(), v)) flush();
-            run.push_back(v);
+            for (const auto& [a, b] : parts) {
+                if (run.empty() || !same(run.back(), a)) {
+                    flush();
+                    run.push_back(a);
+                }
+                run.push_back(b);
+            }
+            if (!run.empty() && !same(run.back(), v)) flush();
+            previousOk = ok;
         }
         flush();
     }

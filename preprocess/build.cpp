@@ -109,6 +109,10 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
 
     // The block size clamps to the DEM (splitIntoBlocks); the default one also to the exact grid.
     int blockSize = o.blockSize;
+    if (!checkCellsFitExactGrid(dem, o.stride, error)) {
+        error = "DEM '" + o.demPath + "': " + error;
+        return false;
+    }
     if (blockSize == 0) {
         blockSize = automaticBlockSize(dem, o.stride);
     } else if (!checkBlockFitsExactGrid(dem, o.stride, blockSize, error)) {

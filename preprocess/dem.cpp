@@ -33,6 +33,8 @@ namespace {
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 // A working CRS whose scale at the DEM's centre is further than this from 1 gets a warning.
 constexpr double kGridScaleWarning = 0.02;
+// The UTM zone `build` chooses is refused where its scale is further than this from 1.
+constexpr double kGridScaleRefusal = 0.10;
 
 // GDAL's C option lists want a NULL-terminated char* array.
 struct ArgList {
@@ -142,6 +144,29 @@ double gridScale(const OGRSpatialReference& srs, double x, double y) {
     const double kx = kStep / ground(1), ky = kStep / ground(2);
     if (!std::isfinite(kx) || !std::isfinite(ky)) return 0;
     return std::fabs(kx - 1) > std::fabs(ky - 1) ? kx : ky;
+}
+
+// The scale of `target` (gridScale) furthest from 1 over nine points of the raster's extent (its
+// corners, edge middles and centre, given in `src`); 0 when one of them does not transform (off
+// the target's area of use) or has no scale.
+double extentGridScale(const OGRSpatialReference& src, const OGRSpatialReference& target,
+                       const double gt[6], int w, int h) {
+    OGRSpatialReference from = src, to = target;
+    from.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    to.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    const std::unique_ptr<OGRCoordinateTransformation> ct(
+        OGRCreateCoordinateTransformation(&from, &to));
+    if (!ct) return 0;
+    double worst = 1;
+    for (int i = 0; i < 9; ++i) {
+        double x = 0, y = 0;
+        gridToCrs(gt, 0.5 * (i % 3) * w, 0.5 * (i / 3) * h, x, y);
+        if (!ct->Transform(1, &x, &y) || !std::isfinite(x) || !std::isfinite(y)) return 0;
+        const double k = gridScale(target, x, y);
+        if (!(k > 0)) return 0;
+        if (std::fabs(k - 1) > std::fabs(worst - 1)) worst = k;
+    }
+    return worst;
 }
 
 }  // namespace
@@ -421,6 +446,67 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
                              "metres reproject with --t-srs EPSG:" +
                              std::to_string(utmEpsgFor(lon, lat)));
             }
+        }
+    }
+
+    // A reprojection must not stretch the terrain: the UTM zone chosen for a geographic or
+    // non-metre DEM is refused where its scale is more than 10 % off anywhere on the DEM (a
+    // continent or the world in one zone: 1.6e7 m tall models and cut block sizes before), and
+    // any target, --t-srs too, gets the scale warning beyond 2 %.
+    if (warp && srcSrs != nullptr && target.IsProjected() && !srcSrs->IsSame(&target)) {
+        double k = extentGridScale(*srcSrs, target, gt, ds->GetRasterXSize(), ds->GetRasterYSize());
+        const bool chosen = options.targetSrs.empty();
+        if (chosen && k > 0 && srcSrs->IsGeographic()) {
+            // The UTM zone's scale on the sphere, 1 / sqrt(1 - (cos(lat) sin(dlon))^2), at the
+            // DEM's point furthest from the zone's central meridian and nearest the equator: the
+            // nine points above miss a DEM reaching around the globe, where the transverse
+            // Mercator folds over (dlon beyond 90 degrees) yet gives finite numbers.
+            const double meridian = target.GetProjParm(SRS_PP_CENTRAL_MERIDIAN, 0.0);
+            double lat0 = INFINITY, lat1 = -INFINITY, far = 0;
+            for (int corner = 0; corner < 4; ++corner) {
+                double lon = 0, lat = 0;
+                gridToCrs(gt, corner % 2 == 0 ? 0 : ds->GetRasterXSize(),
+                          corner < 2 ? 0 : ds->GetRasterYSize(), lon, lat);
+                lat0 = std::min(lat0, lat);
+                lat1 = std::max(lat1, lat);
+                double d = std::fabs(std::remainder(lon - meridian, 360.0));
+                far = std::max(far, d);
+            }
+            const double rad = 3.14159265358979323846 / 180;
+            const double nearest =
+                lat0 <= 0 && lat1 >= 0 ? 0 : std::min(std::fabs(lat0), std::fabs(lat1));
+            const double b = std::cos(nearest * rad) * std::sin(std::min(far, 90.0) * rad);
+            const double sphere = b < 1 ? 1 / std::sqrt(1 - b * b) : 0;
+            k = sphere > 0 && std::fabs(sphere - 1) > std::fabs(k - 1) ? sphere
+                                                                       : (sphere > 0 ? k : 0);
+        }
+        char text[64];
+        std::snprintf(text, sizeof text, "%.3f", k);
+        if (chosen && !(k > 0 && std::fabs(k - 1) <= kGridScaleRefusal)) {
+            double lon = 0, lat = 0;
+            const bool centre =
+                centreLonLat(*srcSrs, gt, ds->GetRasterXSize(), ds->GetRasterYSize(), lon, lat);
+            char centreText[128] = "";
+            if (centre)
+                std::snprintf(centreText, sizeof centreText,
+                              " (e.g. '+proj=aeqd +lat_0=%.4f +lon_0=%.4f +datum=WGS84', "
+                              "centred on it)",
+                              lat, lon);
+            error = "DEM '" + path + "': too large for one UTM zone: '" +
+                    crsDisplayName(toWkt(target)) + "' " +
+                    (k > 0 ? std::string("has a scale of ") + text + " at its edges"
+                           : std::string("cannot hold its extent")) +
+                    "; give a projected CRS in metres that fits its whole extent with --t-srs" +
+                    centreText;
+            return false;
+        }
+        if (options.warn && k > 0 && std::fabs(k - 1) > kGridScaleWarning) {
+            options.warn(
+                "DEM '" + path + "': the CRS it is reprojected to, '" +
+                crsDisplayName(toWkt(target)) + "', has a scale of " + text +
+                " on the DEM: horizontal distances are off by up to that factor "
+                "against the heights (slopes, errors, the rendered shape)" +
+                (chosen ? "; a CRS that fits its extent better can be given with --t-srs" : ""));
         }
     }
 

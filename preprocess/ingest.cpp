@@ -95,7 +95,8 @@ bool ingest(const IngestOptions& o, Ingested& data, std::string& error) {
     // (invented altitudes) and holes kept inside the domain are worth a warning.
     if (data.nodata.filledCells > 0 || data.nodata.keptHoles > 0) {
         warn("DEM '" + o.demPath + "': " + std::to_string(data.nodata.nodataCells) +
-             " nodata cells (nodata value, NaN or infinite); " + std::to_string(data.nodata.holes) +
+             " nodata cells (nodata value, NaN or infinite); " +
+             std::to_string(data.nodata.holes - data.nodata.keptHoles) +
              " interior holes of at most " + std::to_string(kDefaultMaxFillCells) + " cells (" +
              std::to_string(data.nodata.filledCells) +
              " cells) filled from their rims; the rest is outside the domain (" +
@@ -113,10 +114,7 @@ bool ingest(const IngestOptions& o, Ingested& data, std::string& error) {
     warnDegenerateLines(rivers, o);
     if (rivers.empty()) {
         warn("rivers '" + o.riversPath + "': no line features: building a terrain-only model");
-    } else if (!anyVertexOnDem(rivers, dem)) {
-        error = "rivers '" + o.riversPath + "': no river vertex lies on the DEM '" + o.demPath +
-                "' (a CRS mistake? try --s-srs or check the data)";
-        return false;
+        return true;
     }
     // River cleaning (DESIGN.md "Point set"): clip to the DEM, snap, split at crossings, drop
     // duplicates, zero-length segments and short rivers, so that the constrained triangulation
@@ -125,6 +123,18 @@ bool ingest(const IngestOptions& o, Ingested& data, std::string& error) {
     cleaning.minRiverLength = o.minRiverLength;
     data.rivers = cleanRivers(rivers, dem, cleaning, data.cleaning);
     const RiverCleaningStats& s = data.cleaning;
+    if (data.rivers.empty()) {
+        // Nothing on the valid DEM: with no vertex on it either, most likely the wrong CRS.
+        if (!anyVertexOnDem(rivers, dem) && s.segmentsCut == 0) {
+            error = "rivers '" + o.riversPath + "': no river vertex lies on the DEM '" + o.demPath +
+                    "' (a CRS mistake? try --s-srs or check the data)";
+            return false;
+        }
+        warn("rivers '" + o.riversPath + "': no river is left on the valid DEM '" + o.demPath +
+             "' after cleaning (" + std::to_string(s.shortLinesDropped) +
+             " lines shorter than --min-river-length, the rest off the DEM or over nodata): "
+             "building a terrain-only model");
+    }  // rivers cut at the DEM's edge or at nodata: counted in the summary, no warning (usual)
     if (s.crossingsSplit + s.selfCrossings + s.touchesSplit > 0) {
         warn("rivers '" + o.riversPath +
              "': crossing or touching rivers were split at the crossing");
@@ -174,6 +184,19 @@ int largestExactBlock(const DemGrid& dem) {
 
 int automaticBlockSize(const DemGrid& dem, int stride) {
     return std::max(1, std::min(largestExactBlock(dem), std::max(kDefaultBlockSize, 2 * stride)));
+}
+
+bool checkCellsFitExactGrid(const DemGrid& dem, int stride, std::string& error) {
+    const double cell = std::max(std::fabs(dem.cellX), std::fabs(dem.cellY)) * stride;
+    if (std::min(dem.width, dem.height) < 2 || 2 * cell <= kExactSpan) return true;
+    error = "its cells" +
+            std::string(stride > 1 ? " (at --stride " + std::to_string(stride) + ")" : "") +
+            " are " + std::to_string(std::lround(cell / 1000)) +
+            " km wide: too large for the exact 1 mm grid, where a block of two cells must fit " +
+            std::to_string(std::lround(kExactSpan / 1000)) + " km (cells of at most " +
+            std::to_string(std::lround(kExactSpan / 2000)) +
+            " km; resample the DEM to smaller cells, or check its georeferencing)";
+    return false;
 }
 
 bool checkBlockFitsExactGrid(const DemGrid& dem, int stride, int blockSize, std::string& error) {

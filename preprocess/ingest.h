@@ -62,6 +62,10 @@ bool splitIntoBlocks(Ingested& data, const IngestOptions& options, int blockSize
 // A block size that makes the whole DEM one block (splitIntoBlocks clamps it).
 inline constexpr int kWholeDem = 1 << 30;
 
+// Cells so large that a block of two sampled cells exceeds the exact grid (cells beyond about
+// 268 km): false with `error` ("its cells are ... km wide: ..."), which no --block-size fixes.
+bool checkCellsFitExactGrid(const DemGrid& dem, int stride, std::string& error);
+
 // The default block size of `build`: kDefaultBlockSize cells (twice the stride where that is
 // more), or fewer where blocks that large would not fit the exact 1 mm grid of the constrained
 // triangulation (about 537 km a side: cells of more than 2 km).

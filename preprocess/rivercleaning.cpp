@@ -7,10 +7,14 @@
 //    all decisions below are exact integer predicates on these grid points (64/128-bit, as
 //    grid.h / predicates.h), and the output is x = g / 1000.0, so equal grid points are identical
 //    doubles and a later quantiser at 1 mm recovers the same grid up to a translation.
-// 1. Clip. A vertex whose (rounded) position has no finite DemGrid::sample ends the current line
-//    and the line continues as a new one after it — the rule of sampleRiverPieces (pointset.h).
-//    Segments are not cut at the exact DEM boundary: the valid area (hull of cell centres minus
-//    nodata) has no cheap exact boundary, and a cut point rounded to the grid could fall outside.
+// 1. Clip. A vertex whose (rounded) position has no finite DemGrid::sample is dropped, and the
+//    segments to and from it, and any segment crossing a void, are cut where they leave and enter
+//    the valid DEM: the line ends at the last valid grid point and continues as a new line from
+//    the first valid one after it (validRuns: the segment sampled at a quarter of a cell and each
+//    change bisected to the grid, keeping the valid side's grid point; a void narrower than that
+//    is left to blocks.cpp, which cuts the rivers exactly at the domain's outline). Before
+//    2026-11-29 a vertex off the DEM cut its whole segments away and a segment over a void was
+//    kept: a 2-vertex river crossing a lake of nodata was later lost whole.
 // 2. Consecutive duplicates (identical input x, y) and zero-length segments (distinct input, same
 //    1 mm grid point) are dropped; pieces with fewer than 2 vertices are dropped.
 // 3. Snap. In line order, first then last vertex: an endpoint that is not already a vertex of
@@ -651,6 +655,83 @@ bool validOnDem(const DemGrid& dem, const G& g) {
     return std::isfinite(dem.sample(toMetres(g.x), toMetres(g.y)));
 }
 
+// Step 1 for one segment a -> b (grid points, a != b): its runs over the valid DEM, in order from
+// a, each as (from, to) grid points with a finite sample (a run that starts at a starts exactly at
+// a, one that ends at b ends exactly at b). The segment is sampled at every quarter of the
+// smaller cell side inside the rectangle of cell centres (the only place a sample is finite), and
+// each change between valid and not is bisected to within one grid unit, keeping the valid
+// side's grid point. A void narrower than the sampling step can be missed here; blocks.cpp
+// (cutAtOutline) cuts the rivers exactly where they leave the domain of the triangulation.
+std::vector<std::pair<G, G>> validRuns(const DemGrid& dem, const G& a, const G& b) {
+    std::vector<std::pair<G, G>> runs;
+    const double ax = toMetres(a.x), ay = toMetres(a.y);
+    const double dx = toMetres(b.x) - ax, dy = toMetres(b.y) - ay;
+    const auto at = [&](double t) {
+        if (t <= 0) return a;
+        if (t >= 1) return b;
+        return G{std::llround((ax + t * dx) * kUnitsPerMetre),
+                 std::llround((ay + t * dy) * kUnitsPerMetre)};
+    };
+    const auto validAt = [&](double t) { return validOnDem(dem, at(t)); };
+    // The parameter range inside the rectangle of the cell centres (Liang-Barsky).
+    const double x0 = std::min(dem.centreX(0), dem.centreX(dem.width - 1));
+    const double x1 = std::max(dem.centreX(0), dem.centreX(dem.width - 1));
+    const double y0 = std::min(dem.centreY(0), dem.centreY(dem.height - 1));
+    const double y1 = std::max(dem.centreY(0), dem.centreY(dem.height - 1));
+    double t0 = 0, t1 = 1;
+    const auto clip = [&](double p, double q) {  // keeps p * t <= q
+        if (p == 0) return q >= 0;
+        const double r = q / p;
+        if (p < 0)
+            t0 = std::max(t0, r);
+        else
+            t1 = std::min(t1, r);
+        return t0 <= t1;
+    };
+    if (!(clip(-dx, ax - x0) && clip(dx, x1 - ax) && clip(-dy, ay - y0) && clip(dy, y1 - ay)))
+        return runs;
+    const double length = std::hypot(dx, dy);
+    const double step = 0.25 * std::min(std::fabs(dem.cellX), std::fabs(dem.cellY));
+    const double span = (t1 - t0) * length;
+    const std::size_t n =
+        std::size_t(std::min(std::ceil(span / std::max(step, 1e-3)), double(1u << 22))) + 1;
+    // The samples: 0, the range [t0, t1] in n steps, 1.
+    std::vector<double> ts;
+    ts.reserve(n + 3);
+    ts.push_back(0);
+    for (std::size_t k = 0; k <= n; ++k)
+        ts.push_back(t0 + (t1 - t0) * double(k) / double(n));
+    ts.push_back(1);
+    // The boundary between a valid parameter `in` and an invalid `out`: the valid side's grid
+    // point once the two are within one grid unit.
+    const auto boundary = [&](double in, double out) {
+        for (int i = 0; i < 80; ++i) {
+            const G gi = at(in), go = at(out);
+            if (std::llabs(gi.x - go.x) <= 1 && std::llabs(gi.y - go.y) <= 1) break;
+            const double mid = 0.5 * (in + out);
+            (validAt(mid) ? in : out) = mid;
+        }
+        return at(in);
+    };
+    bool inside = false;
+    double prevT = 0;
+    G from{};
+    for (std::size_t k = 0; k < ts.size(); ++k) {
+        const double t = ts[k];
+        if (k > 0 && t == prevT) continue;
+        const bool valid = validAt(t);
+        if (valid && !inside) from = k == 0 ? a : boundary(t, prevT);
+        if (!valid && inside) {
+            const G to = boundary(prevT, t);
+            if (!(to == from)) runs.emplace_back(from, to);
+        }
+        inside = valid;
+        prevT = t;
+    }
+    if (inside && !(b == from)) runs.emplace_back(from, b);
+    return runs;
+}
+
 }  // namespace
 
 RiverLines cleanRivers(const RiverLines& in, const DemGrid& dem, const RiverCleaningOptions& opt,
@@ -675,29 +756,62 @@ RiverLines cleanRivers(const RiverLines& in, const DemGrid& dem, const RiverClea
             cur = Work{};
             prev = nullptr;
         };
+        auto push = [&](const G& g) {
+            if (!cur.v.empty() && cur.v.back() == g) {
+                ++stats.zeroLengthSegments;
+                return;
+            }
+            cur.v.push_back(g);
+            cur.fresh.push_back(1);
+        };
+        // The previous vertex of the line (valid on the DEM or not) for the segment clip.
+        bool havePrevious = false, previousValid = false;
+        G previous{};
         for (const XY& p : line) {
             if (!(std::abs(p.x) < kMaxCoordinate && std::abs(p.y) < kMaxCoordinate)) {
                 ++stats.verticesOutsideDem;
                 flush();
+                havePrevious = false;
                 continue;
             }
             const G g{std::llround(p.x * kUnitsPerMetre), std::llround(p.y * kUnitsPerMetre)};
-            if (!validOnDem(dem, g)) {
-                ++stats.verticesOutsideDem;
-                flush();
-                continue;
-            }
+            const bool valid = validOnDem(dem, g);
             if (prev != nullptr && prev->x == p.x && prev->y == p.y) {
                 ++stats.duplicateVertices;
                 continue;
             }
-            prev = &p;
-            if (!cur.v.empty() && cur.v.back() == g) {
-                ++stats.zeroLengthSegments;
+            // The segment from the previous vertex: cut where it leaves the valid DEM, and a
+            // new line where it enters it again.
+            if (havePrevious && !(previous == g)) {
+                const std::vector<std::pair<G, G>> runs = validRuns(dem, previous, g);
+                // Counted when some of it is over the valid DEM and some is not.
+                bool cut = runs.empty() ? previousValid || valid : runs.size() > 1;
+                for (std::size_t r = 0; r < runs.size(); ++r) {
+                    const bool fromPrevious = r == 0 && previousValid && runs[r].first == previous;
+                    const bool toThis = r + 1 == runs.size() && valid && runs[r].second == g;
+                    cut = cut || !fromPrevious || !toThis;
+                    if (!fromPrevious) {
+                        flush();
+                        push(runs[r].first);
+                    }
+                    if (!toThis) {
+                        push(runs[r].second);
+                        flush();
+                    }
+                }
+                if (cut) ++stats.segmentsCut;
+                if (runs.empty() && previousValid) flush();
+            }
+            havePrevious = true;
+            previous = g;
+            previousValid = valid;
+            if (!valid) {
+                ++stats.verticesOutsideDem;
+                flush();
                 continue;
             }
-            cur.v.push_back(g);
-            cur.fresh.push_back(1);
+            prev = &p;
+            push(g);
         }
         flush();
     }
@@ -760,15 +874,15 @@ std::string describe(const RiverCleaningStats& s) {
     std::ostringstream o;
     o << "River cleaning: " << s.inputLines << " lines / " << s.inputVertices << " vertices in, "
       << s.outputLines << " lines / " << s.outputVertices << " vertices out. Dropped "
-      << s.verticesOutsideDem << " vertices off the valid DEM (lines split there), "
-      << s.duplicateVertices << " duplicate vertices, " << s.zeroLengthSegments
-      << " zero-length segments, " << s.degenerateLines << " degenerate pieces and "
-      << s.shortLinesDropped << " short lines. Snapped " << s.snappedToVertex
-      << " endpoints to a vertex and " << s.snappedToSegment << " onto a segment. Split "
-      << s.crossingsSplit << " crossings (" << s.selfCrossings << " self-crossings) and "
-      << s.touchesSplit << " touches, merged " << s.verticesMerged
-      << " near-coincident vertices, dropped " << s.overlapsDropped << " overlapping segments, cut "
-      << s.selfLoopSplits << " self-loops";
+      << s.verticesOutsideDem << " vertices off the valid DEM (lines split there; " << s.segmentsCut
+      << " segments cut where they leave or enter it), " << s.duplicateVertices
+      << " duplicate vertices, " << s.zeroLengthSegments << " zero-length segments, "
+      << s.degenerateLines << " degenerate pieces and " << s.shortLinesDropped
+      << " short lines. Snapped " << s.snappedToVertex << " endpoints to a vertex and "
+      << s.snappedToSegment << " onto a segment. Split " << s.crossingsSplit << " crossings ("
+      << s.selfCrossings << " self-crossings) and " << s.touchesSplit << " touches, merged "
+      << s.verticesMerged << " near-coincident vertices, dropped " << s.overlapsDropped
+      << " overlapping segments, cut " << s.selfLoopSplits << " self-loops";
     if (s.unresolvedDropped > 0) o << ", dropped " << s.unresolvedDropped << " unresolved segments";
     o << " (" << s.passes << " passes).";
     return o.str();

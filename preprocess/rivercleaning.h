@@ -25,6 +25,7 @@ struct RiverCleaningOptions {
 struct RiverCleaningStats {
     std::size_t inputLines = 0, inputVertices = 0;
     std::size_t verticesOutsideDem = 0;  // dropped (lines split there): not finite DemGrid::sample
+    std::size_t segmentsCut = 0;         // segments cut where they leave / enter the valid DEM
     std::size_t duplicateVertices = 0;   // consecutive vertices with identical input (x, y)
     std::size_t zeroLengthSegments = 0;  // segments shorter than the 1 mm grid, collapsed
     std::size_t degenerateLines = 0;     // pieces with fewer than 2 distinct vertices, dropped

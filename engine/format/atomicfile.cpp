@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <mutex>
 #include <utility>
 
 namespace unilod::format {
@@ -47,6 +48,66 @@ std::string kindOf(mode_t mode) {
 std::string notRegular(mode_t mode) {
     const std::string kind = kindOf(mode);
     return kind.empty() ? "is not a regular file" : "is " + kind + ", not a regular file";
+}
+
+// Temporary files removed when the process is stopped by SIGINT, SIGTERM or SIGHUP (Ctrl-C, kill,
+// a closed terminal), so that such a stop leaves no partial file behind either: a fixed table the
+// handler walks with async-signal-safe calls only (unlink), then the signal's default action is
+// taken again (the process ends by the signal, as before). A slot is free (0), being filled (1)
+// or armed (2). Temporary folders (report, 3D Tiles) are not removed here (no async-signal-safe
+// recursive removal); the next run writing the same PATH removes them as stale.
+constexpr int kSignalSlots = 64;
+constexpr std::size_t kSignalPathMax = 4096;
+struct SignalSlot {
+    std::atomic<int> state{0};
+    char path[kSignalPathMax];
+};
+SignalSlot signalSlots[kSignalSlots];
+
+extern "C" void removeTemporariesAndReraise(int sig) {
+    for (SignalSlot& slot : signalSlots)
+        if (slot.state.load(std::memory_order_acquire) == 2) ::unlink(slot.path);
+    ::signal(sig, SIG_DFL);
+    ::raise(sig);
+}
+
+// Installs the handler for the signals whose action is the default (an ignored SIGHUP under nohup,
+// or a handler of the embedding program, stays as it is).
+void installSignalCleanup() {
+    static std::once_flag once;
+    std::call_once(once, [] {
+        for (int sig : {SIGINT, SIGTERM, SIGHUP}) {
+            struct sigaction old {};
+            if (::sigaction(sig, nullptr, &old) != 0 || old.sa_handler != SIG_DFL ||
+                (old.sa_flags & SA_SIGINFO))
+                continue;
+            struct sigaction action {};
+            action.sa_handler = removeTemporariesAndReraise;
+            sigemptyset(&action.sa_mask);
+            ::sigaction(sig, &action, nullptr);
+        }
+    });
+}
+
+// The slot now armed for `temp` (-1: none free or the path too long: the file is then only
+// removed as stale by a later run).
+int armSignalCleanup(const std::string& temp) {
+    if (temp.size() >= kSignalPathMax) return -1;
+    installSignalCleanup();
+    for (int i = 0; i < kSignalSlots; ++i) {
+        int expected = 0;
+        if (signalSlots[i].state.compare_exchange_strong(expected, 1, std::memory_order_acq_rel)) {
+            std::memcpy(signalSlots[i].path, temp.c_str(), temp.size() + 1);
+            signalSlots[i].state.store(2, std::memory_order_release);
+            return i;
+        }
+    }
+    return -1;
+}
+
+void disarmSignalCleanup(int& slot) {
+    if (slot >= 0) signalSlots[slot].state.store(0, std::memory_order_release);
+    slot = -1;
 }
 
 // "PATH.tmp-<pid>-": the prefix of every temporary of PATH written by process `pid`.
@@ -166,6 +227,7 @@ AtomicFile::~AtomicFile() {
 
 void AtomicFile::abandon() {
     if (fd_ >= 0) ::close(std::exchange(fd_, -1));
+    disarmSignalCleanup(signalSlot_);
     if (!temp_.empty()) {
         std::error_code ec;
         if (folder_) {
@@ -220,6 +282,7 @@ bool AtomicFile::openImpl(const std::string& path, const OutputOptions& options,
                         error);
         }
         temp_ = temp;
+        if (!folder) signalSlot_ = armSignalCleanup(temp);
         if (kind == Kind::File) fd_ = made;
         // ByName: the name was unique a moment ago (O_EXCL) and carries our pid; the library
         // creates the file.
@@ -353,6 +416,7 @@ bool AtomicFile::commit(std::string& error) {
         }
         return fail("cannot move the temporary " + temp_ + " into place: " + errnoText(e), error);
     }
+    disarmSignalCleanup(signalSlot_);
     temp_.clear();
     syncFolder(folderOf(path_));
     return true;

@@ -19,7 +19,10 @@
 //   link() + unlink() where the file system lacks it, so that a PATH that appeared meanwhile is
 //   never replaced: of two runs racing to the same new PATH exactly one succeeds, the other fails
 //   with "already exists". Then the folder is fsynced (best effort).
-// - An AtomicFile destroyed before commit() (any error, an exception) removes its temporary.
+// - An AtomicFile destroyed before commit() (any error, an exception) removes its temporary, and
+//   so does a SIGINT, SIGTERM or SIGHUP that stops the process (a handler installed where the
+//   signal's action is the default; the process then ends by the signal as before). A temporary
+//   folder is left to the stale-temporary removal of the next run.
 // Errors name the file and the problem (strerror): "out.glb: write failed: No space left on
 // device". On failure PATH is untouched: the old file (if any) stays, no partial file appears.
 //
@@ -94,6 +97,7 @@ private:
     std::string path_, temp_;
     OutputOptions options_;
     int fd_ = -1;
+    int signalSlot_ = -1;  // the temporary's slot in the SIGINT / SIGTERM cleanup (atomicfile.cpp)
     bool folder_ = false, unsynced_ = false;
     std::uint64_t offset_ = 0, bytes_ = 0;
 };

@@ -14,6 +14,7 @@
 #include <ogr_spatialref.h>
 
 #include "dem.h"
+#include "ingest.h"
 
 using namespace unilod;
 namespace fs = std::filesystem;
@@ -559,4 +560,69 @@ TEST(Dem, DistortingMetricCrsIsWarnedAbout) {
     writeTiff(utm, 4, 3, {std::vector<double>(12, 300.0)}, GDT_Float32, kGt, 32616);
     ASSERT_TRUE(loadDem(utm, o, dem, error)) << error;
     EXPECT_TRUE(warnings.empty());
+}
+
+// A geographic DEM too wide for the UTM zone of its centre (a continent, the world) is refused,
+// naming --t-srs, instead of being warped into one zone (a world DEM became a model 39 000 km
+// tall with blocks cut to 3 cells); a wide one that still fits gets the scale warning, and so
+// does a distorting --t-srs (Web Mercator at 36 degrees north). An exact UTM zone: no warning.
+TEST(Dem, ReprojectionThatStretchesTheTerrainIsRefusedOrWarned) {
+    TempDir dir("widegeo");
+    std::vector<std::string> warnings;
+    const DemLoadOptions o = collecting(warnings);
+    DemGrid dem;
+    std::string error;
+    const std::string world = dir.file("world.tif");
+    const double worldGt[6] = {-180.0, 1.5, 0.0, 80.0, 0.0, -1.5};
+    writeTiff(world, 240, 106, {std::vector<double>(240 * 106, 100.0)}, GDT_Float32, worldGt, 4326);
+    EXPECT_FALSE(loadDem(world, o, dem, error));
+    EXPECT_NE(error.find(world), std::string::npos) << error;
+    EXPECT_NE(error.find("too large for one UTM zone"), std::string::npos) << error;
+    EXPECT_NE(error.find("--t-srs"), std::string::npos) << error;
+    const std::string continent = dir.file("continent.tif");
+    const double continentGt[6] = {-30.0, 0.5, 0.0, 20.0, 0.0, -0.5};  // 60 x 40 degrees
+    writeTiff(continent, 120, 80, {std::vector<double>(120 * 80, 100.0)}, GDT_Float32, continentGt,
+              4326);
+    EXPECT_FALSE(loadDem(continent, o, dem, error));
+    EXPECT_NE(error.find("too large for one UTM zone"), std::string::npos) << error;
+
+    // 20 degrees at the equator in zone 31 (central meridian 3 E): 13 degrees out, about 1.026.
+    const std::string wide = dir.file("wide.tif");
+    const double wideGt[6] = {-10.0, 0.25, 0.0, 4.0, 0.0, -0.25};
+    writeTiff(wide, 80, 32, {std::vector<double>(80 * 32, 100.0)}, GDT_Float32, wideGt, 4326);
+    ASSERT_TRUE(loadDem(wide, o, dem, error)) << error;
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("has a scale of 1.0"), std::string::npos) << warnings[0];
+
+    warnings.clear();
+    const std::string small = dir.file("small.tif");  // 0.1 degrees: true to scale
+    const double smallGt[6] = {-84.1, 0.001, 0.0, 36.6, 0.0, -0.001};
+    writeTiff(small, 100, 100, {std::vector<double>(100 * 100, 100.0)}, GDT_Float32, smallGt, 4326);
+    ASSERT_TRUE(loadDem(small, o, dem, error)) << error;
+    EXPECT_TRUE(warnings.empty());
+    DemLoadOptions mercator = o;
+    mercator.targetSrs = "EPSG:3857";
+    ASSERT_TRUE(loadDem(small, mercator, dem, error)) << error;
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("has a scale of 1.24"), std::string::npos) << warnings[0];
+}
+
+// Cells so large that two of them exceed the exact grid's 537 km are refused by what they are,
+// not with a --block-size advice no value can follow ("use --block-size 2 or more", then "use
+// --block-size 0 or less"); cells of 200 km still fit.
+TEST(Dem, CellsTooLargeForTheExactGridAreNamed) {
+    DemGrid dem;
+    dem.width = dem.height = 20;
+    dem.cellX = 300000;
+    dem.cellY = -300000;
+    dem.z.assign(400, 100.0f);
+    std::string error;
+    EXPECT_FALSE(checkCellsFitExactGrid(dem, 1, error));
+    EXPECT_NE(error.find("its cells are 300 km wide"), std::string::npos) << error;
+    EXPECT_EQ(error.find("--block-size"), std::string::npos) << error;
+    dem.cellX = 200000;
+    dem.cellY = -200000;
+    EXPECT_TRUE(checkCellsFitExactGrid(dem, 1, error)) << error;
+    EXPECT_FALSE(checkCellsFitExactGrid(dem, 2, error));  // 400 km at --stride 2
+    EXPECT_NE(error.find("(at --stride 2)"), std::string::npos) << error;
 }

@@ -496,3 +496,81 @@ TEST(Nodata, NoTriangulableDataIsRefused) {
     EXPECT_NE(r.code, 0);
     EXPECT_NE(r.err.find("no valid data to triangulate"), std::string::npos) << r.err;
 }
+
+// A river across a nodata lake keeps both banks (issue 17's domain, 2026-11-29): its segments
+// are cut where they leave the valid DEM and where they come near the domain's outline, not
+// dropped whole. One 2-vertex line crosses a 10 x 10-cell hole; before, the whole line was lost
+// (both its vertices valid, its one segment near the outline). At stride 1 and 2, with blocks
+// of 16 cells (the line also crosses block borders): `check --errors` passes, no river vertex
+// lies in the squares that touch the hole, and the river edges keep all but a few centimetres of
+// the line's length on valid data at each bank.
+TEST(Nodata, RiverAcrossAHoleKeepsBothBanks) {
+    DemGrid d = plane(40, 40);
+    punch(d, 15, 15, 24, 24);  // centres x in [500450, 500720], y in [3999280, 3999550]
+    // Squares touching the hole: x in (500420, 500750), y in (3999250, 3999580).
+    const std::string rivers = testing::TempDir() + "nodata_lake_rivers.geojson";
+    std::ofstream(rivers) << R"({"type":"FeatureCollection","crs":{"type":"name","properties":)"
+                          << R"({"name":"urn:ogc:def:crs:EPSG::32616"}},"features":[{"type":)"
+                          << R"("Feature","properties":{},"geometry":{"type":"LineString",)"
+                          << R"("coordinates":[[500100,3999415],[501100,3999415]]}}]})";
+    for (int stride : {1, 2}) {
+        SCOPED_TRACE("stride " + std::to_string(stride));
+        BuildOptions o;
+        o.demPath = writeTiff(d, "nodata_lake.tif");
+        o.riversPath = rivers;
+        o.outPath = testing::TempDir() + "nodata_lake.ulod";
+        o.blockSize = 16;
+        o.stride = stride;
+        o.force = true;
+        BuildSummary summary;
+        std::string err;
+        ASSERT_TRUE(runBuild(o, summary, err)) << err;
+        UlodCheckOptions co;
+        co.errors = true;
+        UlodCheckSummary cs;
+        ASSERT_TRUE(checkUlod(o.outPath, co, cs, err)) << err;
+        format::Reader reader;
+        ASSERT_TRUE(reader.open(o.outPath, err)) << err;
+        // On the stride-2 lattice (even cells) the squares touching the hole's nodes (cells 16
+        // to 24) reach to cell 14 (x 500420) and 26 (x 500780).
+        const double lo = 500420, hi = 500750 + 30.0 * (stride - 1);
+        double west = 0, east = 0;
+        for (std::size_t i = 0; i < reader.blocks().size(); ++i) {
+            if (reader.blocks()[i].level != 0) continue;
+            format::Block b;
+            ASSERT_TRUE(reader.readBlock(i, b, err)) << err;
+            const format::Level& full = b.levels.front();
+            for (std::uint32_t e = 0; e < full.riverCount; ++e) {
+                const format::Edge& edge = b.riverIndices[full.riverFirst + e];
+                const double x0 = b.originX + b.vertices[edge.a].x;
+                const double x1 = b.originX + b.vertices[edge.b].x;
+                for (double x : {x0, x1})
+                    EXPECT_TRUE(x <= lo || x >= hi) << x;
+                (std::max(x0, x1) <= lo ? west : east) += std::fabs(x1 - x0);
+            }
+        }
+        EXPECT_NEAR(west, lo - 500100, 0.1);
+        EXPECT_NEAR(east, 501100 - hi, 0.1);
+    }
+}
+
+// The build's nodata warning counts the filled small holes and the kept large ones apart: a
+// 1-cell hole and a 100-cell hole are one of each (it said "2 interior holes of at most 16 cells
+// (1 cells) filled" and counted the large hole among the filled).
+TEST(Nodata, WarningCountsFilledAndKeptHolesApart) {
+    DemGrid d = plane(40, 40);
+    punch(d, 5, 5, 14, 14);    // 100 cells: kept
+    punch(d, 30, 30, 30, 30);  // 1 cell: filled
+    IngestOptions o;
+    o.demPath = writeTiff(d, "nodata_two_holes.tif");
+    std::vector<std::string> warnings;
+    o.warn = [&warnings](const std::string& w) { warnings.push_back(w); };
+    Ingested data;
+    std::string err;
+    ASSERT_TRUE(ingest(o, data, err)) << err;
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("; 1 interior holes of at most 16 cells (1 cells) filled"),
+              std::string::npos)
+        << warnings[0];
+    EXPECT_NE(warnings[0].find("(1 larger holes)"), std::string::npos) << warnings[0];
+}

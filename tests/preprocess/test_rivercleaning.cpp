@@ -298,12 +298,41 @@ TEST(RiverCleaning, ClippedToTheValidDem) {
     };
     RiverCleaningStats s;
     const RiverLines out = cleanRivers(in, dem, {}, s);
-    EXPECT_EQ(out, (RiverLines{{{10, 50}, {50, 50}},
-                               {{90, 60}, {80, 70}},
+    // The second line is cut where it leaves the DEM (x = 100, the last column of centres) and
+    // continues from where it comes back; the third ends at the edge of the nodata cell's
+    // squares (70 < x < 90 and 70 < y < 90 interpolate it), which (70, 85) and (90, 75) are on.
+    EXPECT_EQ(out, (RiverLines{{{10, 50}, {50, 50}, {100, 50}},
+                               {{100, 58.333}, {90, 60}, {80, 70}},
                                {{60, 90}, {70, 85}},
                                {{90, 75}, {95, 70}}}));
     // (85, 80) interpolates between the centres (80, 80) (nodata) and (90, 80).
     EXPECT_EQ(s.verticesOutsideDem, 2u + 1u + 1u);
+    EXPECT_EQ(s.segmentsCut, 4u);
+    EXPECT_EQ(violations(out), 0u);
+}
+
+// Segments over a void are cut at its edge, not dropped with their vertices: a 2-vertex river
+// across a nodata lake keeps both banks' parts, a segment whose ends are both off the DEM keeps
+// the part that crosses it, and one from a vertex in the lake keeps the part up to the shore.
+TEST(RiverCleaning, SegmentsCutAtTheEdgeOfAVoid) {
+    DemGrid dem = makeDem();
+    for (int r = 4; r <= 6; ++r)  // centres x, y in [40, 60]: nodata
+        for (int c = 4; c <= 6; ++c)
+            dem.z[std::size_t(r) * 11 + std::size_t(c)] = std::numeric_limits<float>::quiet_NaN();
+    // Interpolation is NaN for 30 < x < 70 and 30 < y < 70.
+    const RiverLines in = {
+        {{5, 50}, {95, 50}},     // across the lake
+        {{-50, 20}, {150, 20}},  // both ends off the DEM, across it
+        {{50, 50}, {50, 95}},    // from the middle of the lake to the north
+    };
+    RiverCleaningStats s;
+    const RiverLines out = cleanRivers(in, dem, {}, s);
+    EXPECT_EQ(out, (RiverLines{{{5, 50}, {30, 50}},
+                               {{70, 50}, {95, 50}},
+                               {{0, 20}, {100, 20}},
+                               {{50, 70}, {50, 95}}}));
+    EXPECT_EQ(s.verticesOutsideDem, 3u);
+    EXPECT_EQ(s.segmentsCut, 3u);
     EXPECT_EQ(violations(out), 0u);
 }
 

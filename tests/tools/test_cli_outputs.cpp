@@ -6,7 +6,9 @@
 // running ones; a FIFO given as input is refused at once instead of blocking in open(); a
 // directory given as a file input is refused with a message saying so. The model is a small
 // synthetic one (`unilod synth` + `unilod build`).
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -206,6 +208,67 @@ TEST_F(CliOutputs, StaleTemporariesOfKilledRunsRemoved) {
     ASSERT_EQ(b.code, 0) << b.err;
     EXPECT_EQ(entries(dir->path, "stale.ulod"), std::set<std::string>{"stale.ulod"});
     fs::remove(built);
+}
+
+// A build stopped by SIGTERM or SIGINT (kill, Ctrl-C) removes its temporary output and ends by
+// the signal: no partial file is left (before, the temporary stayed until a later run to the
+// same output removed it as stale). The build of a 1M-point model runs for seconds; the signal
+// is sent as soon as its temporary output appears.
+TEST_F(CliOutputs, BuildStoppedBySignalLeavesNoTemporary) {
+    const std::string data = dir->file("bigdata");
+    auto r = runCli("synth -q --points 1000000 -o " + q(data));
+    ASSERT_EQ(r.code, 0) << r.err;
+    for (int sig : {SIGTERM, SIGINT}) {
+        SCOPED_TRACE(sig == SIGTERM ? "SIGTERM" : "SIGINT");
+        const std::string out = dir->file("signalled.ulod");
+        const pid_t child = fork();
+        ASSERT_GE(child, 0);
+        if (child == 0) {
+            const int devnull = ::open("/dev/null", O_WRONLY);
+            dup2(devnull, 1);
+            dup2(devnull, 2);
+            execl(UNILOD_CLI, UNILOD_CLI, "build", "-q", (data + "/dem.tif").c_str(),
+                  (data + "/rivers.geojson").c_str(), "-o", out.c_str(), "--threads", "1",
+                  static_cast<char*>(nullptr));
+            _exit(127);
+        }
+        const std::string prefix = "signalled.ulod.tmp-" + std::to_string(child) + "-";
+        bool seen = false, exited = false;
+        int status = 0;
+        for (int i = 0; i < 6000 && !seen && !exited; ++i) {  // up to 60 s
+            seen = !entries(dir->path, prefix).empty();
+            exited = !seen && waitpid(child, &status, WNOHANG) == child;
+            if (!seen && !exited) usleep(10000);
+        }
+        ASSERT_FALSE(exited) << "the build ended before its temporary output appeared";
+        ASSERT_TRUE(seen) << "no temporary output appeared";
+        kill(child, sig);
+        ASSERT_EQ(waitpid(child, &status, 0), child);
+        EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == sig) << status;
+        EXPECT_TRUE(entries(dir->path, "signalled.ulod").empty());
+    }
+}
+
+// An output folder that holds the command's input is refused with --overwrite, before the folder
+// is moved aside (the input was moved away with it and the command failed with "cannot open: No
+// such file or directory").
+TEST_F(CliOutputs, OutputFolderHoldingTheInputRefused) {
+    const std::string folder = dir->file("holds_input");
+    fs::create_directories(folder);
+    const std::string input = folder + "/m.ulod";
+    fs::copy_file(model, input);
+    const std::string before = slurp(input);
+    for (const std::string& command :
+         {"export -q " + q(input) + " --3dtiles " + q(folder) + " --overwrite",
+          "report -q " + q(input) + " -o " + q(folder) +
+              " --overwrite --no-rivers --bench-frames 0"}) {
+        SCOPED_TRACE(command);
+        const auto r = runCli(command);
+        EXPECT_EQ(r.code, 1) << r.out << r.err;
+        EXPECT_NE(r.err.find("an input of this command"), std::string::npos) << r.err;
+        EXPECT_EQ(slurp(input), before);
+        EXPECT_EQ(entries(folder, ""), std::set<std::string>{"m.ulod"});
+    }
 }
 
 // capture --overwrite replaces the frames all together or not at all: here the second frame's

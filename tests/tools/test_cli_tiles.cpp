@@ -481,6 +481,14 @@ TEST_F(TilesTest, ErrorsLeaveNoFolder) {
     EXPECT_EQ(r.code, 1);
     EXPECT_NE(r.err.find("NOT_A_CRS"), std::string::npos) << r.err;
     EXPECT_FALSE(fs::exists(out));
+    // A CRS whose unit is not the model's metres (degrees, geocentric, feet) would place the
+    // model anywhere (EPSG:4326 made "longitude 746430"): refused by name, nothing written.
+    for (const char* crs : {"EPSG:4326", "EPSG:4978", "EPSG:2236"}) {
+        r = runCli("export -q " + q(model) + " --3dtiles " + q(out) + " --s-srs " + crs);
+        EXPECT_EQ(r.code, 1) << crs;
+        EXPECT_NE(r.err.find("is not a projected CRS in metres"), std::string::npos) << r.err;
+        EXPECT_FALSE(fs::exists(out));
+    }
 }
 
 TEST_F(TilesTest, AModelWithoutCrsNeedsSSrs) {

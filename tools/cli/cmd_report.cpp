@@ -49,7 +49,8 @@ int run(ReportCli& c) {
     std::string error;
     ReplacedFolder old;
     if (!checkOutput(c.output, OutputKind::Folder, error) ||
-        (c.output.overwrite && !old.moveAside(c.output.path, error))) {
+        (c.output.overwrite &&
+         !old.moveAside(c.output.path, {c.o.path, c.o.demPath, c.o.riversPath}, error))) {
         std::fprintf(stderr, "unilod report: error: %s\n", error.c_str());
         return 1;
     }

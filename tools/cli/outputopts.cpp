@@ -2,6 +2,7 @@
 
 #include <sys/stat.h>
 #include <unistd.h>
+#include <algorithm>
 
 #include <cerrno>
 #include <cstdio>
@@ -95,12 +96,28 @@ ReplacedFolder::~ReplacedFolder() {
     }
 }
 
-bool ReplacedFolder::moveAside(const std::string& path, std::string& error) {
+bool ReplacedFolder::moveAside(const std::string& path, const std::vector<std::string>& inputs,
+                               std::string& error) {
     struct stat st {};
     std::error_code ec;
     if (::lstat(path.c_str(), &st) != 0 || !S_ISDIR(st.st_mode) ||
         std::filesystem::is_empty(path, ec))
         return true;
+    // An input inside the folder (by its real path: symbolic links and ".." resolved).
+    const std::filesystem::path folder = std::filesystem::weakly_canonical(path, ec);
+    for (const std::string& input : inputs) {
+        if (ec || input.empty()) break;
+        std::error_code ic;
+        const std::filesystem::path in = std::filesystem::weakly_canonical(input, ic);
+        if (ic) continue;
+        const auto [f, i] = std::mismatch(folder.begin(), folder.end(), in.begin(), in.end());
+        if (f == folder.end() && i != in.end()) {
+            error = path + ": holds '" + input +
+                    "', an input of this command: refusing to replace the folder (write the "
+                    "output elsewhere)";
+            return false;
+        }
+    }
     std::string p = path;
     while (p.size() > 1 && p.back() == '/')
         p.pop_back();

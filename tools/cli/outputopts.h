@@ -77,8 +77,11 @@ public:
     ReplacedFolder(const ReplacedFolder&) = delete;
     ReplacedFolder& operator=(const ReplacedFolder&) = delete;
 
-    // Moves `path` aside when it is a non-empty folder. False with `error` when it cannot.
-    bool moveAside(const std::string& path, std::string& error);
+    // Moves `path` aside when it is a non-empty folder. False with `error` when it cannot, or
+    // when one of `inputs` (the command's input files) is inside it: replacing the folder would
+    // remove the input.
+    bool moveAside(const std::string& path, const std::vector<std::string>& inputs,
+                   std::string& error);
     void keep();  // the new folder is in place: remove the old one
 
 private:

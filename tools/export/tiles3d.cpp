@@ -48,6 +48,16 @@ public:
             error = what + ": GDAL cannot read the CRS '" + srsText.substr(0, 80) + "'";
             return false;
         }
+        // The model's coordinates are metres (build keeps or makes a projected CRS in metres, or
+        // none): a geographic, geocentric or non-metre CRS would put it somewhere else entirely.
+        if (src.IsGeographic() || src.IsGeocentric() || !src.IsProjected() ||
+            std::fabs(src.GetLinearUnits() - 1.0) > 1e-9) {
+            const char* name = src.GetName();
+            error = what + ": the CRS '" + std::string(name ? name : srsText.substr(0, 80)) +
+                    "' is not a projected CRS in metres, the unit of the model's coordinates "
+                    "(give the CRS the DEM was built in, e.g. EPSG:32616)";
+            return false;
+        }
         OGRSpatialReference wgs84;
         wgs84.importFromEPSG(4326);
         src.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
