@@ -219,6 +219,9 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
     };
 
     layer->ResetReading();
+    // Drivers that evaluate the --where clause while reading (GeoPackage, SQLite) report a bad one
+    // as an error of the read, which then ends like the end of the layer.
+    CPLErrorReset();
     bool hasZ = false;
     std::size_t skipped = 0;  // features with a geometry but no line in it
     for (const auto& feature : *layer) {
@@ -248,6 +251,11 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
             out.clear();
             return false;
         }
+    }
+    if (!options.where.empty() && CPLGetLastErrorType() >= CE_Failure) {
+        error = what + ": invalid --where clause '" + options.where + "'" + gdalErrorSuffix();
+        out.clear();
+        return false;
     }
     if (skipped > 0 && options.warn) {
         options.warn(what + ": " + std::to_string(skipped) + " feature" +

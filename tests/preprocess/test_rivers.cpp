@@ -1,5 +1,7 @@
 // River ingestion (preprocess/rivers.h): the bundled GRASS network reprojected onto the bundled
 // DEM's working CRS, layer choice, where clauses, multi-part and 3D lines, CRS errors.
+#include <gdal_priv.h>
+#include <gdal_utils.h>
 #include <gtest/gtest.h>
 
 #include "testutil.h"
@@ -105,6 +107,32 @@ TEST(Rivers, WhereClauseAndLayerName) {
     EXPECT_FALSE(
         loadRivers(kAssets + "/jacksboro_rivers_grass.geojson", o, bundledDem().wkt, lines, error));
     EXPECT_NE(error.find("where"), std::string::npos) << error;
+
+    // A GeoPackage evaluates the clause in SQLite while reading: a bad clause is still named as
+    // such (it was "has no line features matching the --where clause").
+    {
+        TempDir dir("wheregpkg");
+        const std::string gpkg = dir.file("rivers.gpkg");
+        GDALAllRegister();
+        GDALDatasetH src = GDALOpenEx((kAssets + "/jacksboro_rivers_grass.geojson").c_str(),
+                                      GDAL_OF_VECTOR, nullptr, nullptr, nullptr);
+        ASSERT_NE(src, nullptr);
+        char* args[] = {const_cast<char*>("-f"), const_cast<char*>("GPKG"), nullptr};
+        GDALVectorTranslateOptions* vt = GDALVectorTranslateOptionsNew(args, nullptr);
+        GDALDatasetH copy = GDALVectorTranslate(gpkg.c_str(), nullptr, 1, &src, vt, nullptr);
+        GDALVectorTranslateOptionsFree(vt);
+        GDALClose(src);
+        ASSERT_NE(copy, nullptr);
+        GDALClose(copy);
+        o.where = "cat = 59";
+        ASSERT_TRUE(loadRivers(gpkg, o, bundledDem().wkt, lines, error)) << error;
+        EXPECT_EQ(lines.size(), 1u);
+        for (const char* bad : {"no_such_field = 1", "((("}) {
+            o.where = bad;
+            EXPECT_FALSE(loadRivers(gpkg, o, bundledDem().wkt, lines, error));
+            EXPECT_NE(error.find("invalid --where clause"), std::string::npos) << error;
+        }
+    }
 
     o.where.clear();
     o.layer = "streams";
