@@ -565,7 +565,10 @@ std::vector<RiverPiece> BlockSource::cutAtOutline(const std::vector<RiverPiece>&
                     double lo = 0, hi = 1;
                     for (int it = 0; it < 100; ++it) {  // the minimum (ternary search)
                         const double a = lo + (hi - lo) / 3, b = hi - (hi - lo) / 3;
-                        (f(a) < f(b) ? hi : lo) = f(a) < f(b) ? b : a;
+                        if (f(a) < f(b))
+                            hi = b;
+                        else
+                            lo = a;
                     }
                     const double tm = 0.5 * (lo + hi);
                     if (!(f(tm) < margin2)) continue;
@@ -580,16 +583,14 @@ std::vector<RiverPiece> BlockSource::cutAtOutline(const std::vector<RiverPiece>&
             }
         }
         std::sort(unsafe.begin(), unsafe.end());
-        std::vector<std::pair<double, double>> safe;
+        std::vector<std::pair<double, double>> safe;  // the complement in [0, 1]
         double from = 0;
-        bool open = true;  // [from, ...) is not covered yet
         for (const auto& [a, b] : unsafe) {
-            if (open && a > from) safe.emplace_back(from, a);
-            if (!open || b > from) from = std::max(from, b);
-            open = from < 1;
-            if (!open) break;
+            if (a > from) safe.emplace_back(from, a);
+            from = std::max(from, b);
+            if (from >= 1) break;
         }
-        if (open) safe.emplace_back(from, 1.0);
+        if (from < 1) safe.emplace_back(from, 1.0);
         const double pad = 2 * kOutlineMargin / len;
         for (const auto& [a, b] : safe) {
             RiverVertex middle = pointAt(p, q, 0.5 * (a + b));

@@ -18,9 +18,11 @@
 // rectangle's sides included) goes to PointSet::boundaries as closed rings on the domain's left,
 // so no triangle spans nodata by more than half a cell. Ring vertices are never dropped by the
 // river clearance; a vertex where the outline touches itself is locked. Rivers are cut where they
-// leave the domain: a river vertex outside a full lattice square and a river segment closer than
-// kOutlineMargin to an outline edge (not the DEM's outer edge, which no river crosses) are dropped
-// and the river continues as a new piece after them, so no river crosses the outline.
+// leave the domain: a river vertex outside a full lattice square or closer than kOutlineMargin to
+// an outline edge (not the DEM's outer edge, which no river crosses) is dropped, and a segment
+// that comes that close is cut to its parts that stay inside full squares and at least 2 cm from
+// the outline (each end checked exactly as a vertex and a segment are); the river continues as a
+// new piece after each cut, so no river crosses the outline and only the part near it is lost.
 #pragma once
 
 #include <cstdint>
