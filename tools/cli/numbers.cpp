@@ -28,6 +28,17 @@ bool parseFinite(const std::string& text, double& value) {
     return true;
 }
 
+std::vector<std::string> splitList(const std::string& text) {
+    std::vector<std::string> items(1);
+    for (const char ch : text) {
+        if (ch == ',')
+            items.emplace_back();
+        else
+            items.back() += ch;
+    }
+    return items;
+}
+
 CLI::Validator numberIn(double lo, double hi, Bound loBound, Bound hiBound) {
     std::string interval;  // for --help
     if (std::isinf(lo) && std::isinf(hi))

@@ -7,11 +7,17 @@
 #include <CLI/CLI.hpp>
 #include <limits>
 #include <string>
+#include <vector>
 
 namespace unilod::cli {
 
 // The whole of `text` as a finite double (leading/trailing spaces refused too).
 bool parseFinite(const std::string& text, double& value);
+
+// The items of a comma-separated option value with the empty ones kept ("1,,2" gives "1", "",
+// "2"; "" one empty item), so that the option's check can refuse them: CLI11's ->delimiter(',')
+// drops them silently.
+std::vector<std::string> splitList(const std::string& text);
 
 enum class Bound { Closed, Open };
 
