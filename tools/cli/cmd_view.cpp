@@ -34,10 +34,13 @@ int run(ViewCli& c) {
         std::fprintf(stderr, "unilod view: error: --screenshot needs --frames N\n");
         return 2;
     }
-    // The existing-output rule of outputopts.h for --screenshot, before a window opens.
+    // The rules the screenshot is written under (existing file only with --overwrite, never the
+    // input, an existing writable folder), checked before a window opens.
     std::string error;
     if (!c.o.screenshotPath.empty() &&
-        !checkOutput({c.o.screenshotPath, c.overwrite}, OutputKind::File, error)) {
+        !format::checkOutputPath(c.o.screenshotPath,
+                                 outputOptions({c.o.screenshotPath, c.overwrite}, {c.o.path}),
+                                 false, error)) {
         std::fprintf(stderr, "unilod view: error: %s\n", error.c_str());
         return 1;
     }
