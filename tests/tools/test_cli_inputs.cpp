@@ -173,6 +173,52 @@ TEST_F(Inputs, OptionValuesOutsideTheirRangeAreUsageErrorsWithShortMessages) {
     }
 }
 
+// Values the shared number parsing (engine/format/numtext.h, tools/cli/numbers.h) used to let
+// through or to leave to a later check: hexadecimal numbers, lengths that overflow once in
+// metres (1e308km: exit 1 without the option's name), empty items of a list (silently dropped),
+// a view distance so large that h_lim was printed as inf. Each is a usage error naming the option.
+TEST_F(Inputs, HexOverflowAndEmptyListItemsAreUsageErrors) {
+    const std::string out = (dir / "refused_lists").string();
+    struct Case {
+        std::string command, option, value, shown = "";  // shown: the value the message quotes
+    };
+    const std::string stats = "stats " + q(model);
+    const std::string report = "report " + q(model) + " --no-rivers --bench-frames 0 -o " + q(out);
+    const std::vector<Case> cases = {
+        {stats, "--distance", "1e308km"},
+        {stats, "--distance", "1e300"},
+        {stats, "--distance", "1,,2"},
+        {stats, "--distance", "1.5km,"},
+        {stats, "--distance", ",1km"},
+        {stats, "--distance", "0x10"},
+        {stats, "--pixels", "1,2,"},
+        {stats, "--pixels", "0x10"},
+        {stats, "--error", "1e308km"},
+        {stats, "--error", "0x1p3"},
+        {stats, "--error", "5,,10"},
+        {report, "--distance", "1,,2"},
+        {report, "--pixels", "1,"},
+        {report, "--budget", "5,,10"},
+        {"export " + q(model) + " -o " + q(out + ".glb"), "--h-lim", "0x10"},
+        {"export " + q(model) + " -o " + q(out + ".glb"), "--camera", "0x10,0,0", "0x10"},
+    };
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.command + " " + c.option + " " + c.value);
+        const auto r = runCli(c.command + " " + c.option + " " + q(c.value));
+        EXPECT_EQ(r.code, 2) << r.err;
+        EXPECT_NE(r.err.find(c.option + ": "), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find("'" + (c.shown.empty() ? c.value : c.shown) + "'"), std::string::npos)
+            << r.err;
+        EXPECT_TRUE(r.out.empty()) << r.out;
+        EXPECT_FALSE(fs::exists(out));
+        EXPECT_FALSE(fs::exists(out + ".glb"));
+    }
+    // The largest view distance is accepted and its h_lim is finite.
+    const auto r = runCli(stats + " --distance 1e9 --csv");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.out.find("inf"), std::string::npos) << r.out;
+}
+
 TEST_F(Inputs, GpuBudgetBeyondTheDeviceIsAnErrorNamingTheOption) {
     // 16 GiB is accepted by the option; lavapipe (2 GiB heap) cannot allocate it and a large GPU
     // can: either a clean error naming the option and the device, or frames.
