@@ -219,6 +219,25 @@ TEST_F(Inputs, HexOverflowAndEmptyListItemsAreUsageErrors) {
     EXPECT_EQ(r.out.find("inf"), std::string::npos) << r.out;
 }
 
+// bench --runs "" ran nothing and exited 0; an empty item of the list is refused too.
+TEST_F(Inputs, EmptyBenchRunsAreUsageErrors) {
+    const std::string out = (dir / "bench_runs.json").string();
+    for (const std::string& runs : {std::string(), std::string("lod,"), std::string(",")}) {
+        SCOPED_TRACE("--runs '" + runs + "'");
+        const auto r = runCli("bench " + q(model) + " --frames 1 --size 16x16 -o " + q(out) +
+                              " --runs " + q(runs));
+        EXPECT_EQ(r.code, 2) << r.err;
+        EXPECT_NE(r.err.find("--runs: "), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find(runs.empty() ? "the list is empty" : "has an empty item"),
+                  std::string::npos)
+            << r.err;
+        EXPECT_FALSE(fs::exists(out));
+    }
+    const auto r = runCli("bench " + q(model) + " -o " + q(out) + " --runs lod,fast");
+    EXPECT_EQ(r.code, 2) << r.err;
+    EXPECT_NE(r.err.find("--runs: unknown run 'fast'"), std::string::npos) << r.err;
+}
+
 TEST_F(Inputs, GpuBudgetBeyondTheDeviceIsAnErrorNamingTheOption) {
     // 16 GiB is accepted by the option; lavapipe (2 GiB heap) cannot allocate it and a large GPU
     // can: either a clean error naming the option and the device, or frames.

@@ -80,6 +80,7 @@ CLI::Validator lengthIn(double lo, double hi, Bound loBound, Bound hiBound) {
 CLI::Validator listOf(const CLI::Validator& item) {
     return CLI::Validator(
         [item](std::string& text) -> std::string {
+            if (text.empty()) return "the list is empty";
             for (std::string value : splitList(text)) {
                 if (value.empty()) return "'" + text + "' has an empty item";
                 if (std::string error = item(value); !error.empty()) return error;
