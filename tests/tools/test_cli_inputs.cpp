@@ -238,6 +238,41 @@ TEST_F(Inputs, EmptyBenchRunsAreUsageErrors) {
     EXPECT_NE(r.err.find("--runs: unknown run 'fast'"), std::string::npos) << r.err;
 }
 
+// --fov: one range, (0, 180) degrees, for capture, export, stats and report (capture took [1,
+// 179]); capture refuses it without --camera (it was ignored: the frame said 60), since a --path
+// has its own "fov" and the default view its 60 degrees.
+TEST_F(Inputs, FovHasOneRangeAndCaptureTakesItOnlyWithACamera) {
+    const std::string out = (dir / "fov").string();
+    const std::string camera = " --camera 746000,4050000,5000,0,-45";
+    const auto r = runCli("capture " + q(model) + " --fov 179 -o " + q(out));
+    EXPECT_EQ(r.code, 2) << r.err;
+    EXPECT_NE(r.err.find("--fov requires --camera"), std::string::npos) << r.err;
+    const auto p = runCli("capture " + q(model) + " --path " + q(kAssets + "/jacksboro_path.json") +
+                          " --fov 30 -o " + q(out));
+    EXPECT_EQ(p.code, 2) << p.err;
+    EXPECT_FALSE(fs::exists(out));
+    for (const std::string& command :
+         {"capture " + q(model) + camera + " -o " + q(out),
+          "export " + q(model) + camera + " -o " + q(out), "stats " + q(model),
+          "report " + q(model) + " -o " + q(out)}) {
+        for (const char* fov : {"0", "180"}) {
+            SCOPED_TRACE(command + " --fov " + fov);
+            const auto f = runCli(command + " --fov " + fov);
+            EXPECT_EQ(f.code, 2) << f.err;
+            EXPECT_NE(f.err.find("--fov: '" + std::string(fov) + "' must be in (0, 180)"),
+                      std::string::npos)
+                << f.err;
+            EXPECT_FALSE(fs::exists(out));
+        }
+    }
+    // Inside the range but outside capture's old [1, 179]: a frame with that field of view.
+    const auto c =
+        runCli("capture -q " + q(model) + camera + " --fov 0.5 --size 16x16 -o " + q(out));
+    ASSERT_EQ(c.code, 0) << c.err;
+    const nlohmann::json frame = parseStrict(slurp(out + "/frame_0000.json"));
+    EXPECT_DOUBLE_EQ(frame["camera"].value("fov", 0.0), 0.5) << frame["camera"].dump();
+}
+
 TEST_F(Inputs, GpuBudgetBeyondTheDeviceIsAnErrorNamingTheOption) {
     // 16 GiB is accepted by the option; lavapipe (2 GiB heap) cannot allocate it and a large GPU
     // can: either a clean error naming the option and the device, or frames.

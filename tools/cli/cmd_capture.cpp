@@ -110,17 +110,20 @@ void addCaptureCommand(CLI::App& app, int& exitCode) {
     CLI::App* sub = app.add_subcommand(
         "capture", "Render frames of a .ulod file headless (Vulkan) to PNG + JSON");
     sub->add_option("FILE", c->o.path, ".ulod file")->required();
-    addCameraOption(*sub, c->camera,
-                    "eye x,y,z (file CRS, metres), yaw (0 = north, 90 = east), pitch (< 0 down) "
-                    "in degrees (default, without --path: the whole model seen from the south)");
+    CLI::Option* camera = addCameraOption(
+        *sub, c->camera,
+        "eye x,y,z (file CRS, metres), yaw (0 = north, 90 = east), pitch (< 0 down) "
+        "in degrees (default, without --path: the whole model seen from the south)");
     sub->add_option("--path", c->cameraPath,
                     "camera path JSON: {\"fov\": 60, \"keyframes\": [{\"eye\": [x, y, z], "
                     "\"yaw\": d, \"pitch\": d}, ...]}");
     sub->add_option("--frames", c->frames,
                     "frames to render (default: one per keyframe; sampled evenly along the path)")
         ->check(CLI::Range(1u, 100000u));
+    // Only with --camera: a --path has its own "fov", the default view its 60 degrees.
     sub->add_option("--fov", c->fov, "vertical field of view in degrees with --camera (default 60)")
-        ->check(numberIn(1.0, 179.0));
+        ->check(fovRange())
+        ->needs(camera);
     c->engine.add(*sub, "1024x768");
     sub->add_flag("--grid", c->o.grid,
                   "2D grid mode: top-down orthographic wireframe, river edges highlighted");

@@ -84,8 +84,9 @@ void addReportCommand(CLI::App& app, int& exitCode) {
     sub->add_option("--pixels", c->pixels,
                     "pixel tolerances P, comma-separated (default 1; diagrams use the first)")
         ->check(listOf(positive()));
-    sub->add_option("--fov", c->o.stats.fovDegrees, "vertical field of view in degrees (default 60)")
-        ->check(numberIn(0, 180, Bound::Open, Bound::Open));
+    sub->add_option("--fov", c->o.stats.fovDegrees,
+                    "vertical field of view in degrees (default 60)")
+        ->check(fovRange());
     sub->add_option("--height", c->o.stats.heightPixels, "viewport height in pixels (default 1080)")
         ->check(numberIn(1.0, 1e9));
     sub->add_option("--metric", c->metric, "error metric (default: the file's default)")

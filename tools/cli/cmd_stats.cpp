@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "commands.h"
+#include "engineopts.h"
 #include "jsontext.h"
 #include "numbers.h"
 #include "outputopts.h"
@@ -214,7 +215,7 @@ void addStatsCommand(CLI::App& app, int& exitCode) {
                         "(default 1)")
             ->check(listOf(positive()));
     sub->add_option("--fov", c->fov, "vertical field of view in degrees (default 60)")
-        ->check(numberIn(0, 180, Bound::Open, Bound::Open));
+        ->check(fovRange());
     sub->add_option("--height", c->height, "viewport height in pixels (default 1080)")
         ->check(numberIn(1.0, 1e9));
     sub->add_option("--metric", c->metric, "error metric (default: the file's default)")
