@@ -94,6 +94,7 @@ protected:
         const auto c = runCli("check -q " + q(path));
         named(c, "check");
         EXPECT_NE(c.err.find(why), std::string::npos) << c.err;
+        EXPECT_EQ(c.err.find(path), c.err.rfind(path)) << "the file named once: " << c.err;
 
         const std::string frames = dir->file(name + "_frames");
         const auto capture = runCli("capture --validation " + q(path) + " --camera " + camera +

@@ -28,11 +28,6 @@ bool parseSize(const std::string& s, std::uint32_t& w, std::uint32_t& h) {
     return true;
 }
 
-std::string errorForFile(const std::string& path, const std::string& error) {
-    if (error.compare(0, path.size() + 1, path + ":") == 0) return error;
-    return path + ": " + error;
-}
-
 bool parseCamera(const std::string& text, bool positionOnly, engine::Camera& camera,
                  bool& hasDirection, std::string& error) {
     static const char* const names[] = {"x", "y", "z", "yaw", "pitch"};

@@ -10,6 +10,7 @@
 #include "camera.h"
 #include "device.h"
 #include "scene.h"
+#include "ulod.h"
 
 namespace unilod::cli {
 
@@ -55,7 +56,7 @@ CLI::Validator fovRange();
 bool defaultCamera(const std::string& path, engine::Camera& camera, std::string& error);
 
 // "PATH: ERROR" for an engine error, unless the message already names the file first (the
-// reader's and the scene's do; the device's do not).
-std::string errorForFile(const std::string& path, const std::string& error);
+// reader's and the scene's do; the device's do not): format::errorForFile.
+using format::errorForFile;
 
 }  // namespace unilod::cli
