@@ -140,6 +140,7 @@ TEST_F(Inputs, OptionValuesOutsideTheirRangeAreUsageErrorsWithShortMessages) {
         {buildArgs, "--min-river-length", "nan"},
         {buildArgs, "--min-river-length", "-1"},
         {buildArgs, "--bai-row", "inf"},
+        {buildArgs, "--bai-row", "-1"},  // a table's thresholds are >= 0 (exit 1 before)
         {buildArgs, "--band", "-1"},
         {buildArgs, "--memory-limit", "nan"},
         {buildArgs, "--memory-limit", "inf"},
@@ -296,6 +297,17 @@ TEST_F(Inputs, GpuBudgetBeyondTheDeviceIsAnErrorNamingTheOption) {
     } else {
         EXPECT_TRUE(fs::exists(fs::path(out) / "frame_0000.png"));
     }
+}
+
+TEST_F(Inputs, MissingCameraPathSaysWhy) {
+    const std::string missing = (dir / "no_such_path.json").string();
+    const std::string out = (dir / "missing_path.json").string();
+    const auto r = runCli("bench " + q(model) + " --path " + q(missing) + " -o " + q(out));
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find(missing + ": cannot read the camera path: No such file or directory"),
+              std::string::npos)
+        << r.err;
+    EXPECT_FALSE(fs::exists(out));
 }
 
 TEST_F(Inputs, CameraPathWithAnOverflowingNumberNamesTheProblem) {

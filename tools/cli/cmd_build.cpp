@@ -141,7 +141,7 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
     sub->add_option("--bai-row", c->o.baiRow,
                     "simplification-threshold row of the BAI table (m); default: greedy takes "
                     "C at each deletion's threshold (README \"BAI\"), 3ddp the 500 m row")
-        ->check(finite());
+        ->check(nonNegative());  // a table's thresholds are >= 0 (bai.h)
     sub->add_option("--metric", c->metric, "default error metric recorded in the file")
         ->check(CLI::IsMember({"max", "paper"}));
     sub->add_flag("--paper-metric", c->o.paperMetric,
