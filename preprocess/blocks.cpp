@@ -50,9 +50,14 @@ bool BlockSource::init(const DemGrid& dem, const RiverLines& rivers, const Block
         return false;
     }
     if (options.stride > smallest) {
+        // The stride is compared with the steps between the outer cell centres, one fewer than
+        // the cells: a stride equal to the cell count already leaves a single row or column.
         error = "--stride " + std::to_string(options.stride) + " is larger than the DEM (" + cells +
-                (smallest >= 1 ? "); use --stride " + std::to_string(smallest) + " or less"
-                               : "): too small to triangulate");
+                (smallest >= 1
+                     ? ": " + std::to_string(smallest) + " cell step" + (smallest == 1 ? "" : "s") +
+                           " between its outer cell centres); use --stride " +
+                           std::to_string(smallest) + " or less"
+                     : "): too small to triangulate");
         return false;
     }
     for (const int n : {dem.width, dem.height}) {

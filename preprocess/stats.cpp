@@ -8,6 +8,7 @@
 #include <numbers>
 
 #include "cut.h"
+#include "numtext.h"
 #include "ulod.h"
 
 namespace unilod {
@@ -25,10 +26,10 @@ bool parseDistance(const std::string& text, double& metres) {
     }
     while (!s.empty() && s.back() == ' ')
         s.pop_back();
-    if (s.empty() || s.front() == ' ') return false;
-    char* end = nullptr;
-    const double v = std::strtod(s.c_str(), &end);
-    if (end != s.c_str() + s.size() || !std::isfinite(v)) return false;
+    double v = 0;
+    // The number as strict as every option's (no hexadecimal, finite), and finite in metres too
+    // (1e308km overflows).
+    if (!format::parseFiniteNumber(s, v) || !std::isfinite(v * scale)) return false;
     metres = v * scale;
     return true;
 }

@@ -74,7 +74,8 @@ engine::ViewSpec statsView(const format::Header& header, const StatsOptions& opt
 // per row; doubles with %.17g (they round-trip), '.' decimals.
 std::string statsCsv(const StatsTable& table);
 
-// Parses "100km", "1500 m", "2.5km" or a bare number (metres). False on anything else.
+// Parses "100km", "1500 m", "2.5km" or a bare number (metres); the number as format/numtext.h
+// reads it (no hexadecimal, finite), the metres finite too. False on anything else.
 bool parseDistance(const std::string& text, double& metres);
 
 // Reads `path` (format::Reader: checksums and structure are validated) and fills `table`.

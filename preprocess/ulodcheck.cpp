@@ -572,7 +572,7 @@ bool checkUlod(const std::string& path, const UlodCheckOptions& options, UlodChe
     SharedBorders borders;
     for (std::size_t i = 0; i < n; ++i) {
         if (!results[i].error.empty()) {
-            error = path + ": " + results[i].error;
+            error = format::errorForFile(path, results[i].error);  // a block's read names it
             return false;
         }
         merge(summary, results[i].summary);

@@ -173,6 +173,13 @@ inline constexpr double kAbsoluteSlack = 1e-6;
 // above the leaves.
 std::string blockName(std::uint32_t col, std::uint32_t row, std::uint32_t level = 0);
 
+// "PATH: ERROR", unless ERROR already names the file first (the Reader's messages do; a
+// validation's message does not).
+inline std::string errorForFile(const std::string& path, const std::string& error) {
+    if (error.compare(0, path.size() + 1, path + ":") == 0) return error;
+    return path + ": " + error;
+}
+
 // Whether a block's outline (preprocess/cdt.h "Domain") may move between its levels: unless the
 // coarsest level's outline is the block's bounding rectangle. The greedy order deletes an outline
 // vertex only where no other changes sides (preprocess/deletion.h), and a deleted vertex never

@@ -1,7 +1,9 @@
 #include "campath.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <numbers>
@@ -32,11 +34,14 @@ bool loadCameraPath(const std::string& path, CameraPath& out, std::string& error
         error = path + ": " + why;
         return false;
     }
+    errno = 0;
     std::ifstream in(path, std::ios::binary);
+    const int openErrno = errno;  // why the open failed (no such file, permission denied)
     std::stringstream text;
     if (in) text << in.rdbuf();
     if (!in || in.bad()) {
         error = path + ": cannot read the camera path";
+        if (!in.is_open() && openErrno != 0) error += std::string(": ") + std::strerror(openErrno);
         return false;
     }
     nlohmann::json j;

@@ -839,9 +839,13 @@ TEST(CliBuildAnyDem, OptionsThatCannotWorkAreNamed) {
         return "build -q " + q(d) + " " + q(r) + " -o " + q(c.out()) + " " + extra;
     };
     expectRejected(c, run(args(dem2, rivers2, "--stride 5")), 1, dem2,
-                   "--stride 5 is larger than the DEM (2 x 2 cells); use --stride 1");
+                   "--stride 5 is larger than the DEM (2 x 2 cells: 1 cell step between its outer "
+                   "cell centres); use --stride 1");
+    // A stride equal to the cell count: larger than the 39 steps between the outer cells (the
+    // message used to say "larger than the DEM (40 x 40 cells)" for 40).
     expectRejected(c, run(args(dem, rivers, "--stride 40")), 1, dem,
-                   "--stride 40 is larger than the DEM (40 x 40 cells); use --stride 39");
+                   "--stride 40 is larger than the DEM (40 x 40 cells: 39 cell steps between its "
+                   "outer cell centres); use --stride 39");
     expectRejected(c, run(args(dem, rivers, "--block-size 1")), 1, dem,
                    "--block-size 1 is less than twice --stride 1");
     expectRejected(c, run(args(dem, rivers, "--block-size 5 --stride 3")), 1, dem,

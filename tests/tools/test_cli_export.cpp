@@ -469,7 +469,7 @@ TEST_F(ExportTest, ErrorsLeaveNoFile) {
         {"export " + q(model) + " --h-lim 5 --camera 1,2,3 -o " + q(out), 2},
         {"export " + q(model) + " --camera 1,2 -o " + q(out), 2},
         {"export " + q(model) + " --camera 1,2,3 --size 0x5 -o " + q(out), 2},
-        {"export " + q(model) + " --camera 1,2,3,0,95 -o " + q(out), 1},
+        {"export " + q(model) + " --camera 1,2,3,0,95 -o " + q(out), 2},  // pitch: usage
         {"export " + q(model) + " --camera 1,2,3 --distance far -o " + q(out), 2},
         {"export " + q(model) + " --h-lim 5 --metric median -o " + q(out), 2},
         {"export " + q(model) + " --h-lim 5", 2},

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "testutil.h"
 #include "tools/cliutil.h"
@@ -93,6 +94,7 @@ protected:
         const auto c = runCli("check -q " + q(path));
         named(c, "check");
         EXPECT_NE(c.err.find(why), std::string::npos) << c.err;
+        EXPECT_EQ(c.err.find(path), c.err.rfind(path)) << "the file named once: " << c.err;
 
         const std::string frames = dir->file(name + "_frames");
         const auto capture = runCli("capture --validation " + q(path) + " --camera " + camera +
@@ -228,6 +230,71 @@ TEST_F(Hostile, TwoDamagedBlocksTheSameIsNamedEveryTime) {
         EXPECT_EQ(named, captureNamed) << r.err;
         EXPECT_FALSE(fs::exists(fs::path(frames) / "frame_0000.png"));
     }
+}
+
+// Extents that are finite but so large that the default view (capture's overview, export's
+// default) cannot be made: both commands name the file and the cause instead of the engine's
+// "camera position must be finite" without a file name.
+TEST_F(Hostile, HugeHeaderExtentsGiveNoDefaultView) {
+    UlodBytes f = pristine;
+    f.set<double>(UlodBytes::kMinX, -1e300);
+    f.set<double>(UlodBytes::kMinY, -1e300);
+    f.set<double>(UlodBytes::kMaxX, 1e300);
+    f.set<double>(UlodBytes::kMaxY, 1e300);
+    f.resealHeader();
+    const std::string path = dir->file("huge_extents.ulod");
+    ASSERT_TRUE(f.save(path));
+    const std::string glb = dir->file("huge_extents.glb");
+    const auto e = runCli("export -q " + q(path) + " -o " + q(glb));
+    EXPECT_EQ(e.code, 1) << e.err;
+    EXPECT_NE(e.err.find(path + ": the model's extent"), std::string::npos) << e.err;
+    EXPECT_NE(e.err.find("no valid default view"), std::string::npos) << e.err;
+    EXPECT_FALSE(fs::exists(glb));
+    const std::string frames = dir->file("huge_extents_frames");
+    const auto c = runCli("capture -q " + q(path) + " --size 64x48 -o " + q(frames));
+    EXPECT_EQ(c.code, 1) << c.err;
+    EXPECT_NE(c.err.find(path + ": the model's extent"), std::string::npos) << c.err;
+    EXPECT_FALSE(fs::exists(frames));
+}
+
+// --camera of view, capture and export: one check (tools/cli/engineopts.h addCameraOption) while
+// parsing, so a bad value is a usage error naming the option and the component, before any
+// file, window or device is opened (view used to run with a NaN eye under xvfb, and without a
+// display to report only that; capture and export exited 1 without the option's name).
+TEST_F(Hostile, BadCameraValuesAreUsageErrorsNamingTheComponent) {
+    struct Case {
+        std::string value, named;
+    };
+    const std::vector<Case> cases = {
+        {"nan,0,0,0,0", "x 'nan' is not a finite number"},
+        {"0,inf,0,0,0", "y 'inf' is not a finite number"},
+        {"0,0,1e999,0,0", "z '1e999' is not a finite number"},
+        {"0,0,0,-nan,0", "yaw '-nan' is not a finite number"},
+        {"746000,4050000,5000,0,-95", "pitch '-95' must be in [-90, 90]"},
+        {"746000,4050000,5000,0,91", "pitch '91' must be in [-90, 90]"},
+        {"1,,2,3,4,5", "(6 values)"},
+        {"1,2,,4,5", "z '' is not a finite number"},
+        {"1,2,3,4,5,", "(6 values)"},
+    };
+    const std::string out = dir->file("camera_refused");
+    for (const Case& c : cases) {
+        for (const std::string& command :
+             {"view " + q(model) + " --frames 1", "capture " + q(model) + " -o " + q(out),
+              "export " + q(model) + " -o " + q(out)}) {
+            SCOPED_TRACE(command + " --camera " + c.value);
+            const auto r = runCli(command + " --camera " + q(c.value));
+            EXPECT_EQ(r.code, 2) << r.err;
+            EXPECT_NE(r.err.find("--camera: "), std::string::npos) << r.err;
+            EXPECT_NE(r.err.find(c.named), std::string::npos) << r.err;
+            EXPECT_EQ(r.err.find("display"), std::string::npos) << "checked before the window";
+            EXPECT_FALSE(fs::exists(out));
+        }
+    }
+    // Export alone also takes X,Y,Z; the same checks apply to it.
+    const auto r = runCli("export " + q(model) + " -o " + q(out) + " --camera nan,0,0");
+    EXPECT_EQ(r.code, 2) << r.err;
+    EXPECT_NE(r.err.find("--camera: x 'nan' is not a finite number"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out));
 }
 
 }  // namespace

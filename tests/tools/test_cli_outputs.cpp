@@ -313,6 +313,25 @@ TEST_F(CliOutputs, ViewScreenshotRefusesAnExistingFileBeforeAWindowOpens) {
     EXPECT_EQ(unilod::test::slurp(shot), "keep");
 }
 
+TEST_F(CliOutputs, ViewScreenshotRefusesAMissingFolderOrItsInputBeforeAWindowOpens) {
+    // Both used to be refused only when the screenshot was written, after rendering (or, without
+    // a display, not at all: the window's error came first).
+    const std::string missing = dir->file("no_such_folder") + "/shot.png";
+    const auto r = runCli("view " + q(model) + " --frames 1 --screenshot " + q(missing));
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find(missing + ": folder '"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("does not exist"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("window"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir->file("no_such_folder")));
+
+    const std::string before = slurp(model);
+    const auto i = runCli("view " + q(model) + " --frames 1 --overwrite --screenshot " + q(model));
+    EXPECT_EQ(i.code, 1) << i.err;
+    EXPECT_NE(i.err.find(model + ": is also an input of this command"), std::string::npos) << i.err;
+    EXPECT_EQ(i.err.find("window"), std::string::npos) << i.err;
+    EXPECT_EQ(slurp(model), before);
+}
+
 TEST_F(CliOutputs, FifoInputRefusedWithoutBlocking) {
     const std::string fifo = dir->file("pipe.ulod");
     ASSERT_EQ(mkfifo(fifo.c_str(), 0644), 0);

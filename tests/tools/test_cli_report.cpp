@@ -418,6 +418,20 @@ TEST_F(ReportTest, FailuresLeaveNothing) {
     for (const auto& e : fs::directory_iterator(dir->path))
         EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
 
+    // The hint says where the failing input came from (a path given with --dem used to be called
+    // one "named by the build info").
+    const std::string noDem = dir->file("no.tif"), noRivers = dir->file("no.json");
+    r = runCli("report -q " + q(model) + " -o " + q(other) + " --dem " + q(noDem));
+    EXPECT_NE(r.err.find(noDem), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("(the DEM given by --dem; the rivers named by the build info of"),
+              std::string::npos)
+        << r.err;
+    r = runCli("report -q " + q(model) + " -o " + q(other) + " --dem " + q(noDem) + " --rivers " +
+               q(noRivers));
+    EXPECT_NE(r.err.find("(the inputs given by --dem and --rivers)"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("build info"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(other));
+
     // Without the river comparison no DEM or rivers are needed and no rivers.* is written.
     r = runCli("report -q " + q(model) + " -o " + q(other) + " --no-rivers --dem " +
                q(dir->file("no.tif")) + " --distance 50km --image-size 64 --bench-frames 0");

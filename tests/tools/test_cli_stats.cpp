@@ -511,6 +511,10 @@ TEST(StatsParse, Distances) {
     EXPECT_FALSE(parseDistance("km", m));
     EXPECT_FALSE(parseDistance("10 miles", m));
     EXPECT_FALSE(parseDistance("1e400km", m));
+    EXPECT_FALSE(parseDistance("1e308km", m)) << "finite, but not in metres";
+    EXPECT_FALSE(parseDistance("0x10", m)) << "hexadecimal";
+    EXPECT_FALSE(parseDistance("0x1p3km", m));
+    EXPECT_FALSE(parseDistance(" 5km", m));
 }
 
 TEST(StatsParse, RowViewIsEquation11AtTheBlockCentre) {

@@ -7,7 +7,6 @@
 // Progress on stderr (progress.h). A benchmark, not a test: it prints numbers and asserts nothing.
 #include <cstdio>
 #include <memory>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -39,18 +38,8 @@ struct BenchCli {
 
 int run(BenchCli& c) {
     if (!c.engine.apply(c.o.scene, c.o.device, c.o.width, c.o.height, "bench")) return 2;
-    c.o.runs.clear();
     c.o.runsGiven = c.runsOption != nullptr && c.runsOption->count() > 0;
-    std::stringstream list(c.runs);
-    for (std::string r; std::getline(list, r, ',');) {
-        if (r != "lod" && r != "resident" && r != "bare" && r != "full") {
-            std::fprintf(stderr,
-                         "unilod bench: error: unknown run '%s' (lod, resident, bare, full)\n",
-                         r.c_str());
-            return 2;
-        }
-        c.o.runs.push_back(r);
-    }
+    c.o.runs = splitList(c.runs);  // checked while parsing
     std::string error;
     // Where the JSON goes: -o FILE, or the old spelling --json FILE; "-" is stdout (instead of
     // the table).
@@ -183,8 +172,17 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
                     "to back)")
         ->check(numberIn(0, 10000));
     c->engine.add(*sub, "1920x1080");
-    c->runsOption = sub->add_option("--runs", c->runs,
-                    "comma-separated runs: lod, resident, bare, full (default: all four)");
+    // Every item one of the four: an empty list or item ("", "lod,") is refused, not skipped.
+    c->runsOption =
+        sub->add_option("--runs", c->runs,
+                        "comma-separated runs: lod, resident, bare, full (default: all four)")
+            ->check(listOf(CLI::Validator(
+                [](std::string& run) -> std::string {
+                    if (run == "lod" || run == "resident" || run == "bare" || run == "full")
+                        return {};
+                    return "unknown run '" + run + "' (lod, resident, bare, full)";
+                },
+                "RUN")));
     sub->add_option("--rounds", c->o.rounds,
                     "repeat the runs in order this many times and pool each run's frames, so "
                     "that a slow phase of the machine falls on every run alike; the JSON keeps "

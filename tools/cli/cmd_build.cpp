@@ -141,7 +141,7 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
     sub->add_option("--bai-row", c->o.baiRow,
                     "simplification-threshold row of the BAI table (m); default: greedy takes "
                     "C at each deletion's threshold (README \"BAI\"), 3ddp the 500 m row")
-        ->check(finite());
+        ->check(nonNegative());  // a table's thresholds are >= 0 (bai.h)
     sub->add_option("--metric", c->metric, "default error metric recorded in the file")
         ->check(CLI::IsMember({"max", "paper"}));
     sub->add_flag("--paper-metric", c->o.paperMetric,
@@ -157,12 +157,12 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
                         std::to_string(int(kDefaultHandoffPixels)) +
                         ": the parent takes over once the node spans fewer pixels at P = 1); "
                         "larger: coarser nodes drawn sooner")
-        ->check(CLI::Range(1.0, 1e6));
+        ->check(numberIn(1.0, 1e6));
     sub->add_option("--memory-limit", c->memoryLimitMb,
                     "refuse, before the long work, a build whose memory estimate (README \"Large "
                     "DEMs\") exceeds this many MB (default: the memory this process can get: "
                     "available memory and swap, a cgroup's or ulimit's limit)")
-        ->check(CLI::Range(1.0, 1e12));
+        ->check(numberIn(1.0, 1e12));
     sub->add_flag("--memory-check,!--no-memory-check", c->o.memoryCheck,
                   "refuse a build whose memory estimate exceeds what is available (default); "
                   "--no-memory-check: build anyway");

@@ -1,7 +1,8 @@
 // `unilod capture FILE [--camera x,y,z,yaw,pitch | --path PATH.json] [--frames N] [--size WxH]
 // [--pixels P] ... -o DIR`: headless frames of a .ulod file with the streamed per-block LOD
-// (engine/capture.h), written as DIR/frame_NNNN.png + .json. Malformed options are usage errors
-// (exit 2); an unreadable file, a camera out of range or no Vulkan device are data errors (1), and
+// (engine/capture.h), written as DIR/frame_NNNN.png + .json. Malformed options (a --camera value
+// out of range too) are usage errors (exit 2); an unreadable file, a camera path out of range or
+// no Vulkan device are data errors (1), and
 // so is a DIR that is not empty without --overwrite (outputopts.h; with it the frames replace
 // those of the same names, other files stay).
 #include <cstdio>
@@ -25,7 +26,7 @@ struct CaptureCli {
     engine::CaptureOptions o;
     OutputFlags output;
     EngineCli engine;
-    std::vector<double> camera;
+    std::string camera;  // --camera X,Y,Z,YAW,PITCH (checked while parsing)
     std::string cameraPath;
     std::uint32_t frames = 0;
     double fov = 60;
@@ -48,20 +49,18 @@ int run(CaptureCli& c) {
     engine::CameraPath path;
     if (!c.camera.empty()) {
         engine::Camera cam;
-        for (int i = 0; i < 3; ++i) cam.eye[i] = c.camera[std::size_t(i)];
-        cam.yawDegrees = c.camera[3];
-        cam.pitchDegrees = c.camera[4];
+        bool direction = false;
+        parseCamera(c.camera, false, cam, direction, error);  // checked while parsing
         cam.fovDegrees = c.fov;
         path.keyframes.push_back(cam);
     } else if (c.cameraPath.empty()) {
         // Neither: an overview of the whole model (engine::defaultOverview).
-        format::Reader reader;
-        if (!reader.open(c.o.path, error)) {
-            std::fprintf(stderr, "unilod capture: error: %s\n",
-                         errorForFile(c.o.path, error).c_str());
+        engine::Camera overview;
+        if (!defaultCamera(c.o.path, overview, error)) {
+            std::fprintf(stderr, "unilod capture: error: %s\n", error.c_str());
             return 1;
         }
-        path.keyframes.push_back(engine::defaultOverview(reader.header()));
+        path.keyframes.push_back(overview);
     } else if (!engine::loadCameraPath(c.cameraPath, path, error)) {
         std::fprintf(stderr, "unilod capture: error: %s\n", error.c_str());
         return 1;
@@ -111,19 +110,20 @@ void addCaptureCommand(CLI::App& app, int& exitCode) {
     CLI::App* sub = app.add_subcommand(
         "capture", "Render frames of a .ulod file headless (Vulkan) to PNG + JSON");
     sub->add_option("FILE", c->o.path, ".ulod file")->required();
-    sub->add_option("--camera", c->camera,
-                    "eye x,y,z (file CRS, metres), yaw (0 = north, 90 = east), pitch (< 0 down) "
-                    "in degrees (default, without --path: the whole model seen from the south)")
-        ->delimiter(',')
-        ->expected(5);
+    CLI::Option* camera = addCameraOption(
+        *sub, c->camera,
+        "eye x,y,z (file CRS, metres), yaw (0 = north, 90 = east), pitch (< 0 down) "
+        "in degrees (default, without --path: the whole model seen from the south)");
     sub->add_option("--path", c->cameraPath,
                     "camera path JSON: {\"fov\": 60, \"keyframes\": [{\"eye\": [x, y, z], "
                     "\"yaw\": d, \"pitch\": d}, ...]}");
     sub->add_option("--frames", c->frames,
                     "frames to render (default: one per keyframe; sampled evenly along the path)")
         ->check(CLI::Range(1u, 100000u));
+    // Only with --camera: a --path has its own "fov", the default view its 60 degrees.
     sub->add_option("--fov", c->fov, "vertical field of view in degrees with --camera (default 60)")
-        ->check(numberIn(1.0, 179.0));
+        ->check(fovRange())
+        ->needs(camera);
     c->engine.add(*sub, "1024x768");
     sub->add_flag("--grid", c->o.grid,
                   "2D grid mode: top-down orthographic wireframe, river edges highlighted");

@@ -10,6 +10,7 @@
 // errors 1; no partial .glb or tileset folder is ever left.
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,7 +31,7 @@ namespace {
 
 struct ExportCli {
     exporter::ExportOptions o;
-    std::vector<double> camera;
+    std::string camera;  // --camera X,Y,Z[,YAW,PITCH] (checked while parsing)
     double hLim = -1;
     std::string size = "1920x1080";
     std::string metric;
@@ -44,6 +45,7 @@ struct ExportCli {
     std::string verticalSrs;                         // --vertical-crs
     double tileRatio = exporter::kDefaultTileRatio;  // --tile-ratio
     std::size_t threads = 0;                         // --threads (--3dtiles)
+    std::optional<engine::Camera> overview;  // neither --camera nor --h-lim: capture's default
 };
 
 bool parseSize(const std::string& s, double& width, double& height) {
@@ -112,20 +114,23 @@ int run(ExportCli& c) {
                      c.size.c_str());
         return 2;
     }
-    s.useCamera = !c.camera.empty();
+    s.useCamera = !c.camera.empty() || c.overview;
     s.refine = !c.noRefine;
     if (s.useCamera) {
-        if (c.camera.size() != 3 && c.camera.size() != 5) {
-            std::fprintf(stderr, "unilod export: error: --camera takes X,Y,Z[,YAW,PITCH]\n");
-            return 2;
-        }
+        engine::Camera camera;
+        bool direction = true;
+        std::string error;
+        if (c.overview)
+            camera = *c.overview;
+        else
+            parseCamera(c.camera, true, camera, direction, error);  // checked while parsing
         for (int i = 0; i < 3; ++i)
-            s.eye[i] = c.camera[std::size_t(i)];
-        if (c.camera.size() == 5) {
+            s.eye[i] = camera.eye[i];
+        if (direction) {
             s.hasDirection = true;
             s.cull = !c.noCull;
-            s.yawDegrees = c.camera[3];
-            s.pitchDegrees = c.camera[4];
+            s.yawDegrees = camera.yawDegrees;
+            s.pitchDegrees = camera.pitchDegrees;
         }
         s.distance = c.distance == "centre" ? engine::DistanceMode::Centre
                                             : engine::DistanceMode::Nearest;
@@ -172,13 +177,11 @@ void addExportCommand(CLI::App& app, int& exitCode) {
         "3D Tiles 1.1 tileset on the WGS84 globe (CesiumJS)");
     sub->add_option("FILE", c->o.path, ".ulod file")->required();
     CLI::Option* camera =
-        sub->add_option(
-               "--camera", c->camera,
-               "eye X,Y,Z (file CRS, metres), optionally yaw,pitch in degrees (as in `unilod "
-               "capture`): then only the blocks in the view frustum (default, without "
-               "--h-lim: capture's view of the whole model from the south)")
-            ->delimiter(',')
-            ->expected(3, 5);
+        addCameraOption(*sub, c->camera,
+                        "eye X,Y,Z (file CRS, metres), optionally yaw,pitch in degrees (as in "
+                        "`unilod capture`): then only the blocks in the view frustum (default, "
+                        "without --h-lim: capture's view of the whole model from the south)",
+                        true);
     CLI::Option* hLim = sub->add_option("--h-lim", c->hLim,
                                         "model-space error tolerance in metres for every block")
                             ->check(nonNegative());
@@ -189,7 +192,7 @@ void addExportCommand(CLI::App& app, int& exitCode) {
         ->check(positive());
     sub->add_option("--fov", c->o.selection.fovDegrees,
                     "vertical field of view in degrees (--camera; default 60)")
-        ->check(numberIn(0, 180, Bound::Open, Bound::Open));
+        ->check(fovRange());
     sub->add_option("--size", c->size,
                     "viewport WxH: H enters h_lim, W/H the frustum (--camera; default 1920x1080)");
     sub->add_option("--distance", c->distance,
@@ -251,17 +254,14 @@ void addExportCommand(CLI::App& app, int& exitCode) {
         if (c->camera.empty() && c->hLim < 0) {
             // Neither: the view `unilod capture` renders without a camera, the whole model seen
             // from the south (engine::defaultOverview), culled like any view with a direction.
-            format::Reader reader;
+            engine::Camera overview;
             std::string error;
-            if (!reader.open(c->o.path, error)) {
-                std::fprintf(stderr, "unilod export: error: %s\n",
-                             errorForFile(c->o.path, error).c_str());
+            if (!defaultCamera(c->o.path, overview, error)) {
+                std::fprintf(stderr, "unilod export: error: %s\n", error.c_str());
                 exitCode = 1;
                 return;
             }
-            const engine::Camera overview = engine::defaultOverview(reader.header());
-            c->camera = {overview.eye[0], overview.eye[1], overview.eye[2], overview.yawDegrees,
-                         overview.pitchDegrees};
+            c->overview = overview;
         }
         exitCode = run(*c);
     });

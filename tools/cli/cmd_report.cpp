@@ -25,24 +25,21 @@ struct ReportCli {
     report::ReportOptions o;
     OutputFlags output;
     std::vector<std::string> distances = {"100km", "200km", "500km", "1000km", "1500km"};
-    std::vector<double> budgets = {5, 10, 20, 40};
+    std::vector<std::string> budgets = {"5", "10", "20", "40"};
+    std::vector<std::string> pixels = {"1"};
     std::string metric;
     bool noRivers = false;
     bool quiet = false;
 };
 
 int run(ReportCli& c) {
-    c.o.stats.distances.clear();
-    for (const std::string& d : c.distances) {
-        double m = 0;
-        parseDistance(d, m);  // validated while parsing
-        c.o.stats.distances.push_back(m);
-    }
+    c.o.stats.distances = listLengths(c.distances);
+    c.o.stats.pixels = listNumbers(c.pixels);
     c.o.stats.metric = 0;
     if (c.metric == "paper") c.o.stats.metric = format::kMetricPaper;
     if (c.metric == "max") c.o.stats.metric = format::kMetricMax;
     c.o.budgets.clear();
-    for (double b : c.budgets)
+    for (double b : listNumbers(c.budgets))
         c.o.budgets.push_back(b / 100.0);
     c.o.rivers = !c.noRivers;
     c.o.outDir = c.output.path;
@@ -84,14 +81,13 @@ void addReportCommand(CLI::App& app, int& exitCode) {
     sub->add_option("--distance", c->distances,
                     "view distances for the tables and the grid diagrams, comma-separated, with m "
                     "or km (default 100km,200km,500km,1000km,1500km, as `unilod stats`)")
-        ->delimiter(',')
-        ->check(positiveDistance());
-    sub->add_option("--pixels", c->o.stats.pixels,
+        ->check(listOf(lengthIn(0, kMaxViewDistance, Bound::Open)));
+    sub->add_option("--pixels", c->pixels,
                     "pixel tolerances P, comma-separated (default 1; diagrams use the first)")
-        ->delimiter(',')
-        ->check(positive());
-    sub->add_option("--fov", c->o.stats.fovDegrees, "vertical field of view in degrees (default 60)")
-        ->check(numberIn(0, 180, Bound::Open, Bound::Open));
+        ->check(listOf(positive()));
+    sub->add_option("--fov", c->o.stats.fovDegrees,
+                    "vertical field of view in degrees (default 60)")
+        ->check(fovRange());
     sub->add_option("--height", c->o.stats.heightPixels, "viewport height in pixels (default 1080)")
         ->check(numberIn(1.0, 1e9));
     sub->add_option("--metric", c->metric, "error metric (default: the file's default)")
@@ -103,8 +99,7 @@ void addReportCommand(CLI::App& app, int& exitCode) {
     sub->add_option("--budget", c->budgets,
                     "river point budgets in percent of unlocked points, comma-separated "
                     "(default 5,10,20,40)")
-        ->delimiter(',')
-        ->check(numberIn(0.0, 100.0));
+        ->check(listOf(numberIn(0.0, 100.0)));
     sub->add_option("--image-size", c->o.imageSize, "grid diagram size in pixels (default 1024)")
         ->check(CLI::Range(16, 16384));
     sub->add_flag("--annotate,!--no-annotate", c->o.annotate,

@@ -5,11 +5,13 @@
 // Options out of range are usage errors (exit 2).
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "commands.h"
+#include "engineopts.h"
 #include "jsontext.h"
 #include "numbers.h"
 #include "outputopts.h"
@@ -23,7 +25,7 @@ namespace {
 struct StatsCli {
     std::string path;
     std::vector<std::string> distances = {"100km", "200km", "500km", "1000km", "1500km"};
-    std::vector<double> pixels = {1.0};
+    std::vector<std::string> pixels = {"1"};
     double fov = 60.0;
     double height = 1080.0;
     std::string metric;  // empty: the file's default
@@ -156,12 +158,7 @@ void printErrorJson(const ErrorStatsTable& t, const std::string& path) {
 }
 
 int runErrors(const StatsCli& c) {
-    std::vector<double> errors;
-    for (const std::string& e : c.errors) {
-        double m = 0;
-        parseDistance(e, m);  // already validated while parsing
-        errors.push_back(m);
-    }
+    const std::vector<double> errors = listLengths(c.errors);
     ErrorStatsTable t;
     std::string error;
     if (!computeErrorStats(c.path, errors, metricOf(c.metric), t, error)) {
@@ -179,13 +176,8 @@ int runErrors(const StatsCli& c) {
 int run(const StatsCli& c) {
     if (!c.errors.empty()) return runErrors(c);
     StatsOptions o;
-    o.distances.clear();
-    for (const std::string& d : c.distances) {
-        double m = 0;
-        parseDistance(d, m);  // already validated while parsing
-        o.distances.push_back(m);
-    }
-    o.pixels = c.pixels;
+    o.distances = listLengths(c.distances);
+    o.pixels = listNumbers(c.pixels);
     o.fovDegrees = c.fov;
     o.heightPixels = c.height;
     o.metric = metricOf(c.metric);
@@ -205,17 +197,6 @@ int run(const StatsCli& c) {
 
 }  // namespace
 
-CLI::Validator positiveDistance() {
-    return CLI::Validator(
-        [](std::string& s) -> std::string {
-            double m = 0;
-            if (!parseDistance(s, m)) return "not a distance (e.g. 100km, 500m): " + s;
-            if (!(m > 0)) return "distance must be positive: " + s;
-            return {};
-        },
-        "DISTANCE");
-}
-
 void addStatsCommand(CLI::App& app, int& exitCode) {
     auto c = std::make_shared<StatsCli>();
     CLI::App* sub = app.add_subcommand(
@@ -223,17 +204,18 @@ void addStatsCommand(CLI::App& app, int& exitCode) {
         "The paper's Tables 2 and 3: per view distance and pixel tolerance, h_lim of the "
         "edge / corner / middle blocks and the size of the selected network");
     sub->add_option("FILE", c->path, ".ulod file")->required();
-    CLI::Option* distance = sub->add_option("--distance", c->distances,
-                    "view distances, comma-separated, with m or km (default "
-                    "100km,200km,500km,1000km,1500km; a bare number is metres)")
-        ->delimiter(',')
-        ->check(positiveDistance());
-    CLI::Option* pixels = sub->add_option("--pixels", c->pixels,
-                    "screen projection error tolerances P in pixels, comma-separated (default 1)")
-        ->delimiter(',')
-        ->check(positive());
+    CLI::Option* distance =
+        sub->add_option("--distance", c->distances,
+                        "view distances, comma-separated, with m or km (default "
+                        "100km,200km,500km,1000km,1500km; a bare number is metres)")
+            ->check(listOf(lengthIn(0, kMaxViewDistance, Bound::Open)));
+    CLI::Option* pixels =
+        sub->add_option("--pixels", c->pixels,
+                        "screen projection error tolerances P in pixels, comma-separated "
+                        "(default 1)")
+            ->check(listOf(positive()));
     sub->add_option("--fov", c->fov, "vertical field of view in degrees (default 60)")
-        ->check(numberIn(0, 180, Bound::Open, Bound::Open));
+        ->check(fovRange());
     sub->add_option("--height", c->height, "viewport height in pixels (default 1080)")
         ->check(numberIn(1.0, 1e9));
     sub->add_option("--metric", c->metric, "error metric (default: the file's default)")
@@ -244,14 +226,7 @@ void addStatsCommand(CLI::App& app, int& exitCode) {
                         "uniform model-error thresholds e, comma-separated (m or km; a bare "
                         "number is metres): per e, the network at the exact step and at the "
                         "stored level for h_lim = e, instead of the distance table")
-            ->delimiter(',')
-            ->check(CLI::Validator(
-                [](std::string& s) -> std::string {
-                    double m = 0;
-                    if (!parseDistance(s, m)) return "not a model error (e.g. 5, 10m): " + s;
-                    return m >= 0 ? "" : "model error must be >= 0: " + s;
-                },
-                "ERROR"));
+            ->check(listOf(lengthIn(0, std::numeric_limits<double>::infinity())));
     addJsonOption(sub, c->json, "JSON output of the --error table on stdout ('-', the default)")
         ->needs(errors);
     addQuietFlag(sub, c->quiet);  // stats prints nothing on stderr but errors: accepted for scripts

@@ -22,7 +22,7 @@ namespace {
 struct ViewCli {
     engine::ViewOptions o;
     EngineCli engine;
-    std::vector<double> camera;
+    std::string camera;  // --camera X,Y,Z,YAW,PITCH (checked while parsing)
     std::string resize;
     bool quiet = false;
     bool overwrite = false;  // --screenshot onto an existing file
@@ -34,10 +34,13 @@ int run(ViewCli& c) {
         std::fprintf(stderr, "unilod view: error: --screenshot needs --frames N\n");
         return 2;
     }
-    // The existing-output rule of outputopts.h for --screenshot, before a window opens.
+    // The rules the screenshot is written under (existing file only with --overwrite, never the
+    // input, an existing writable folder), checked before a window opens.
     std::string error;
     if (!c.o.screenshotPath.empty() &&
-        !checkOutput({c.o.screenshotPath, c.overwrite}, OutputKind::File, error)) {
+        !format::checkOutputPath(c.o.screenshotPath,
+                                 outputOptions({c.o.screenshotPath, c.overwrite}, {c.o.path}),
+                                 false, error)) {
         std::fprintf(stderr, "unilod view: error: %s\n", error.c_str());
         return 1;
     }
@@ -48,11 +51,8 @@ int run(ViewCli& c) {
         return 2;
     }
     if (!c.camera.empty()) {
-        c.o.hasCamera = true;
-        for (int i = 0; i < 3; ++i)
-            c.o.camera.eye[i] = c.camera[std::size_t(i)];
-        c.o.camera.yawDegrees = c.camera[3];
-        c.o.camera.pitchDegrees = c.camera[4];
+        bool direction = false;
+        c.o.hasCamera = parseCamera(c.camera, false, c.o.camera, direction, error);
     }
     engine::ViewResult result;
     // The model's entries are read and validated before the first frame (seconds for a large
@@ -83,11 +83,9 @@ void addViewCommand(CLI::App& app, int& exitCode) {
         "Roam a .ulod file in a window: WASD + drag to look, wheel/Shift speed, +/- pixel "
         "tolerance, G grid, L rivers, P/F12 screenshot, Esc quit");
     sub->add_option("FILE", c->o.path, ".ulod file")->required();
-    sub->add_option("--camera", c->camera,
+    addCameraOption(*sub, c->camera,
                     "start eye x,y,z (file CRS, metres), yaw (0 = north, 90 = east), pitch "
-                    "(< 0 down) in degrees (default: above the data, looking at its centre)")
-        ->delimiter(',')
-        ->expected(5);
+                    "(< 0 down) in degrees (default: above the data, looking at its centre)");
     c->engine.add(*sub, "1280x720");
     sub->add_option("--frames", c->o.frames, "render N frames, then exit (default: until Esc)")
         ->check(positive());

@@ -6,9 +6,6 @@
 
 namespace unilod::cli {
 
-// CLI11 check for a view distance with m / km (preprocess/stats.h parseDistance), > 0.
-CLI::Validator positiveDistance();
-
 void addSynthCommand(CLI::App& app, int& exitCode);
 void addOrderCommand(CLI::App& app, int& exitCode);
 void addBuildCommand(CLI::App& app, int& exitCode);

@@ -2,7 +2,9 @@
 
 #include <cstdio>
 
+#include "campath.h"
 #include "numbers.h"
+#include "ulod.h"
 #include "workers.h"
 
 namespace unilod::cli {
@@ -26,9 +28,63 @@ bool parseSize(const std::string& s, std::uint32_t& w, std::uint32_t& h) {
     return true;
 }
 
-std::string errorForFile(const std::string& path, const std::string& error) {
-    if (error.compare(0, path.size() + 1, path + ":") == 0) return error;
-    return path + ": " + error;
+bool parseCamera(const std::string& text, bool positionOnly, engine::Camera& camera,
+                 bool& hasDirection, std::string& error) {
+    static const char* const names[] = {"x", "y", "z", "yaw", "pitch"};
+    const std::vector<std::string> items = splitList(text);
+    if (items.size() != 5 && !(positionOnly && items.size() == 3)) {
+        error = "'" + text + "' is not " + (positionOnly ? "X,Y,Z or " : "") + "X,Y,Z,YAW,PITCH (" +
+                std::to_string(items.size()) + " values)";
+        return false;
+    }
+    double v[5] = {};
+    for (std::size_t i = 0; i < items.size(); ++i) {
+        if (!parseFinite(items[i], v[i])) {
+            error = std::string(names[i]) + " '" + items[i] + "' is not a finite number";
+            return false;
+        }
+    }
+    hasDirection = items.size() == 5;
+    if (hasDirection && !(v[4] >= -90 && v[4] <= 90)) {
+        error = "pitch '" + items[4] + "' must be in [-90, 90]";
+        return false;
+    }
+    for (int i = 0; i < 3; ++i)
+        camera.eye[i] = v[i];
+    camera.yawDegrees = v[3];
+    camera.pitchDegrees = v[4];
+    return true;
+}
+
+CLI::Option* addCameraOption(CLI::App& sub, std::string& text, const std::string& help,
+                             bool positionOnly) {
+    return sub.add_option("--camera", text, help)
+        ->check(CLI::Validator(
+            [positionOnly](std::string& value) -> std::string {
+                engine::Camera camera;
+                bool direction = false;
+                std::string error;
+                return parseCamera(value, positionOnly, camera, direction, error) ? "" : error;
+            },
+            positionOnly ? "X,Y,Z[,YAW,PITCH]" : "X,Y,Z,YAW,PITCH"));
+}
+
+CLI::Validator fovRange() {
+    return numberIn(0, 180, Bound::Open, Bound::Open);
+}
+
+bool defaultCamera(const std::string& path, engine::Camera& camera, std::string& error) {
+    format::Reader reader;
+    if (!reader.open(path, error)) {
+        error = errorForFile(path, error);
+        return false;
+    }
+    camera = engine::defaultOverview(reader.header());
+    if (!engine::validCamera(camera)) {
+        error = path + ": the model's extent (header) gives no valid default view; give --camera";
+        return false;
+    }
+    return true;
 }
 
 void EngineCli::add(CLI::App& sub, const std::string& defaultSize) {

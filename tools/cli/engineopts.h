@@ -7,8 +7,10 @@
 #include <cstdint>
 #include <string>
 
+#include "camera.h"
 #include "device.h"
 #include "scene.h"
+#include "ulod.h"
 
 namespace unilod::cli {
 
@@ -32,8 +34,29 @@ struct EngineCli {
 
 bool parseSize(const std::string& s, std::uint32_t& w, std::uint32_t& h);
 
+// --camera of capture, view and export: X,Y,Z,YAW,PITCH, or (export: `positionOnly` allowed) also
+// X,Y,Z. One definition of the option and of its check, so that the three commands accept and
+// refuse the same values: each component the whole text of a finite number (numbers.h), pitch
+// in [-90, 90], no empty item. A bad value is a usage error (exit 2) while parsing, before any
+// file, window or device is opened: "--camera: pitch '-95' must be in [-90, 90]".
+CLI::Option* addCameraOption(CLI::App& sub, std::string& text, const std::string& help,
+                             bool positionOnly = false);
+// The camera of a --camera text (fov untouched); `hasDirection`: yaw and pitch were given. False
+// with `error` (without the option name) when the text fails the check above.
+bool parseCamera(const std::string& text, bool positionOnly, engine::Camera& camera,
+                 bool& hasDirection, std::string& error);
+
+// --fov of capture, export, stats and report: degrees in (0, 180), the range engine::validCamera
+// accepts. One definition so that the commands agree.
+CLI::Validator fovRange();
+
+// The camera of capture and export without --camera: engine::defaultOverview of the file's
+// header. False with `error` naming the file when it cannot be read or when its extent gives no
+// valid view (a damaged header whose extents are finite but huge).
+bool defaultCamera(const std::string& path, engine::Camera& camera, std::string& error);
+
 // "PATH: ERROR" for an engine error, unless the message already names the file first (the
-// reader's and the scene's do; the device's do not).
-std::string errorForFile(const std::string& path, const std::string& error);
+// reader's and the scene's do; the device's do not): format::errorForFile.
+using format::errorForFile;
 
 }  // namespace unilod::cli

@@ -5,6 +5,9 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "numtext.h"
+#include "stats.h"
+
 namespace unilod::cli {
 
 namespace {
@@ -19,16 +22,27 @@ std::string show(double v) {
 }  // namespace
 
 bool parseFinite(const std::string& text, double& value) {
-    if (text.empty() || std::isspace(static_cast<unsigned char>(text.front()))) return false;
-    char* end = nullptr;
-    const double v = std::strtod(text.c_str(), &end);
-    // Overflow (1e999) gives HUGE_VAL: not finite. Underflow (1e-999) gives 0 or a denormal.
-    if (end == text.c_str() || *end != '\0' || !std::isfinite(v)) return false;
-    value = v;
-    return true;
+    return format::parseFiniteNumber(text, value);
 }
 
-CLI::Validator numberIn(double lo, double hi, Bound loBound, Bound hiBound) {
+std::vector<std::string> splitList(const std::string& text) {
+    std::vector<std::string> items(1);
+    for (const char ch : text) {
+        if (ch == ',')
+            items.emplace_back();
+        else
+            items.back() += ch;
+    }
+    return items;
+}
+
+namespace {
+
+// A check of a number read by `parse` (false: not `what`) in [lo, hi] (or open at either end),
+// the bounds printed with `unit`.
+CLI::Validator rangeCheck(bool (*parse)(const std::string&, double&), const std::string& what,
+                          const std::string& name, const std::string& unit, double lo, double hi,
+                          Bound loBound, Bound hiBound) {
     std::string interval;  // for --help
     if (std::isinf(lo) && std::isinf(hi))
         interval = "";
@@ -37,18 +51,71 @@ CLI::Validator numberIn(double lo, double hi, Bound loBound, Bound hiBound) {
     else
         interval = std::string(loBound == Bound::Open ? "(" : "[") + show(lo) + ", " + show(hi) +
                    (hiBound == Bound::Open ? ")" : "]");
+    if (!interval.empty()) interval += unit;
     const std::string requirement =
         interval.empty() || interval[0] == '>' ? interval : "in " + interval;
     return CLI::Validator(
         [=](std::string& text) -> std::string {
             double v = 0;
-            if (!parseFinite(text, v)) return "'" + text + "' is not a finite number";
+            if (!parse(text, v)) return "'" + text + "' is not " + what;
             const bool low = loBound == Bound::Open ? !(v > lo) : !(v >= lo);
             const bool high = hiBound == Bound::Open ? !(v < hi) : !(v <= hi);
             if (low || high) return "'" + text + "' must be " + requirement;
             return {};
         },
-        interval.empty() ? "NUMBER" : "NUMBER " + interval);
+        interval.empty() ? name : name + " " + interval);
+}
+
+}  // namespace
+
+CLI::Validator numberIn(double lo, double hi, Bound loBound, Bound hiBound) {
+    return rangeCheck(parseFinite, "a finite number", "NUMBER", "", lo, hi, loBound, hiBound);
+}
+
+CLI::Validator lengthIn(double lo, double hi, Bound loBound, Bound hiBound) {
+    return rangeCheck(parseDistance, "a finite length (a number, m or km)", "LENGTH", " m", lo, hi,
+                      loBound, hiBound);
+}
+
+CLI::Validator listOf(const CLI::Validator& item) {
+    return CLI::Validator(
+        [item](std::string& text) -> std::string {
+            if (text.empty()) return "the list is empty";
+            for (std::string value : splitList(text)) {
+                if (value.empty()) return "'" + text + "' has an empty item";
+                if (std::string error = item(value); !error.empty()) return error;
+            }
+            return {};
+        },
+        item.get_description() + ",...");
+}
+
+std::vector<std::string> listItems(const std::vector<std::string>& values) {
+    std::vector<std::string> items;
+    for (const std::string& v : values)
+        for (std::string& item : splitList(v))
+            items.push_back(std::move(item));
+    return items;
+}
+
+std::vector<double> listNumbers(const std::vector<std::string>& values) {
+    std::vector<double> numbers;
+    for (const std::string& item : listItems(values)) {
+        double v = 0;
+        parseFinite(item, v);  // checked while parsing (listOf)
+        numbers.push_back(v);
+    }
+    return numbers;
+}
+
+std::vector<double> listLengths(const std::vector<std::string>& values) {
+    std::vector<double> lengths;
+    for (const std::string& item : listItems(values)) {
+        double v = 0;
+        parseDistance(item, v);  // checked while parsing (listOf)
+        lengths.push_back(v);
+    }
+    return lengths;
 }
 
 }  // namespace unilod::cli

@@ -102,8 +102,18 @@ bool compareRivers(const ReportOptions& options, const std::string& buildInfo,
     Ingested data;
     BlockSource source;
     if (!ingest(in, data, error) || !splitIntoBlocks(data, in, kWholeDem, !greedy, source, error)) {
-        error += " (the inputs named by the build info of " + options.path +
-                 "; override with --dem / --rivers)";
+        // Where the inputs came from: the options, or the file's build info (then the option
+        // that overrides it).
+        const bool dem = !options.demPath.empty(), rivers = !options.riversPath.empty();
+        const std::string named = "named by the build info of " + options.path;
+        if (dem && rivers)
+            error += " (the inputs given by --dem and --rivers)";
+        else if (dem)
+            error += " (the DEM given by --dem; the rivers " + named + ", override with --rivers)";
+        else if (rivers)
+            error += " (the rivers given by --rivers; the DEM " + named + ", override with --dem)";
+        else
+            error += " (the inputs " + named + "; override with --dem / --rivers)";
         return false;
     }
     const PointSet set = source.points(0);
