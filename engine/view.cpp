@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 
 #include "annotate.h"
 #include "pngwrite.h"
@@ -165,6 +166,7 @@ bool runView(const ViewOptions& options, ViewResult& result, std::string& error)
     bool dragging = false;
 
     std::uint64_t frame = 0;
+    std::optional<Clock::time_point> waitStart;  // when the frame count was reached
     bool resizeRequested = false;
     double lastPixels = sceneOptions.pixels;
     std::uint64_t secondFrames = 0;
@@ -256,12 +258,20 @@ bool runView(const ViewOptions& options, ViewResult& result, std::string& error)
         if (!scene.prepare(cmd, frame, completedWindowFrame(device, target), view, prepareError))
             std::fprintf(stderr, "unilod view: warning: %s: %s\n", options.path.c_str(),
                          prepareError.c_str());
+        const bool settled = scene.settled();  // this frame draws the view's final selection
         beginWindowPass(target, cmd);
         scene.draw(cmd, pipelines, view);
         vkCmdEndRenderPass(cmd);
 
         ++frame;
-        const bool lastFrame = options.frames > 0 && frame == options.frames;
+        // With --screenshot the last frame is the first from the frame count on that draws the
+        // view settled (every block it selects resident, as capture waits for), for at most 30 s
+        // more: the picture then does not depend on how fast the blocks streamed in.
+        const bool counted = options.frames > 0 && frame >= options.frames;
+        if (counted && !waitStart) waitStart = Clock::now();
+        const bool lastFrame =
+            counted && (options.screenshotPath.empty() || settled ||
+                        std::chrono::duration<double>(Clock::now() - *waitStart).count() > 30);
         const bool finalShot = lastFrame && !options.screenshotPath.empty();
         endWindowFrame(device, target, screenshot || finalShot);
         if (screenshot || finalShot) {

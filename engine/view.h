@@ -20,7 +20,8 @@ struct ViewOptions {
     SceneOptions scene;
     DeviceOptions device;
     std::uint64_t frames = 0;    // 0: until the window closes
-    std::string screenshotPath;  // with frames: the last frame as PNG
+    std::string screenshotPath;  // with frames: the last frame as PNG (view.cpp: the first
+                                 // settled frame from the count on, at most 30 s later)
     bool annotate = false;       // screenshots get a colour key, scale bar, north arrow (annotate.h)
     bool grid = false;           // start in grid mode
     // With frames: resize the window to this size after half of them (as a window manager

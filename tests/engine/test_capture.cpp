@@ -258,9 +258,10 @@ TEST_F(Capture, BadInputExitsNonZeroWithoutOutput) {
     const std::string missing = (dir_ / "missing.ulod").string();
     ASSERT_NE(r.err.find(missing + ": cannot open"), std::string::npos) << r.err;
     EXPECT_EQ(r.err.find(missing), r.err.rfind(missing)) << r.err;
-    // Pitch out of range: a data error.
+    // Pitch out of range: a usage error naming the option (engineopts.h parseCamera).
     r = runCli("capture " + q(file_) + " --camera 0,0,1000,0,-120 --out " + q(out.string()));
-    EXPECT_EQ(r.code, 1);
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.err.find("--camera"), std::string::npos) << r.err;
     EXPECT_FALSE(fs::exists(frame));
     // Malformed camera and size: usage errors.
     r = runCli("capture " + q(file_) + " --camera 0,0,1000 --out " + q(out.string()));

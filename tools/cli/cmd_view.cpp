@@ -90,7 +90,8 @@ void addViewCommand(CLI::App& app, int& exitCode) {
     sub->add_option("--frames", c->o.frames, "render N frames, then exit (default: until Esc)")
         ->check(positive());
     sub->add_option("--screenshot", c->o.screenshotPath,
-                    "with --frames: write the last frame to this PNG");
+                    "with --frames: write the last frame to this PNG (rendering goes on, at most "
+                    "30 s, until every block the view selects is loaded)");
     sub->add_flag("--overwrite", c->overwrite, "--screenshot: replace an existing PNG");
     sub->add_flag("--force", c->overwrite, "old spelling of --overwrite")->group("");
     sub->add_option("--resize", c->resize,
