@@ -495,8 +495,9 @@ std::vector<RiverPiece> BlockSource::cutAtOutline(const std::vector<RiverPiece>&
         }
         return (a >= 3) != (b >= 3);
     };
-    const double margin2 = kOutlineMargin * kOutlineMargin;
-    auto segmentNear = [&](const RiverVertex& p, const RiverVertex& q) {
+    // Calls fn(u, w) for every outline edge u-w (node coordinates) of the lattice squares around
+    // segment p -> q (its lattice bounding box grown by one square); stops when fn returns true.
+    auto forOutlineEdgesNear = [&](const RiverVertex& p, const RiverVertex& q, auto&& fn) {
         double fi0, fj0, fi1, fj1;
         lattice(p, fi0, fj0);
         lattice(q, fi1, fj1);
@@ -504,7 +505,6 @@ std::vector<RiverPiece> BlockSource::cutAtOutline(const std::vector<RiverPiece>&
                   ihi = int(std::floor(std::max(fi0, fi1))) + 1;
         const int jlo = int(std::floor(std::min(fj0, fj1))) - 1,
                   jhi = int(std::floor(std::max(fj0, fj1))) + 1;
-        const double a[2] = {p.x, p.y}, c[2] = {q.x, q.y};
         for (int j = std::max(0, jlo); j <= std::min(nodesY_ - 1, jhi); ++j) {
             for (int i = std::max(0, ilo); i <= std::min(nodesX_ - 1, ihi); ++i) {
                 const int cand[4][4] = {
@@ -514,11 +514,18 @@ std::vector<RiverPiece> BlockSource::cutAtOutline(const std::vector<RiverPiece>&
                     double u[2], w[2];
                     node(e[0], e[1], u);
                     node(e[2], e[3], w);
-                    if (segmentSegmentDistance2(a, c, u, w) < margin2) return true;
+                    if (fn(u, w)) return true;
                 }
             }
         }
         return false;
+    };
+    const double margin2 = kOutlineMargin * kOutlineMargin;
+    auto segmentNear = [&](const RiverVertex& p, const RiverVertex& q) {
+        const double a[2] = {p.x, p.y}, c[2] = {q.x, q.y};
+        return forOutlineEdgesNear(p, q, [&](const double u[2], const double w[2]) {
+            return segmentSegmentDistance2(a, c, u, w) < margin2;
+        });
     };
     // A vertex a river may have: inside a full lattice square, at least the margin away from
     // the outline, with a finite altitude.
@@ -546,47 +553,31 @@ std::vector<RiverPiece> BlockSource::cutAtOutline(const std::vector<RiverPiece>&
         parts.clear();
         const double len = std::hypot(q.x - p.x, q.y - p.y);
         if (!(len > 0)) return;
-        double fi0, fj0, fi1, fj1;
-        lattice(p, fi0, fj0);
-        lattice(q, fi1, fj1);
-        const int ilo = int(std::floor(std::min(fi0, fi1))) - 1,
-                  ihi = int(std::floor(std::max(fi0, fi1))) + 1;
-        const int jlo = int(std::floor(std::min(fj0, fj1))) - 1,
-                  jhi = int(std::floor(std::max(fj0, fj1))) + 1;
         std::vector<std::pair<double, double>> unsafe;
-        for (int j = std::max(0, jlo); j <= std::min(nodesY_ - 1, jhi); ++j) {
-            for (int i = std::max(0, ilo); i <= std::min(nodesX_ - 1, ihi); ++i) {
-                const int cand[4][4] = {
-                    {i, j, i + 1, j}, {i, j, i, j + 1}, {i, j, i + 1, j + 1}, {i + 1, j, i, j + 1}};
-                for (const auto& e : cand) {
-                    if (!outlineEdge(e[0], e[1], e[2], e[3])) continue;
-                    double u[2], w[2];
-                    node(e[0], e[1], u);
-                    node(e[2], e[3], w);
-                    const auto f = [&](double t) {  // squared distance of P(t) to the edge
-                        const double m[2] = {p.x + t * (q.x - p.x), p.y + t * (q.y - p.y)};
-                        return segmentSegmentDistance2(m, m, u, w);
-                    };
-                    double lo = 0, hi = 1;
-                    for (int it = 0; it < 100; ++it) {  // the minimum (ternary search)
-                        const double a = lo + (hi - lo) / 3, b = hi - (hi - lo) / 3;
-                        if (f(a) < f(b))
-                            hi = b;
-                        else
-                            lo = a;
-                    }
-                    const double tm = 0.5 * (lo + hi);
-                    if (!(f(tm) < margin2)) continue;
-                    double l0 = 0, l1 = tm, r0 = tm, r1 = 1;  // bisect each side
-                    for (int it = 0; it < 60; ++it) {
-                        const double ml = 0.5 * (l0 + l1), mr = 0.5 * (r0 + r1);
-                        (f(ml) < margin2 ? l1 : l0) = ml;
-                        (f(mr) < margin2 ? r0 : r1) = mr;
-                    }
-                    unsafe.emplace_back(f(0) < margin2 ? 0.0 : l0, f(1) < margin2 ? 1.0 : r1);
-                }
+        forOutlineEdgesNear(p, q, [&](const double u[2], const double w[2]) {
+            const auto f = [&](double t) {  // squared distance of P(t) to the edge
+                const double m[2] = {p.x + t * (q.x - p.x), p.y + t * (q.y - p.y)};
+                return segmentSegmentDistance2(m, m, u, w);
+            };
+            double lo = 0, hi = 1;
+            for (int it = 0; it < 100; ++it) {  // the minimum (ternary search)
+                const double a = lo + (hi - lo) / 3, b = hi - (hi - lo) / 3;
+                if (f(a) < f(b))
+                    hi = b;
+                else
+                    lo = a;
             }
-        }
+            const double tm = 0.5 * (lo + hi);
+            if (!(f(tm) < margin2)) return false;
+            double l0 = 0, l1 = tm, r0 = tm, r1 = 1;  // bisect each side
+            for (int it = 0; it < 60; ++it) {
+                const double ml = 0.5 * (l0 + l1), mr = 0.5 * (r0 + r1);
+                (f(ml) < margin2 ? l1 : l0) = ml;
+                (f(mr) < margin2 ? r0 : r1) = mr;
+            }
+            unsafe.emplace_back(f(0) < margin2 ? 0.0 : l0, f(1) < margin2 ? 1.0 : r1);
+            return false;
+        });
         std::sort(unsafe.begin(), unsafe.end());
         std::vector<std::pair<double, double>> safe;  // the complement in [0, 1]
         double from = 0;

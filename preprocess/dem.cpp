@@ -9,6 +9,7 @@
 #include <ogr_spatialref.h>
 
 #include <algorithm>
+#include <array>
 #include <cassert>
 #include <cctype>
 #include <cmath>
@@ -144,6 +145,15 @@ double gridScale(const OGRSpatialReference& srs, double x, double y) {
     const double kx = kStep / ground(1), ky = kStep / ground(2);
     if (!std::isfinite(kx) || !std::isfinite(ky)) return 0;
     return std::fabs(kx - 1) > std::fabs(ky - 1) ? kx : ky;
+}
+
+// The raster's four corners in its CRS (longitude, latitude for a geographic one).
+std::array<std::array<double, 2>, 4> rasterCorners(const double gt[6], int w, int h) {
+    std::array<std::array<double, 2>, 4> corners{};
+    for (int corner = 0; corner < 4; ++corner)
+        gridToCrs(gt, corner % 2 == 0 ? 0 : w, corner < 2 ? 0 : h, corners[corner][0],
+                  corners[corner][1]);
+    return corners;
 }
 
 // The scale of `target` (gridScale) furthest from 1 over nine points of the raster's extent (its
@@ -349,10 +359,8 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
         // labelled as geographic, swapped axes), which would otherwise surface later as "no
         // valid data" or rivers that "cannot be transformed".
         double lat0 = INFINITY, lat1 = -INFINITY, lon0 = INFINITY, lon1 = -INFINITY;
-        for (int corner = 0; corner < 4; ++corner) {
-            double lon = 0, lat = 0;
-            gridToCrs(gt, corner % 2 == 0 ? 0 : ds->GetRasterXSize(),
-                      corner < 2 ? 0 : ds->GetRasterYSize(), lon, lat);
+        for (const auto& [lon, lat] :
+             rasterCorners(gt, ds->GetRasterXSize(), ds->GetRasterYSize())) {
             lat0 = std::min(lat0, lat);
             lat1 = std::max(lat1, lat);
             lon0 = std::min(lon0, lon);
@@ -463,10 +471,8 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
             // Mercator folds over (dlon beyond 90 degrees) yet gives finite numbers.
             const double meridian = target.GetProjParm(SRS_PP_CENTRAL_MERIDIAN, 0.0);
             double lat0 = INFINITY, lat1 = -INFINITY, far = 0;
-            for (int corner = 0; corner < 4; ++corner) {
-                double lon = 0, lat = 0;
-                gridToCrs(gt, corner % 2 == 0 ? 0 : ds->GetRasterXSize(),
-                          corner < 2 ? 0 : ds->GetRasterYSize(), lon, lat);
+            for (const auto& [lon, lat] :
+                 rasterCorners(gt, ds->GetRasterXSize(), ds->GetRasterYSize())) {
                 lat0 = std::min(lat0, lat);
                 lat1 = std::max(lat1, lat);
                 double d = std::fabs(std::remainder(lon - meridian, 360.0));
