@@ -228,6 +228,60 @@ TEST_F(Inputs, HexOverflowAndEmptyListItemsAreUsageErrors) {
     EXPECT_EQ(r.out.find("inf"), std::string::npos) << r.out;
 }
 
+// Integer options (tools/cli/numbers.h integerIn) take decimal digits only: CLI11's conversion
+// read "010" as octal (--block-size 010 built 8-cell blocks) and "0x40" as hexadecimal, and its
+// range check said "Value abc not in range". A leading zero now reads as decimal.
+TEST_F(Inputs, IntegerOptionsTakeDecimalDigitsOnly) {
+    const std::string out = (dir / "refused_integers").string();
+    struct Case {
+        std::string command, option, value, expect;
+    };
+    const std::string build = "build " + q(dem) + " " + q(rivers) + " -o " + q(out);
+    const std::string capture = "capture " + q(model) + " -o " + q(out);
+    const std::string synth = "synth -o " + q(out);
+    const std::string notWhole = "is not a whole number", range = "must be in [";
+    const std::vector<Case> cases = {
+        {build, "--block-size", "0x40", notWhole},
+        {build, "--block-size", "1e2", notWhole},
+        {build, "--block-size", "abc", notWhole},
+        {build, "--block-size", " 64", notWhole},
+        {build, "--block-size", "", notWhole},
+        {build, "--block-size", "-", notWhole},
+        {build, "--block-size", "99999999999999999999999", range},
+        {build, "--stride", "0", range},
+        {build, "--band", "1.5", notWhole},
+        {build, "--threads", "0x2", notWhole},
+        {capture, "--frames", "0x10", notWhole},
+        {capture, "--threads", "17", range},
+        {capture, "--device", "-1", range},
+        {"bench " + q(model) + " -o " + q(out), "--rounds", "1.0", notWhole},
+        {"check " + q(model), "--threads", "1e1", notWhole},
+        {"report " + q(model) + " -o " + q(out), "--image-size", "0x400", notWhole},
+        {synth, "--seed", "-1", range},
+        {synth, "--points", "1e6", notWhole},
+    };
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.command + " " + c.option + " '" + c.value + "'");
+        const auto r = runCli(c.command + " " + c.option + " " + q(c.value));
+        EXPECT_EQ(r.code, 2) << r.err;
+        EXPECT_NE(r.err.find(c.option + ": '" + c.value + "' " + c.expect), std::string::npos)
+            << r.err;
+        EXPECT_FALSE(fs::exists(out));
+    }
+    // A leading zero or sign is decimal: the same files as the plain number, not those of 8.
+    const auto synthesise = [&](const std::string& seed, const std::string& name) {
+        const std::string folder = (dir / name).string();
+        const auto r = runCli("synth --points 0400 --seed " + seed + " -q -o " + q(folder));
+        EXPECT_EQ(r.code, 0) << r.err;
+        return slurp(folder + "/dem.tif");
+    };
+    const std::string padded = synthesise("010", "seed_010"), ten = synthesise("+10", "seed_10"),
+                      eight = synthesise("8", "seed_8");
+    ASSERT_FALSE(padded.empty());
+    EXPECT_EQ(padded, ten);
+    EXPECT_NE(padded, eight);
+}
+
 // bench --runs "" ran nothing and exited 0; an empty item of the list is refused too.
 TEST_F(Inputs, EmptyBenchRunsAreUsageErrors) {
     const std::string out = (dir / "bench_runs.json").string();

@@ -157,10 +157,10 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
     sub->add_option("--path", c->cameraPath,
                     "camera path JSON (as for capture; default: a fly-over of the data)");
     sub->add_option("--frames", c->frames, "measured frames per run (default 200)")
-        ->check(CLI::Range(1u, 100000u));
+        ->transform(integerIn(1, 100000));
     sub->add_option("--warmup", c->o.warmup,
                     "unmeasured frames on the first camera before each run, at least (default 5)")
-        ->check(CLI::Range(0u, 100000u));
+        ->transform(integerIn(0, 100000));
     sub->add_option("--warmup-ms", c->o.warmupMs,
                     "and at least this wall time of warm-up frames, so that a GPU idle before "
                     "the run (a preload) reaches its working clock (default 500)")
@@ -187,7 +187,7 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
                     "repeat the runs in order this many times and pool each run's frames, so "
                     "that a slow phase of the machine falls on every run alike; the JSON keeps "
                     "each round's ratios (default 1)")
-        ->check(CLI::Range(1u, 100u));
+        ->transform(integerIn(1, 100));
     sub->add_flag("--per-frame", c->o.perFrame, "include every frame's numbers in the JSON");
     addOutputOptions(sub, c->output, "write the JSON to this file ('-': stdout)", false);
     addJsonOption(sub, c->json,

@@ -129,9 +129,9 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
     sub->add_option("--block-size", c->o.blockSize,
                     "block side in DEM cells (default " + std::to_string(kDefaultBlockSize) +
                         "; clamped to the DEM: one block where it is larger)")
-        ->check(CLI::Range(1, 1 << 24));
+        ->transform(integerIn(1, 1 << 24));
     sub->add_option("--threads", c->o.threads, "worker threads (default: all cores)")
-        ->check(CLI::Range(0, 1024));
+        ->transform(integerIn(0, 1024));
     sub->add_option("--order", c->order,
                     "deletion order: greedy (default; smallest model error first) or 3ddp (the "
                     "paper's improved 3D_DP)")

@@ -119,7 +119,7 @@ void addCaptureCommand(CLI::App& app, int& exitCode) {
                     "\"yaw\": d, \"pitch\": d}, ...]}");
     sub->add_option("--frames", c->frames,
                     "frames to render (default: one per keyframe; sampled evenly along the path)")
-        ->check(CLI::Range(1u, 100000u));
+        ->transform(integerIn(1, 100000));
     // Only with --camera: a --path has its own "fov", the default view its 60 degrees.
     sub->add_option("--fov", c->fov, "vertical field of view in degrees with --camera (default 60)")
         ->check(fovRange())

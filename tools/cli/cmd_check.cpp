@@ -7,6 +7,7 @@
 #include <string>
 
 #include "commands.h"
+#include "numbers.h"
 #include "outputopts.h"
 #include "progress.h"
 #include "ulod.h"
@@ -32,7 +33,7 @@ void addCheckCommand(CLI::App& app, int& exitCode) {
                     "entries checked at once (default 0: every core, at most " +
                         std::to_string(engine::WorkerPool::kMaxThreads) +
                         "); the result is the same for any number")
-        ->check(CLI::Range(std::size_t(0), engine::WorkerPool::kMaxThreads));
+        ->transform(integerIn(0, engine::WorkerPool::kMaxThreads));
     addQuietFlag(sub, *quiet);
     sub->callback([path, quiet, options, &exitCode] {
         UlodCheckSummary s;

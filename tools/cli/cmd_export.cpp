@@ -224,7 +224,7 @@ void addExportCommand(CLI::App& app, int& exitCode) {
                     "--3dtiles: entries exported at once (default 0: every core, at most " +
                         std::to_string(engine::WorkerPool::kMaxThreads) +
                         "); the tileset is the same for any number")
-        ->check(CLI::Range(std::size_t(0), engine::WorkerPool::kMaxThreads))
+        ->transform(integerIn(0, engine::WorkerPool::kMaxThreads))
         ->needs(tiles);
     CLI::Option* ratio = sub->add_option(
         "--tile-ratio", c->tileRatio,

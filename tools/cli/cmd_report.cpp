@@ -101,14 +101,14 @@ void addReportCommand(CLI::App& app, int& exitCode) {
                     "(default 5,10,20,40)")
         ->check(listOf(numberIn(0.0, 100.0)));
     sub->add_option("--image-size", c->o.imageSize, "grid diagram size in pixels (default 1024)")
-        ->check(CLI::Range(16, 16384));
+        ->transform(integerIn(16, 16384));
     sub->add_flag("--annotate,!--no-annotate", c->o.annotate,
                   "grid diagrams get a scale bar and a north arrow (default on; the title with D, "
                   "P and the counts is always drawn)");
     sub->add_option("--bench-frames", c->o.benchFrames,
                     "frames of the frame-time plot along the camera path (default 60; 0: no plot, "
                     "no Vulkan device needed)")
-        ->check(CLI::Range(0u, 100000u));
+        ->transform(integerIn(0, 100000));
     sub->add_option("--bench-path", c->o.benchPath,
                     "camera path JSON for the frame-time plot (default: a fly-over generated from "
                     "the data's extent)");

@@ -74,9 +74,10 @@ void addSynthCommand(CLI::App& app, int& exitCode) {
     CLI::App* sub = app.add_subcommand(
         "synth", "Write a synthetic DEM (DIR/dem.tif) and river network (DIR/rivers.geojson)");
     sub->add_option("--points", opts->points, "Total DEM + river points, approximately")
-        ->check(CLI::Range(std::size_t{100}, std::size_t{500000000}))
+        ->transform(integerIn(100, 500000000))
         ->capture_default_str();
     sub->add_option("--seed", opts->seed, "Random seed (same seed, same files)")
+        ->transform(integerIn(0, std::numeric_limits<long long>::max()))
         ->capture_default_str();
     sub->add_option("--cell-size", opts->cellSize, "DEM cell size in metres")
         ->check(numberIn(0.01, 100000.0))
@@ -87,7 +88,7 @@ void addSynthCommand(CLI::App& app, int& exitCode) {
         ->check(numberIn(0.05, 0.95))
         ->capture_default_str();
     sub->add_option("--rivers", opts->rivers, "Main rivers (0: scale with the size)")
-        ->check(CLI::Range(0, 1000))
+        ->transform(integerIn(0, 1000))
         ->capture_default_str();
     addOutputOptions(sub, opts->output,
                      "output folder (created when missing): DIR/dem.tif and DIR/rivers.geojson");

@@ -88,7 +88,7 @@ void addViewCommand(CLI::App& app, int& exitCode) {
                     "(< 0 down) in degrees (default: above the data, looking at its centre)");
     c->engine.add(*sub, "1280x720");
     sub->add_option("--frames", c->o.frames, "render N frames, then exit (default: until Esc)")
-        ->check(positive());
+        ->transform(integerIn(1, 1000000000));
     sub->add_option("--screenshot", c->o.screenshotPath,
                     "with --frames: write the last frame to this PNG (rendering goes on, at most "
                     "30 s, until every block the view selects is loaded)");

@@ -105,7 +105,7 @@ void EngineCli::add(CLI::App& sub, const std::string& defaultSize) {
     sub.add_option("--threads", threads,
                    "CPU threads that read the model's entries and refine a frame's entries "
                    "(default 0: every core, at most 16; the image is the same for any count)")
-        ->check(CLI::Range(0u, unsigned(engine::WorkerPool::kMaxThreads)));
+        ->transform(integerIn(0, engine::WorkerPool::kMaxThreads));
     sub.add_option("--gpu-budget", gpuBudgetMiB,
                    "device memory for block geometry in MiB (default " +
                        std::to_string(engine::kDefaultGpuBudget >> 20) +
@@ -122,7 +122,7 @@ void EngineCli::add(CLI::App& sub, const std::string& defaultSize) {
     off->excludes(on);
     sub.add_option("--device", device,
                    "Vulkan physical device index (default: $UNILOD_DEVICE, else the best)")
-        ->check(nonNegative());
+        ->transform(integerIn(0, 1 << 20));
 }
 
 bool EngineCli::apply(engine::SceneOptions& scene, engine::DeviceOptions& dev, std::uint32_t& width,

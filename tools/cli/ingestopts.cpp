@@ -22,12 +22,12 @@ void addIngestOptions(CLI::App& sub, IngestOptions& o) {
     sub.add_option("RIVERS", o.riversPath,
                    "river lines (any OGR line layer); leave out for a terrain-only model");
     sub.add_option("--band", o.band, "raster band (1-based) for multi-band rasters")
-        ->check(positive());
+        ->transform(integerIn(1, 1 << 20));
     addSrsOptions(sub, o);
     sub.add_option("--layer", o.layer, "river layer name (default: the first line layer)");
     sub.add_option("--where", o.where, "OGR SQL attribute filter for the rivers");
     sub.add_option("--stride", o.stride, "take every k-th DEM row and column (default 1)")
-        ->check(CLI::Range(1, 1 << 20));
+        ->transform(integerIn(1, 1 << 20));
     sub.add_option("--min-river-length", o.minRiverLength,
                    "drop rivers shorter than this (metres; default 0)")
         ->check(nonNegative());

@@ -72,6 +72,40 @@ CLI::Validator numberIn(double lo, double hi, Bound loBound, Bound hiBound) {
     return rangeCheck(parseFinite, "a finite number", "NUMBER", "", lo, hi, loBound, hiBound);
 }
 
+CLI::Validator integerIn(long long lo, long long hi) {
+    const std::string interval = "[" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+    return CLI::Validator(
+        [=](std::string& text) -> std::string {
+            std::size_t i = 0;
+            const bool negative = !text.empty() && text[0] == '-';
+            if (!text.empty() && (text[0] == '-' || text[0] == '+')) i = 1;
+            if (i == text.size()) return "'" + text + "' is not a whole number";
+            // Digits only; a magnitude past the 64-bit range is out of range, not wrapped.
+            unsigned long long magnitude = 0;
+            bool overflow = false;
+            for (; i < text.size(); ++i) {
+                const char ch = text[i];
+                if (ch < '0' || ch > '9')
+                    return "'" + text + "' is not a whole number (decimal digits)";
+                const unsigned digit = unsigned(ch - '0');
+                if (magnitude > (std::numeric_limits<unsigned long long>::max() - digit) / 10)
+                    overflow = true;
+                else
+                    magnitude = magnitude * 10 + digit;
+            }
+            constexpr unsigned long long kLimit = 1ull << 63;  // |LLONG_MIN|
+            if (overflow || magnitude > (negative ? kLimit : kLimit - 1))
+                return "'" + text + "' must be in " + interval;
+            const long long value = !negative             ? static_cast<long long>(magnitude)
+                                    : magnitude == kLimit ? std::numeric_limits<long long>::min()
+                                                          : -static_cast<long long>(magnitude);
+            if (value < lo || value > hi) return "'" + text + "' must be in " + interval;
+            text = std::to_string(value);
+            return {};
+        },
+        "INTEGER in " + interval);
+}
+
 CLI::Validator lengthIn(double lo, double hi, Bound loBound, Bound hiBound) {
     return rangeCheck(parseDistance, "a finite length (a number, m or km)", "LENGTH", " m", lo, hi,
                       loBound, hiBound);

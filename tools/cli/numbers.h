@@ -36,6 +36,13 @@ inline CLI::Validator finite() {
                     std::numeric_limits<double>::infinity());
 }
 
+// A whole number in [lo, hi], written in decimal digits with an optional sign: hexadecimal,
+// octal (a leading 0 read as base 8 by CLI11's conversion: `--block-size 010` built 8-cell
+// blocks), exponents, fractions and spaces are refused with a message naming the value. The
+// accepted text is rewritten in canonical decimal ("+010" -> "10") before CLI11 converts it,
+// so attach it with ->transform(integerIn(...)): ->check() would work on a copy.
+CLI::Validator integerIn(long long lo, long long hi);
+
 // A length with an optional unit, in metres (stats and report --distance, --error): "100km",
 // "750m", "1500" (preprocess/stats.h parseDistance), the number read as parseFinite does; a
 // value that overflows once converted (1e308km) is refused. In [lo, hi] metres.
