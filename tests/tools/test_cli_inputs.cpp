@@ -268,6 +268,17 @@ TEST_F(Inputs, IntegerOptionsTakeDecimalDigitsOnly) {
             << r.err;
         EXPECT_FALSE(fs::exists(out));
     }
+    // --size (one parser for capture, bench, view and export): digits on both sides of the x.
+    for (const std::string size : {" 64x48", "+64x48", "64x-48", "64x48x"}) {
+        SCOPED_TRACE("--size '" + size + "'");
+        const auto r = runCli(capture + " --size " + q(size));
+        EXPECT_EQ(r.code, 2) << r.err;
+        EXPECT_NE(r.err.find("--size '" + size + "' is not WxH"), std::string::npos) << r.err;
+        const auto e = runCli("export " + q(model) + " --camera 746000,4050000,5000,0,-45 -o " +
+                              q(out + ".glb") + " --size " + q(size));
+        EXPECT_EQ(e.code, 2) << e.err;
+        EXPECT_FALSE(fs::exists(out + ".glb"));
+    }
     // A leading zero or sign is decimal: the same files as the plain number, not those of 8.
     const auto synthesise = [&](const std::string& seed, const std::string& name) {
         const std::string folder = (dir / name).string();

@@ -48,16 +48,6 @@ struct ExportCli {
     std::optional<engine::Camera> overview;  // neither --camera nor --h-lim: capture's default
 };
 
-bool parseSize(const std::string& s, double& width, double& height) {
-    unsigned long w = 0, h = 0;
-    char tail = 0;
-    if (std::sscanf(s.c_str(), "%lux%lu%c", &w, &h, &tail) != 2) return false;
-    if (w == 0 || h == 0 || w > 16384 || h > 16384) return false;
-    width = double(w);
-    height = double(h);
-    return true;
-}
-
 int runTileset(ExportCli& c) {
     exporter::TilesetOptions t;
     t.path = c.o.path;
@@ -109,7 +99,11 @@ int runTileset(ExportCli& c) {
 
 int run(ExportCli& c) {
     exporter::SelectionOptions& s = c.o.selection;
-    if (!parseSize(c.size, s.widthPixels, s.heightPixels)) {
+    std::uint32_t width = 0, height = 0;
+    if (parseSize(c.size, width, height)) {
+        s.widthPixels = width;
+        s.heightPixels = height;
+    } else {
         std::fprintf(stderr, "unilod export: error: --size '%s' is not WxH (1..16384)\n",
                      c.size.c_str());
         return 2;

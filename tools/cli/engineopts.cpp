@@ -19,12 +19,22 @@ constexpr bool kValidateByDefault = true;
 }  // namespace
 
 bool parseSize(const std::string& s, std::uint32_t& w, std::uint32_t& h) {
-    unsigned long a = 0, b = 0;
-    char tail = 0;
-    if (std::sscanf(s.c_str(), "%lux%lu%c", &a, &b, &tail) != 2) return false;
-    if (a == 0 || b == 0 || a > 16384 || b > 16384) return false;
-    w = std::uint32_t(a);
-    h = std::uint32_t(b);
+    // Decimal digits on both sides of one 'x' (sscanf's %lu took spaces, signs and "640x480junk"
+    // was caught only by the tail check).
+    const std::size_t x = s.find('x');
+    if (x == std::string::npos) return false;
+    std::uint32_t side[2] = {0, 0};
+    const std::string parts[2] = {s.substr(0, x), s.substr(x + 1)};
+    for (int i = 0; i < 2; ++i) {
+        if (parts[i].empty() || parts[i].size() > 5) return false;
+        for (const char ch : parts[i]) {
+            if (ch < '0' || ch > '9') return false;
+            side[i] = side[i] * 10 + std::uint32_t(ch - '0');
+        }
+        if (side[i] == 0 || side[i] > 16384) return false;
+    }
+    w = side[0];
+    h = side[1];
     return true;
 }
 
