@@ -72,7 +72,7 @@ $unilod bench "$model" --path "$path" --frames "$frames" --size "$size" \
 $unilod bench "$model" --path "$orbit" --frames "$frames" --size "$size" \
     --overwrite -o "$out/bench_orbit.json"
 echo "-- the orbit in the paper's configuration (3ddp order, S to the block centre, the paper's"
-echo "   error; no P-pixel guarantee): README \"Measured\" --"
+echo "   error; no P-pixel guarantee): MEASURED.md, \"Engine\" --"
 $unilod bench "$paper_model" --path "$orbit" --frames "$frames" --size "$size" \
     --metric paper --distance centre --overwrite -o "$out/bench_orbit_paper.json"
 echo "== 7. unilod export: the oblique capture's LOD as glTF 2.0 (Blender, three.js) =="
