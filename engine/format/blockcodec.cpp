@@ -27,7 +27,7 @@ enum Stream {
     kStepCounts,   // per step: extra removals, additions (triangles, then edges)
     kStepRefs,     // per step: the vertex references of those records
     kStepApexes,   // per step in polygon mode: the apex codes of its triangulation
-    kErrors,       // the error arrays' bit patterns (max, paper, river), delta coded
+    kErrors,       // the error arrays (max, paper, river) in z quanta, delta coded
     kLevelSteps,   // level steps, delta coded
     kStreamCount
 };
