@@ -119,7 +119,9 @@ void addInfoCommand(CLI::App& app, int& exitCode) {
     sub->add_option("FILE", *path, ".ulod file")->required();
     addJsonOption(sub, *json, "print JSON on stdout ('-', the default)");
     addQuietFlag(sub, *quiet);  // info prints nothing on stderr but errors: accepted for scripts
-    sub->callback([path, json, &exitCode] { exitCode = run(*path, json->requested()); });
+    // Every bound variable is captured, so that it lives as long as the parser writes to it
+    // (an uncaptured `quiet` was freed on return: `info -q` wrote to freed memory).
+    sub->callback([path, json, quiet, &exitCode] { exitCode = run(*path, json->requested()); });
 }
 
 }  // namespace unilod::cli
