@@ -585,8 +585,19 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
             }
             source = single.get();
         }
-        warped =
-            warpToMemory(source, srcSrs != nullptr ? toWkt(target) : std::string(), assumedWkt);
+        // Horizontal CRSs only: the heights are converted here, once (below: the band's or the
+        // vertical CRS's unit). Given a compound source (EPSG:2274+6360, heights in US feet),
+        // GDAL's warper converted them to metres itself, and they were scaled twice.
+        auto horizontalWkt = [](const OGRSpatialReference& srs) {
+            if (!srs.IsCompound()) return toWkt(srs);
+            OGRSpatialReference horizontal(srs);
+            horizontal.StripVertical();
+            return toWkt(horizontal);
+        };
+        std::string sourceWkt = assumedWkt;
+        if (srcSrs != nullptr && srcSrs->IsCompound()) sourceWkt = horizontalWkt(*srcSrs);
+        warped = warpToMemory(source, srcSrs != nullptr ? horizontalWkt(target) : std::string(),
+                              sourceWkt);
         if (!warped) {
             error = "DEM '" + path + "': reprojection failed" + gdalErrorSuffix();
             return false;

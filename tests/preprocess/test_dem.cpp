@@ -538,6 +538,36 @@ TEST(Dem, ProjectedCrsInFeetIsReprojectedToUtm) {
     EXPECT_NE(error.find("not metres"), std::string::npos) << error;
 }
 
+// A compound CRS whose heights are in US survey feet (NAD83 / Tennessee (ftUS) + NAVD88 height
+// (ftUS)): reprojected to UTM, the heights are converted to metres once. GDAL's warper converted
+// them itself when given the vertical CRS, and the vertical unit was applied again (300 ft became
+// 27.9 m instead of 91.4 m).
+TEST(Dem, FeetHeightsOfACompoundCrsAreConvertedOnceWhenReprojected) {
+    TempDir dir("compound");
+    const std::string path = dir.file("compound.tif");
+    const double gt[6] = {1800000.0, 100.0, 0.0, 600000.0, 0.0, -100.0};
+    writeTiff(path, 20, 20, {std::vector<double>(20 * 20, 300.0)}, GDT_Float32, gt, 0);
+    {
+        GDALDatasetUniquePtr ds(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+        ASSERT_TRUE(ds);
+        OGRSpatialReference srs;
+        ASSERT_EQ(srs.SetFromUserInput("EPSG:2274+6360"), OGRERR_NONE);
+        ASSERT_TRUE(srs.IsCompound());
+        ASSERT_EQ(ds->SetSpatialRef(&srs), CE_None);
+    }
+    DemGrid dem;
+    std::string error;
+    ASSERT_TRUE(loadDem(path, {}, dem, error)) << error;
+    const float expected = static_cast<float>(300.0 * 1200.0 / 3937.0);  // 91.44 m
+    std::size_t valid = 0;
+    for (const float z : dem.z) {
+        if (std::isnan(z)) continue;  // the warped grid's skewed corners
+        EXPECT_NEAR(z, expected, 1e-3);
+        ++valid;
+    }
+    EXPECT_GT(valid, 200u);
+}
+
 TEST(Dem, DistortingMetricCrsIsWarnedAbout) {
     // Web Mercator at about 36 degrees north stretches distances by about 1.24.
     TempDir dir("mercator");
