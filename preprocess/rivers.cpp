@@ -122,10 +122,14 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
             return false;
         }
     } else {
-        // Declared line layers first; then layers of undeclared type that hold lines (GeoJSON
-        // with mixed geometries).
+        // Declared line layers first, the first that holds a line (a GPX file's empty `routes`
+        // before its `tracks`, an empty GeoPackage layer before a full one: the empty one was
+        // taken and the rivers lost), else the first; then layers of undeclared type that hold
+        // lines (GeoJSON with mixed geometries).
         for (OGRLayer* l : ds->GetLayers()) {
-            if (isLineType(l->GetGeomType())) {
+            if (!isLineType(l->GetGeomType())) continue;
+            if (layer == nullptr) layer = l;
+            if (hasLineFeature(l)) {
                 layer = l;
                 break;
             }

@@ -12,6 +12,7 @@
 
 #include <cpl_conv.h>
 #include <ogr_spatialref.h>
+#include <ogrsf_frmts.h>
 
 #include "dem.h"
 #include "rivers.h"
@@ -143,6 +144,53 @@ TEST(Rivers, WhereClauseAndLayerName) {
     EXPECT_FALSE(
         loadRivers(kAssets + "/jacksboro_rivers_grass.geojson", o, bundledDem().wkt, lines, error));
     EXPECT_NE(error.find("lakes"), std::string::npos) << error;
+}
+
+// Without --layer the first declared line layer that holds a line is taken: an empty one before
+// it (a GPX file's `routes` before its `tracks`, an empty GeoPackage layer) was taken and the
+// rivers were lost with only a "terrain-only model" warning.
+TEST(Rivers, AnEmptyLineLayerBeforeAFullOneIsPassedOver) {
+    TempDir dir("emptyfirst");
+    const std::string gpkg = dir.file("two.gpkg");
+    GDALAllRegister();
+    GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GPKG");
+    ASSERT_NE(driver, nullptr);
+    OGRSpatialReference srs;
+    srs.importFromEPSG(32616);
+    {
+        // The empty layer is written (closed) first, so that it is listed first.
+        GDALDatasetUniquePtr ds(driver->Create(gpkg.c_str(), 0, 0, 0, GDT_Unknown, nullptr));
+        ASSERT_TRUE(ds);
+        ASSERT_NE(ds->CreateLayer("a_empty", &srs, wkbLineString, nullptr), nullptr);
+    }
+    {
+        GDALDatasetUniquePtr ds(GDALDataset::Open(gpkg.c_str(), GDAL_OF_VECTOR | GDAL_OF_UPDATE));
+        ASSERT_TRUE(ds);
+        OGRLayer* full = ds->CreateLayer("b_full", &srs, wkbLineString, nullptr);
+        ASSERT_NE(full, nullptr);
+        OGRFeature feature(full->GetLayerDefn());
+        OGRLineString line;
+        line.addPoint(740000, 4050000);
+        line.addPoint(741000, 4051000);
+        feature.SetGeometry(&line);
+        ASSERT_EQ(full->CreateFeature(&feature), OGRERR_NONE);
+    }
+    {
+        GDALDatasetUniquePtr ds(GDALDataset::Open(gpkg.c_str(), GDAL_OF_VECTOR));
+        ASSERT_TRUE(ds);
+        ASSERT_EQ(ds->GetLayerCount(), 2);
+        ASSERT_STREQ(ds->GetLayer(0)->GetName(), "a_empty");
+    }
+    RiverLines lines;
+    std::string error;
+    ASSERT_TRUE(loadRivers(gpkg, {}, bundledDem().wkt, lines, error)) << error;
+    ASSERT_EQ(lines.size(), 1u);
+    EXPECT_EQ(lines[0].size(), 2u);
+    // Named, the empty layer is still what is read: an empty network.
+    RiverLoadOptions o;
+    o.layer = "a_empty";
+    ASSERT_TRUE(loadRivers(gpkg, o, bundledDem().wkt, lines, error)) << error;
+    EXPECT_TRUE(lines.empty());
 }
 
 TEST(Rivers, MultiLineStringsAnd3dLines) {
