@@ -328,7 +328,24 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
     }
 
     double gt[6] = {0, 1, 0, 0, 0, 1};
-    ds->GetGeoTransform(gt);  // without one GDAL leaves the identity: pixel coordinates
+    if (ds->GetGeoTransform(gt) != CE_None) {
+        // Without a geotransform GDAL leaves the identity: pixel coordinates. Ground control
+        // points place the raster, but not on a grid this reads: refused with the fix, not
+        // built as a model of pixels (a 4.6 km DEM became 155 m wide with 2 km of relief).
+        if (ds->GetGCPCount() > 0) {
+            error = "DEM '" + path + "': it is georeferenced by " +
+                    std::to_string(ds->GetGCPCount()) +
+                    " ground control points, not a grid (geotransform); resample it onto one "
+                    "first, e.g. gdalwarp -r bilinear -t_srs EPSG:<code> '" +
+                    path + "' gridded.tif";
+            return false;
+        }
+        if (options.warn)
+            options.warn("DEM '" + path +
+                         "': it has no georeferencing (no geotransform): x and y are its pixel "
+                         "indices, cells 1 m wide; give it one with gdal_edit.py -a_ullr and "
+                         "-a_srs for a true model");
+    }
     // A rotated or sheared grid (rotation terms in the geotransform) is resampled to a north-up
     // grid like a reprojected one; a singular geotransform places no cell anywhere.
     const bool rotated = gt[2] != 0 || gt[4] != 0;

@@ -568,6 +568,57 @@ TEST(Dem, FeetHeightsOfACompoundCrsAreConvertedOnceWhenReprojected) {
     EXPECT_GT(valid, 200u);
 }
 
+// A raster placed by ground control points only is refused with the way to grid it (it was
+// built in pixel units, a 4.6 km DEM as a 155 m model); one with no georeferencing at all is
+// built in pixel units with a warning.
+TEST(Dem, GroundControlPointsAreRefusedAndNoGeoreferencingIsWarned) {
+    TempDir dir("gcp");
+    GDALAllRegister();
+    GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
+    ASSERT_NE(driver, nullptr);
+    auto write = [&](const std::string& path, bool gcps) {
+        GDALDatasetUniquePtr ds(driver->Create(path.c_str(), 8, 6, 1, GDT_Float32, nullptr));
+        ASSERT_TRUE(ds);
+        std::vector<float> v(48, 100.0f);
+        ASSERT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, 8, 6, v.data(), 8, 6, GDT_Float32,
+                                                 0, 0, nullptr),
+                  CE_None);
+        if (gcps) {
+            OGRSpatialReference srs;
+            srs.importFromEPSG(32616);
+            GDAL_GCP points[3];
+            GDALInitGCPs(3, points);
+            const double pixel[3][4] = {
+                {0, 0, 300000, 3903720}, {8, 0, 300240, 3903720}, {0, 6, 300000, 3903540}};
+            for (int i = 0; i < 3; ++i) {
+                points[i].dfGCPPixel = pixel[i][0];
+                points[i].dfGCPLine = pixel[i][1];
+                points[i].dfGCPX = pixel[i][2];
+                points[i].dfGCPY = pixel[i][3];
+            }
+            ASSERT_EQ(ds->SetGCPs(3, points, &srs), CE_None);
+            GDALDeinitGCPs(3, points);
+        }
+    };
+    const std::string gcp = dir.file("gcp.tif"), bare = dir.file("bare.tif");
+    write(gcp, true);
+    write(bare, false);
+    std::vector<std::string> warnings;
+    const DemLoadOptions o = collecting(warnings);
+    DemGrid dem;
+    std::string error;
+    EXPECT_FALSE(loadDem(gcp, o, dem, error));
+    EXPECT_NE(error.find(gcp), std::string::npos) << error;
+    EXPECT_NE(error.find("3 ground control points"), std::string::npos) << error;
+    EXPECT_NE(error.find("gdalwarp"), std::string::npos) << error;
+
+    ASSERT_TRUE(loadDem(bare, o, dem, error)) << error;
+    EXPECT_EQ(dem.width, 8);
+    EXPECT_DOUBLE_EQ(dem.cellX, 1.0);
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("no georeferencing"), std::string::npos) << warnings[0];
+}
+
 TEST(Dem, DistortingMetricCrsIsWarnedAbout) {
     // Web Mercator at about 36 degrees north stretches distances by about 1.24.
     TempDir dir("mercator");
