@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <nlohmann/json.hpp>
 #include <utility>
 
@@ -187,6 +188,22 @@ int automaticBlockSize(const DemGrid& dem, int stride) {
 }
 
 bool checkCellsFitExactGrid(const DemGrid& dem, int stride, std::string& error) {
+    // Cells below 1 cm (ten grid units) would put neighbouring points on the same or adjacent
+    // grid points: merged silently (a 0.5 mm DEM of 400 points became 121 vertices).
+    constexpr double kMinCell = 0.01;
+    const double smallest = std::min(std::fabs(dem.cellX), std::fabs(dem.cellY)) * stride;
+    if (std::min(dem.width, dem.height) >= 2 && smallest < kMinCell) {
+        char text[96];
+        std::snprintf(text, sizeof text, "%.3g mm", smallest * 1000);
+        const double need = std::ceil(kMinCell / (smallest / stride));
+        error = "its cells" +
+                std::string(stride > 1 ? " (at --stride " + std::to_string(stride) + ")" : "") +
+                " are " + text +
+                " wide: too small for the exact 1 mm grid (cells of at least 1 cm; --stride " +
+                (need < 1e9 ? std::to_string(std::lround(need)) : std::string("N")) +
+                " samples them that far apart, or check its georeferencing)";
+        return false;
+    }
     const double cell = std::max(std::fabs(dem.cellX), std::fabs(dem.cellY)) * stride;
     if (std::min(dem.width, dem.height) < 2 || 2 * cell <= kExactSpan) return true;
     error = "its cells" +

@@ -707,3 +707,22 @@ TEST(Dem, CellsTooLargeForTheExactGridAreNamed) {
     EXPECT_FALSE(checkCellsFitExactGrid(dem, 2, error));  // 400 km at --stride 2
     EXPECT_NE(error.find("(at --stride 2)"), std::string::npos) << error;
 }
+
+// Cells below 1 cm are refused too: on the 1 mm grid their points merged silently (a 20 x 20 DEM
+// of 0.5 mm cells became 121 vertices); --stride sampling them 1 cm apart is suggested.
+TEST(Dem, CellsTooSmallForTheExactGridAreNamed) {
+    DemGrid dem;
+    dem.width = dem.height = 20;
+    dem.cellX = 0.0005;
+    dem.cellY = -0.0005;
+    dem.z.assign(400, 100.0f);
+    std::string error;
+    EXPECT_FALSE(checkCellsFitExactGrid(dem, 1, error));
+    EXPECT_NE(error.find("its cells are 0.5 mm wide: too small"), std::string::npos) << error;
+    EXPECT_NE(error.find("--stride 20"), std::string::npos) << error;
+    EXPECT_TRUE(checkCellsFitExactGrid(dem, 20, error)) << error;
+    dem.cellX = 0.01;  // 1 cm x 0.5 mm: the smaller side counts
+    EXPECT_FALSE(checkCellsFitExactGrid(dem, 1, error));
+    dem.cellY = -0.01;
+    EXPECT_TRUE(checkCellsFitExactGrid(dem, 1, error)) << error;
+}
