@@ -574,6 +574,19 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
                          std::to_string(band) + ": read as metres");
         zMetres = 1;
     }
+    // No unit anywhere for the heights of a DEM whose CRS is in feet: they are read as metres,
+    // which is wrong by 3.28x if they are feet like the cells; say so.
+    if (zUnit.empty() && options.warn && srcSrs != nullptr && srcSrs->IsProjected()) {
+        const char* name = nullptr;
+        const double f = srcSrs->GetLinearUnits(&name);
+        if (std::fabs(f - 1.0) > 1e-9)
+            options.warn(
+                "DEM '" + path + "': its CRS is in " +
+                (name != nullptr ? name : "a unit that is not metres") +
+                " but its heights declare no unit (band unit or vertical CRS): they are "
+                "read as metres; if they are in the CRS's unit, give the band that unit "
+                "or a vertical CRS (e.g. gdal_edit.py -a_srs EPSG:<horizontal>+<vertical>)");
+    }
     auto number = [](double v) {
         char text[32];
         std::snprintf(text, sizeof text, "%.10g", v);

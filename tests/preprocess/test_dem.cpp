@@ -530,6 +530,18 @@ TEST(Dem, ProjectedCrsInFeetIsReprojectedToUtm) {
     ASSERT_EQ(dem.conversions.size(), 1u);
     EXPECT_NE(dem.conversions[0].find("US survey foot"), std::string::npos) << dem.conversions[0];
 
+    // Heights with no unit in a CRS in feet are read as metres, with a warning (a DEM in feet
+    // throughout had 3.28x its relief, silently); a band unit of metres says it all.
+    std::vector<std::string> warnings;
+    ASSERT_TRUE(loadDem(path, collecting(warnings), dem, error)) << error;
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("heights declare no unit"), std::string::npos) << warnings[0];
+    EXPECT_NE(warnings[0].find(path), std::string::npos) << warnings[0];
+    describeBand(path, 1.0, 0.0, "m");
+    warnings.clear();
+    ASSERT_TRUE(loadDem(path, collecting(warnings), dem, error)) << error;
+    EXPECT_TRUE(warnings.empty()) << warnings[0];
+
     // A target CRS in feet is refused (the model works in metres).
     DemLoadOptions o;
     o.targetSrs = "EPSG:2274";
