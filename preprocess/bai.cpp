@@ -25,6 +25,7 @@
 #include <sstream>
 
 #include "atomicfile.h"
+#include "numtext.h"
 
 namespace unilod {
 
@@ -62,6 +63,8 @@ bool BaiTable::load(const std::string& path, BaiTable& table, std::string& error
     };
     while (std::getline(in, line)) {
         ++lineNo;
+        // A UTF-8 byte order mark (editors on Windows write one) is not part of the text.
+        if (lineNo == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);
         if (auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
         std::istringstream ls(line);
         std::string first;
@@ -69,11 +72,8 @@ bool BaiTable::load(const std::string& path, BaiTable& table, std::string& error
         std::vector<double> values;
         std::string tok;
         while (ls >> tok) {
-            char* end = nullptr;
-            const double v = std::strtod(tok.c_str(), &end);
-            if (end == tok.c_str() || *end != '\0' || !std::isfinite(v)) {
-                return fail("'" + tok + "' is not a number");
-            }
+            double v = 0;  // the shared number syntax: no hexadecimal, finite
+            if (!format::parseFiniteNumber(tok, v)) return fail("'" + tok + "' is not a number");
             values.push_back(v);
         }
         if (first == "altitudes") {
@@ -88,9 +88,8 @@ bool BaiTable::load(const std::string& path, BaiTable& table, std::string& error
             continue;
         }
         if (!haveClasses) return fail("expected 'altitudes <bounds...>' before the rows");
-        char* end = nullptr;
-        const double threshold = std::strtod(first.c_str(), &end);
-        if (end == first.c_str() || *end != '\0' || !std::isfinite(threshold) || threshold < 0) {
+        double threshold = 0;
+        if (!format::parseFiniteNumber(first, threshold) || threshold < 0) {
             return fail("'" + first + "' is not a threshold in metres");
         }
         if (values.size() != t.classLowerBounds.size()) {

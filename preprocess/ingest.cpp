@@ -55,6 +55,83 @@ bool anyVertexOnDem(const RiverLines& rivers, const DemGrid& dem) {
     return false;
 }
 
+// Lines whose bounding box misses the DEM's extent: nothing of them can be on it.
+std::size_t linesOutsideDem(const RiverLines& rivers, const DemGrid& dem) {
+    const double xa = dem.originX - 0.5 * dem.cellX, xb = xa + dem.width * dem.cellX;
+    const double ya = dem.originY - 0.5 * dem.cellY, yb = ya + dem.height * dem.cellY;
+    const double x0 = std::min(xa, xb), x1 = std::max(xa, xb);
+    const double y0 = std::min(ya, yb), y1 = std::max(ya, yb);
+    std::size_t outside = 0;
+    for (const RiverLine& line : rivers) {
+        double lx0 = INFINITY, lx1 = -INFINITY, ly0 = INFINITY, ly1 = -INFINITY;
+        for (const XY& v : line) {
+            lx0 = std::min(lx0, v.x), lx1 = std::max(lx1, v.x);
+            ly0 = std::min(ly0, v.y), ly1 = std::max(ly1, v.y);
+        }
+        if (!line.empty() && (lx1 < x0 || lx0 > x1 || ly1 < y0 || ly0 > y1)) ++outside;
+    }
+    return outside;
+}
+
+// A river segment's heights are interpolated between its vertices, and DEM points within the
+// river clearance of it are dropped, so a long segment would carry the terrain along its chord
+// (generalised river data on a fine DEM: 335 m off the DEM at full resolution, in no stored
+// error). Segments longer than two sampled cells get vertices about one sampled cell apart
+// within the DEM's extent (their heights are sampled from the DEM like every river vertex).
+// Returns the number of vertices inserted; at most as many as the DEM has sampled points (a
+// hundred thousand at least): beyond that, `skipped` counts the long segments left as they are.
+std::size_t densifyRivers(RiverLines& rivers, const DemGrid& dem, int stride,
+                          std::size_t& skipped) {
+    skipped = 0;
+    const double step = std::max(std::fabs(dem.cellX), std::fabs(dem.cellY)) * stride;
+    if (!(step > 0)) return 0;
+    const double budget =
+        std::max(1e5, double(dem.width) * double(dem.height) / (double(stride) * stride));
+    const double xa = dem.originX - 0.5 * dem.cellX, xb = xa + dem.width * dem.cellX;
+    const double ya = dem.originY - 0.5 * dem.cellY, yb = ya + dem.height * dem.cellY;
+    const double lo[2] = {std::min(xa, xb), std::min(ya, yb)};
+    const double hi[2] = {std::max(xa, xb), std::max(ya, yb)};
+    std::size_t inserted = 0;
+    for (RiverLine& line : rivers) {
+        if (line.size() < 2) continue;
+        RiverLine out{line.front()};
+        for (std::size_t i = 1; i < line.size(); ++i) {
+            const XY a = line[i - 1], b = line[i];
+            const double d[2] = {b.x - a.x, b.y - a.y}, p[2] = {a.x, a.y};
+            const double len = std::hypot(d[0], d[1]);
+            if (std::isfinite(len) && len > 2 * step) {
+                // The segment's parameter range inside the DEM's extent (Liang-Barsky).
+                double t0 = 0, t1 = 1;
+                for (int k = 0; k < 2 && t0 < t1; ++k) {
+                    if (d[k] == 0) {
+                        if (p[k] < lo[k] || p[k] > hi[k]) t1 = t0 - 1;
+                        continue;
+                    }
+                    double u = (lo[k] - p[k]) / d[k], v = (hi[k] - p[k]) / d[k];
+                    if (u > v) std::swap(u, v);
+                    t0 = std::max(t0, u);
+                    t1 = std::min(t1, v);
+                }
+                const double pieces = std::ceil((t1 - t0) * len / step);
+                if (t0<t1&& double(inserted) + pieces> budget) {
+                    ++skipped;
+                } else if (t0 < t1) {
+                    const auto n = static_cast<std::size_t>(pieces);
+                    for (std::size_t k = 0; k <= n; ++k) {
+                        const double t = t0 + (t1 - t0) * double(k) / double(n);
+                        if (!(t > 0 && t < 1)) continue;
+                        out.push_back({a.x + t * d[0], a.y + t * d[1]});
+                        ++inserted;
+                    }
+                }
+            }
+            out.push_back(b);
+        }
+        line = std::move(out);
+    }
+    return inserted;
+}
+
 std::string cells(const DemGrid& dem) {
     return std::to_string(dem.width) + " x " + std::to_string(dem.height) + " cells";
 }
@@ -122,7 +199,15 @@ bool ingest(const IngestOptions& o, Ingested& data, std::string& error) {
     // gets a planar network whose rivers meet only at shared vertices.
     RiverCleaningOptions cleaning;
     cleaning.minRiverLength = o.minRiverLength;
+    std::size_t notDensified = 0;
+    const std::size_t densified = densifyRivers(rivers, dem, o.stride, notDensified);
+    if (notDensified > 0)
+        warn("rivers '" + o.riversPath + "': " + std::to_string(notDensified) +
+             " long segments were not given vertices about every cell (more than the DEM's "
+             "points already inserted): along them the terrain follows the segment's chord");
     data.rivers = cleanRivers(rivers, dem, cleaning, data.cleaning);
+    data.cleaning.densifiedVertices = densified;
+    data.cleaning.inputVertices -= densified;
     const RiverCleaningStats& s = data.cleaning;
     if (data.rivers.empty()) {
         // Nothing on the valid DEM: with no vertex on it either, most likely the wrong CRS.
@@ -135,6 +220,12 @@ bool ingest(const IngestOptions& o, Ingested& data, std::string& error) {
              "' after cleaning (" + std::to_string(s.shortLinesDropped) +
              " lines shorter than --min-river-length, the rest off the DEM or over nodata): "
              "building a terrain-only model");
+    } else if (const std::size_t outside = linesOutsideDem(rivers, dem); outside > 0) {
+        // A whole line off the DEM is more likely a mistake (another area's data, a wrong
+        // --where) than the usual cut at the DEM's edge: it was dropped with no word.
+        warn("rivers '" + o.riversPath + "': " + std::to_string(outside) + " of " +
+             std::to_string(rivers.size()) + " lines lie entirely outside the DEM '" + o.demPath +
+             "': dropped");
     }  // rivers cut at the DEM's edge or at nodata: counted in the summary, no warning (usual)
     if (s.crossingsSplit + s.selfCrossings + s.touchesSplit > 0) {
         warn("rivers '" + o.riversPath +

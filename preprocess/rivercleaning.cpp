@@ -872,8 +872,11 @@ RiverLines cleanRivers(const RiverLines& in, const DemGrid& dem, const RiverClea
 
 std::string describe(const RiverCleaningStats& s) {
     std::ostringstream o;
-    o << "River cleaning: " << s.inputLines << " lines / " << s.inputVertices << " vertices in, "
-      << s.outputLines << " lines / " << s.outputVertices << " vertices out. Dropped "
+    o << "River cleaning: " << s.inputLines << " lines / " << s.inputVertices << " vertices in, ";
+    if (s.densifiedVertices > 0)
+        o << "densified with " << s.densifiedVertices
+          << " vertices (segments longer than two cells, a vertex about every cell), ";
+    o << s.outputLines << " lines / " << s.outputVertices << " vertices out. Dropped "
       << s.verticesOutsideDem << " vertices off the valid DEM (lines split there; " << s.segmentsCut
       << " segments cut where they leave or enter it), " << s.duplicateVertices
       << " duplicate vertices, " << s.zeroLengthSegments << " zero-length segments, "

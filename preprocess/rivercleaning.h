@@ -41,6 +41,9 @@ struct RiverCleaningStats {
     std::size_t shortLinesDropped = 0;   // shorter than minRiverLength
     std::size_t passes = 0;              // intersection passes run
     std::size_t outputLines = 0, outputVertices = 0;
+    // Set by ingest (densifyRivers), not by cleanRivers: vertices inserted into long segments
+    // before cleaning (not counted in inputVertices).
+    std::size_t densifiedVertices = 0;
 };
 
 // Returns the cleaned network. Guarantees:

@@ -201,6 +201,13 @@ TEST(BaiTable, LoadsFromFile) {
     ASSERT_EQ(t.rows.size(), 2u);
     EXPECT_DOUBLE_EQ(t.constantFor(t.findRow(50), 100), 3);
     EXPECT_DOUBLE_EQ(t.constantFor(t.findRow(400), 250), 2);
+
+    // A UTF-8 byte order mark before the first line is not text ("expected 'altitudes'" before).
+    const auto bom = writeTemp("bai_bom.txt",
+                               "\xEF\xBB\xBF"
+                               "altitudes 0 200\n50 3 1\n");
+    ASSERT_TRUE(BaiTable::load(bom, t, err)) << err;
+    EXPECT_EQ(t.rows.size(), 1u);
 }
 
 TEST(BaiTable, RejectsBadFiles) {
@@ -213,6 +220,8 @@ TEST(BaiTable, RejectsBadFiles) {
         {"altitudes 0 500\n50 1\n", ":2: row 50 has 1 constants, expected 2"},
         {"altitudes 500 0\n", ":1: altitude class bounds must be strictly ascending"},
         {"altitudes 0 500\n50 1 x\n", ":2: 'x' is not a number"},
+        {"altitudes 0 500\n50 1 0x10\n", ":2: '0x10' is not a number"},  // strtod read 16
+        {"altitudes 0 500\n0x32 1 1\n", ":2: '0x32' is not a threshold in metres"},
         {"altitudes 0 500\n50 1 -1\n", ":2: bending adjustment constants must be >= 0"},
         {"altitudes 0 500\n50 1 1\n40 1 1\n", ":3: thresholds must be strictly ascending"},
         {"# nothing\n", "needs an 'altitudes' line"},

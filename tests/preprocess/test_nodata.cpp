@@ -8,6 +8,7 @@
 
 #include <random>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -20,12 +21,13 @@
 #include "checker.h"
 #include "deletion.h"
 #include "demfixtures.h"
+#include "ingest.h"
 #include "modelerror.h"
 #include "nodata.h"
-#include "stats.h"
-#include "ulod.h"
 #include "pngread.h"
+#include "stats.h"
 #include "tools/cliutil.h"
+#include "ulod.h"
 #include "ulodcheck.h"
 
 using namespace unilod;
@@ -573,4 +575,80 @@ TEST(Nodata, WarningCountsFilledAndKeptHolesApart) {
               std::string::npos)
         << warnings[0];
     EXPECT_NE(warnings[0].find("(1 larger holes)"), std::string::npos) << warnings[0];
+}
+
+// A long river segment over a ridge: its heights were interpolated between its two vertices and
+// the DEM points along it dropped (river clearance), so at full resolution the river and the
+// terrain under it ran along the chord, 275 m below the ridge, in no stored error. Segments
+// longer than two cells now get a vertex about every cell, their heights from the DEM.
+TEST(Nodata, LongRiverSegmentsGetVerticesEveryCell) {
+    DemGrid d = plane(60, 20);
+    for (int r = 0; r < d.height; ++r) {
+        for (int c = 0; c < d.width; ++c)  // a tent: 100 m at the sides, 400 m on the ridge
+            d.z[std::size_t(r) * d.width + c] = float(100 + 10 * std::min(c, 60 - c));
+    }
+    const std::string rivers = testing::TempDir() + "nodata_ridge_river.geojson";
+    // Along the cell centres of row 10 (y = 3999700), from column 2 to column 57.
+    std::ofstream(rivers) << R"({"type":"FeatureCollection","crs":{"type":"name","properties":)"
+                          << R"({"name":"urn:ogc:def:crs:EPSG::32616"}},"features":[{"type":)"
+                          << R"("Feature","properties":{},"geometry":{"type":"LineString",)"
+                          << R"("coordinates":[[500060,3999700],[501710,3999700]]}}]})";
+    BuildOptions o;
+    o.demPath = writeTiff(d, "nodata_ridge.tif");
+    o.riversPath = rivers;
+    o.outPath = testing::TempDir() + "nodata_ridge.ulod";
+    o.blockSize = 16;
+    o.force = true;
+    BuildSummary summary;
+    std::string err;
+    ASSERT_TRUE(runBuild(o, summary, err)) << err;
+    EXPECT_NE(summary.cleaning.find("densified with"), std::string::npos) << summary.cleaning;
+    format::Reader reader;
+    ASSERT_TRUE(reader.open(o.outPath, err)) << err;
+    double length = 0, highest = 0;
+    for (std::size_t i = 0; i < reader.blocks().size(); ++i) {
+        if (reader.blocks()[i].level > 0) continue;  // the leaves' full resolution
+        format::Block b;
+        ASSERT_TRUE(reader.readBlock(i, b, err)) << err;
+        const format::Level& full = b.levels.front();
+        for (std::uint32_t e = 0; e < full.riverCount; ++e) {
+            const format::Edge& edge = b.riverIndices[full.riverFirst + e];
+            const auto& p = b.vertices[edge.a];
+            const auto& q = b.vertices[edge.b];
+            const double dx = double(q.x) - p.x, dy = double(q.y) - p.y;
+            EXPECT_LE(std::hypot(dx, dy), 30.0 + 1e-3) << "a river edge longer than a cell";
+            length += std::hypot(dx, dy);
+            highest = std::max({highest, double(p.z), double(q.z)});
+        }
+    }
+    EXPECT_NEAR(length, 1650.0, 0.1);
+    EXPECT_NEAR(highest, 400.0, 0.1);  // the river crosses the ridge at its height
+}
+
+// A river line entirely outside the DEM was dropped with no word (only the summary's line
+// counts said it); it is a warning now, the usual cut at the DEM's edge is not.
+TEST(Nodata, RiverLinesOutsideTheDemAreWarnedAbout) {
+    const DemGrid d = plane(20, 20);
+    const std::string rivers = testing::TempDir() + "nodata_outside_rivers.geojson";
+    std::ofstream(rivers)
+        << R"({"type":"FeatureCollection","crs":{"type":"name","properties":)"
+        << R"({"name":"urn:ogc:def:crs:EPSG::32616"}},"features":[)"
+        << R"({"type":"Feature","properties":{},"geometry":{"type":)"
+        << R"("LineString","coordinates":[[500100,3999800],[500300,3999700]]}},)"
+        << R"({"type":"Feature","properties":{},"geometry":{"type":)"
+        << R"("LineString","coordinates":[[600100,3999800],[600300,3999700]]}},)"
+        << R"({"type":"Feature","properties":{},"geometry":{"type":)"
+        << R"("LineString","coordinates":[[499000,3999800],[500200,3999750]]}}]})";
+    IngestOptions o;
+    o.demPath = writeTiff(d, "nodata_outside.tif");
+    o.riversPath = rivers;
+    std::vector<std::string> warnings;
+    o.warn = [&warnings](const std::string& w) { warnings.push_back(w); };
+    Ingested data;
+    std::string err;
+    ASSERT_TRUE(ingest(o, data, err)) << err;
+    EXPECT_EQ(data.rivers.size(), 2u);  // the third is cut at the DEM's edge, no warning for it
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("1 of 3 lines lie entirely outside the DEM"), std::string::npos)
+        << warnings[0];
 }
