@@ -112,10 +112,11 @@ std::size_t densifyRivers(RiverLines& rivers, const DemGrid& dem, int stride,
                     t0 = std::max(t0, u);
                     t1 = std::min(t1, v);
                 }
-                const double pieces = std::ceil((t1 - t0) * len / step);
-                if (t0<t1&& double(inserted) + pieces> budget) {
+                const double pieces = t0 < t1 ? std::ceil((t1 - t0) * len / step) : 0;
+                const bool overBudget = double(inserted) + pieces > budget;
+                if (pieces > 0 && overBudget) {
                     ++skipped;
-                } else if (t0 < t1) {
+                } else if (pieces > 0) {
                     const auto n = static_cast<std::size_t>(pieces);
                     for (std::size_t k = 0; k <= n; ++k) {
                         const double t = t0 + (t1 - t0) * double(k) / double(n);
