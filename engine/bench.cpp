@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <numeric>
 #include <thread>
 
@@ -71,11 +72,14 @@ double medianOf(std::vector<double> v) {
 }
 
 // The ratios of median frame times (0: a run not made).
-nlohmann::json ratiosOf(double lod, double resident, double bare, double full) {
+nlohmann::json ratiosOf(double lod, double resident, double bare, double full, double tin) {
     nlohmann::json ratios = nlohmann::json::object();
     if (lod > 0 && bare > 0) ratios["lod_over_bare"] = lod / bare;
     if (resident > 0 && bare > 0) ratios["resident_over_bare"] = resident / bare;
     if (lod > 0 && full > 0) ratios["full_over_lod"] = full / lod;
+    // The baseline (BenchOptions::baseline): what the best known method's meshes give.
+    if (tin > 0 && full > 0) ratios["full_over_tin"] = full / tin;
+    if (tin > 0 && lod > 0) ratios["lod_over_tin"] = lod / tin;
     return ratios;
 }
 
@@ -141,10 +145,24 @@ nlohmann::json runJson(const RunData& r, bool perFrame) {
     return j;
 }
 
-// One run over the path. `bareLists`: the resident run whose draw lists (and their refined index
-// data) are replayed instead of selecting (the bare run).
-bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
-         const RunData* bareLists, RunData& data, std::string& error) {
+// Draw lists replayed frame by frame instead of selecting: the resident run's (with their refined
+// index data, in the scene's buffer: the bare run) or the baseline meshes' (in their own buffer).
+struct Replay {
+    const std::vector<std::vector<DrawBlock>>* lists = nullptr;
+    const std::vector<std::vector<std::uint32_t>>* indices = nullptr;  // null: `geometry`'s
+    VkBuffer geometry = VK_NULL_HANDLE;
+
+    void render(HeadlessRenderer& renderer, const FrameView& view, std::size_t frame) const {
+        if (indices)
+            renderer.renderBareFrame(view, (*lists)[frame], (*indices)[frame]);
+        else
+            renderer.renderMeshFrame(view, geometry, (*lists)[frame]);
+    }
+};
+
+// One run over the path. `replay`: draw lists replayed instead of selecting (bare, tin).
+bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists, const Replay* replay,
+         RunData& data, std::string& error) {
     const std::size_t n = o.cameras.size();
     // Warm-up on the first camera (pipelines, caches, the GPU's clock), not measured: at least
     // o.warmup frames and o.warmupMs of wall time.
@@ -155,8 +173,8 @@ bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
     for (std::uint32_t i = 0; i < o.warmup || warmElapsedMs() < o.warmupMs; ++i) {
         ++data.warmupFrames;
         const FrameView view = renderer.view(o.cameras.front());
-        if (bareLists)
-            renderer.renderBareFrame(view, bareLists->drawLists[0], bareLists->refinedIndices[0]);
+        if (replay)
+            replay->render(renderer, view, 0);
         else if (!renderer.renderFrame(view, true, nullptr, error))
             return false;
         else
@@ -179,12 +197,12 @@ bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
             last = Clock::now();
         }
         const FrameView view = renderer.view(o.cameras[i]);
-        if (bareLists) {
-            renderer.renderBareFrame(view, bareLists->drawLists[i], bareLists->refinedIndices[i]);
+        if (replay) {
+            replay->render(renderer, view, i);
             FrameStats s;
-            for (const DrawBlock& d : bareLists->drawLists[i])
+            for (const DrawBlock& d : (*replay->lists)[i])
                 s.triangles += d.terrainCount / 3;
-            s.visibleBlocks = std::uint32_t(bareLists->drawLists[i].size());
+            s.visibleBlocks = std::uint32_t((*replay->lists)[i].size());
             s.loaderBytesRead = renderer.scene().stats().loaderBytesRead;
             s.loaderSeconds = renderer.scene().stats().loaderSeconds;
             stats.push_back(s);
@@ -228,6 +246,57 @@ bool run(HeadlessRenderer& renderer, const BenchOptions& o, bool keepLists,
 
 }  // namespace
 
+bool uploadBenchMeshes(const Device& device, const std::vector<BenchMesh>& meshes, Buffer& geometry,
+                       std::vector<std::vector<DrawBlock>>& lists, std::string& error) {
+    VkDeviceSize size = 0;
+    lists.assign(meshes.size(), {});
+    for (std::size_t i = 0; i < meshes.size(); ++i) {
+        const BenchMesh& m = meshes[i];
+        DrawBlock d;
+        d.vertexOffset = size;
+        size += m.vertices.size() * sizeof(format::Vertex);
+        d.terrainFirst = std::uint32_t(size / sizeof(std::uint32_t));
+        d.terrainCount = std::uint32_t(m.indices.size());
+        size += m.indices.size() * sizeof(std::uint32_t);
+        d.originX = m.originX;
+        d.originY = m.originY;
+        if (d.terrainCount > 0) lists[i].push_back(d);
+    }
+    // The index offsets are in uint32 units from the buffer's start.
+    if (size / sizeof(std::uint32_t) > UINT32_MAX) {
+        error = "the baseline meshes take more than 16 GiB";
+        return false;
+    }
+    size = std::max<VkDeviceSize>(size, 16);
+    Buffer staging;
+    if (!tryCreateBuffer(device, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                         VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                         staging, error))
+        return false;
+    auto* bytes = static_cast<std::uint8_t*>(staging.mapped);
+    for (std::size_t i = 0; i < meshes.size(); ++i) {
+        const BenchMesh& m = meshes[i];
+        if (lists[i].empty()) continue;
+        std::memcpy(bytes + lists[i][0].vertexOffset, m.vertices.data(),
+                    m.vertices.size() * sizeof(format::Vertex));
+        std::memcpy(bytes + VkDeviceSize(lists[i][0].terrainFirst) * sizeof(std::uint32_t),
+                    m.indices.data(), m.indices.size() * sizeof(std::uint32_t));
+    }
+    if (!tryCreateBuffer(device, size,
+                         VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_VERTEX_BUFFER_BIT |
+                             VK_BUFFER_USAGE_INDEX_BUFFER_BIT,
+                         VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, geometry, error)) {
+        destroyBuffer(device, staging);
+        return false;
+    }
+    submitAndWait(device, [&](VkCommandBuffer cmd) {
+        const VkBufferCopy copy{0, 0, size};
+        vkCmdCopyBuffer(cmd, staging.buffer, geometry.buffer, 1, &copy);
+    });
+    destroyBuffer(device, staging);
+    return true;
+}
+
 bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
     if (o.cameras.empty()) {
         error = "no frames";
@@ -265,6 +334,24 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
         if (o.progress) o.progress(what, 0, o.cameras.size());
     };
 
+    // The baseline meshes, built once for every round (not timed).
+    std::vector<BenchMesh> meshes;
+    double meshSeconds = 0;
+    if (has("tin")) {
+        if (!o.baseline) {
+            error = "the tin run needs a baseline mesh for each frame (BenchOptions::baseline)";
+            return false;
+        }
+        const auto start = Clock::now();
+        say("tin: building each frame's baseline mesh");
+        meshes.resize(o.cameras.size());
+        for (std::size_t i = 0; i < o.cameras.size(); ++i) {
+            if (!o.baseline(o.cameras[i], meshes[i], error)) return false;
+            if (o.progress) o.progress({}, i + 1, o.cameras.size());
+        }
+        meshSeconds = std::chrono::duration<double>(Clock::now() - start).count();
+    }
+
     // The preloaded runs need every block resident at once: checked on the streamed run's scene
     // before its first frame (BenchOptions::runsGiven); without a streamed run the first
     // preloaded run's open fails at once with the same message.
@@ -279,16 +366,17 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
         }
         for (const char* name : {"resident", "bare", "full"})
             if (has(name)) skipped[name] = why;
-        wanted = {"lod"};
+        wanted =
+            has("tin") ? std::vector<std::string>{"lod", "tin"} : std::vector<std::string>{"lod"};
         return true;
     };
 
     // Rounds (BenchOptions::rounds): the runs in the same order each round, pooled per run;
     // each round's own ratios are kept too.
-    RunData pooled[4];  // lod, resident, bare, full
+    RunData pooled[5];  // lod, resident, bare, full, tin
     nlohmann::json roundRatios = nlohmann::json::array();
     for (std::uint32_t round = 0; round < std::max(1u, o.rounds); ++round) {
-        RunData lod, resident, bare, full;
+        RunData lod, resident, bare, full, tin;
         if (has("lod")) {
             HeadlessRenderer r;
             bool ok = openRenderer(r, o.scene, lod) && (round > 0 || checkPreload(r));
@@ -310,7 +398,8 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
             }
             if (ok && has("bare")) {
                 say("bare: the resident run's draws replayed");
-                ok = run(r, o, false, &resident, bare, error);
+                const Replay replay{&resident.drawLists, &resident.refinedIndices, VK_NULL_HANDLE};
+                ok = run(r, o, false, &replay, bare, error);
             }
             closeRenderer(r);
             if (!ok) return false;
@@ -330,21 +419,43 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
             closeRenderer(r);
             if (!ok) return false;
         }
+        if (has("tin")) {
+            HeadlessRenderer r;
+            Buffer geometry;
+            std::vector<std::vector<DrawBlock>> lists;
+            bool ok = openRenderer(r, o.scene, tin) &&
+                      uploadBenchMeshes(r.device(), meshes, geometry, lists, error);
+            if (ok) {
+                say("tin: the baseline meshes drawn");
+                const Replay replay{&lists, nullptr, geometry.buffer};
+                ok = run(r, o, false, &replay, tin, error);
+            }
+            r.finish();
+            if (geometry.buffer != VK_NULL_HANDLE) destroyBuffer(r.device(), geometry);
+            closeRenderer(r);
+            if (!ok) return false;
+        }
         roundRatios.push_back(ratiosOf(medianOf(lod.frameMs), medianOf(resident.frameMs),
-                                       medianOf(bare.frameMs), medianOf(full.frameMs)));
+                                       medianOf(bare.frameMs), medianOf(full.frameMs),
+                                       medianOf(tin.frameMs)));
         pool(pooled[0], lod), pool(pooled[1], resident), pool(pooled[2], bare),
-            pool(pooled[3], full);
+            pool(pooled[3], full), pool(pooled[4], tin);
     }
-    const char* names[4] = {"lod", "resident", "bare", "full"};
-    for (int k = 0; k < 4; ++k)
+    const char* names[5] = {"lod", "resident", "bare", "full", "tin"};
+    for (int k = 0; k < 5; ++k)
         if (has(names[k])) runs[names[k]] = runJson(pooled[k], o.perFrame);
+    if (has("tin")) {
+        runs["tin"]["baseline"] = o.baselineName;
+        runs["tin"]["build_seconds"] = meshSeconds;
+    }
     if (!messages.empty()) {
         error = std::to_string(messages.size()) +
                 " Vulkan validation message(s) (first: " + messages.front() + ")";
         return false;
     }
     nlohmann::json ratios = ratiosOf(medianOf(pooled[0].frameMs), medianOf(pooled[1].frameMs),
-                                     medianOf(pooled[2].frameMs), medianOf(pooled[3].frameMs));
+                                     medianOf(pooled[2].frameMs), medianOf(pooled[3].frameMs),
+                                     medianOf(pooled[4].frameMs));
     out = {
         {"file", o.path},
         {"device", deviceName},

@@ -4,7 +4,9 @@
 // - "resident": the same level choice with every block preloaded (no streaming);
 // - "bare": the draw lists of "resident" replayed frame by frame with no level selection and
 //   no streaming: the cost of drawing the same triangles and nothing else;
-// - "full": every visible block at full resolution, preloaded.
+// - "full": every visible block at full resolution, preloaded;
+// - "tin" (only when asked for): a baseline mesh per frame from the caller, the best known
+//   method's meshes (BenchOptions::baseline).
 // Frame time is the wall-clock interval between successive frame submissions with two frames
 // in flight (the pace of the slower of CPU and GPU); CPU time is the recording work; GPU time
 // comes from timestamp queries.
@@ -18,9 +20,19 @@
 
 #include "camera.h"
 #include "device.h"
+#include "renderer.h"
 #include "scene.h"
+#include "ulod.h"
 
 namespace unilod::engine {
+
+// One frame's mesh of the baseline run (BenchOptions::baseline): vertices as the file stores a
+// block's (x, y relative to the origin, z absolute; flags unused), a triangle list.
+struct BenchMesh {
+    std::vector<format::Vertex> vertices;
+    std::vector<std::uint32_t> indices;
+    double originX = 0, originY = 0;
+};
 
 struct BenchOptions {
     std::string path;             // the .ulod file
@@ -43,6 +55,14 @@ struct BenchOptions {
     // (record, submit, GPU done), not the interval between frames.
     double paceMs = 0;
     std::vector<std::string> runs = {"lod", "resident", "bare", "full"};
+    // The "tin" run (a fifth run, only when named in `runs`): the best known method's frame
+    // time on the same frames. Per frame, the mesh `baseline` returns for the camera (built once
+    // before the first round and not timed; `unilod bench` gives the view-dependent greedy TIN of
+    // preprocess/viewtin.h), uploaded to one device-local buffer and drawn with the same
+    // pipelines, target, warm-up and timing as the other runs, one draw a frame, no rivers.
+    // Its progress (done of total frames) goes to `progress` as "tin: building ...".
+    std::function<bool(const Camera& camera, BenchMesh& mesh, std::string& error)> baseline;
+    std::string baselineName;  // the JSON's description of the baseline mesh
     // The runs that preload every block (resident, bare, full) are checked against the device
     // before any run. When they do not fit: an error if the caller named the runs (`runsGiven`),
     // else they are skipped and the JSON says why (`skipped`), so that `bench` with its defaults
@@ -58,6 +78,13 @@ struct BenchOptions {
     // calling thread between frames (the caller rate-limits its printing: cmd_bench.cpp).
     std::function<void(const std::string& run, std::size_t done, std::size_t total)> progress;
 };
+
+// The meshes in one device-local buffer of `device` (each one's vertices, then its indices; the
+// caller destroys it once the frames drawing it are done) and one draw per mesh (none for an
+// empty mesh) for HeadlessRenderer::renderMeshFrame. False with a message when the buffer cannot
+// be allocated.
+bool uploadBenchMeshes(const Device& device, const std::vector<BenchMesh>& meshes, Buffer& geometry,
+                       std::vector<std::vector<DrawBlock>>& lists, std::string& error);
 
 // Runs the benchmark and returns its JSON (see README "unilod bench" for the fields). False
 // with a message on a data or device error or a validation message when validation is on.

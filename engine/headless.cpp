@@ -112,17 +112,25 @@ std::vector<std::string> HeadlessRenderer::close() {
 
 bool HeadlessRenderer::renderFrame(const FrameView& view, bool draw,
                                    std::vector<std::uint8_t>* rgba, std::string& error) {
-    return record(view, draw, nullptr, nullptr, rgba, error);
+    return record(view, draw, nullptr, nullptr, VK_NULL_HANDLE, rgba, error);
 }
 
 void HeadlessRenderer::renderBareFrame(const FrameView& view, const std::vector<DrawBlock>& draws,
                                        const std::vector<std::uint32_t>& indices) {
     std::string error;
-    record(view, true, &draws, &indices, nullptr, error);
+    record(view, true, &draws, &indices, VK_NULL_HANDLE, nullptr, error);
+}
+
+void HeadlessRenderer::renderMeshFrame(const FrameView& view, VkBuffer geometry,
+                                       const std::vector<DrawBlock>& draws,
+                                       std::vector<std::uint8_t>* rgba) {
+    static const std::vector<std::uint32_t> kNoIndices;
+    std::string error;
+    record(view, true, &draws, &kNoIndices, geometry, rgba, error);
 }
 
 bool HeadlessRenderer::record(const FrameView& view, bool draw, const std::vector<DrawBlock>* bare,
-                              const std::vector<std::uint32_t>* bareIndices,
+                              const std::vector<std::uint32_t>* bareIndices, VkBuffer bareGeometry,
                               std::vector<std::uint8_t>* rgba, std::string& error) {
     Impl& h = *impl_;
     const std::uint64_t frame = h.nextFrame++;
@@ -156,8 +164,9 @@ bool HeadlessRenderer::record(const FrameView& view, bool draw, const std::vecto
         vkCmdBeginRenderPass(slot.cmd, &pass, VK_SUBPASS_CONTENTS_INLINE);
         if (bare) {
             slot.bareIndices.write(h.device, *bareIndices);
-            recordDraws(slot.cmd, h.pipelines, h.scene.geometryBuffer(), view, *bare,
-                        slot.bareIndices.buffer.buffer);
+            recordDraws(slot.cmd, h.pipelines,
+                        bareGeometry != VK_NULL_HANDLE ? bareGeometry : h.scene.geometryBuffer(),
+                        view, *bare, slot.bareIndices.buffer.buffer);
         } else
             h.scene.draw(slot.cmd, h.pipelines, view);
         vkCmdEndRenderPass(slot.cmd);

@@ -52,6 +52,13 @@ public:
     // selection and no streaming (the benchmark's baseline).
     void renderBareFrame(const FrameView& view, const std::vector<DrawBlock>& draws,
                          const std::vector<std::uint32_t>& indices);
+    // A frame of `draws` from the caller's `geometry` buffer (vertices and, for draws that are
+    // not `dynamic`, indices: DrawBlock), with no level selection and no streaming (the
+    // benchmark's baseline meshes, bench.h BenchOptions::baseline). With `rgba` it waits for
+    // the frame and copies the image, as renderFrame.
+    void renderMeshFrame(const FrameView& view, VkBuffer geometry,
+                         const std::vector<DrawBlock>& draws,
+                         std::vector<std::uint8_t>* rgba = nullptr);
     // Waits for every submitted frame; their timings in submission order since the last call.
     std::vector<FrameTiming> finish();
 
@@ -63,9 +70,10 @@ public:
     FrameView view(const Camera& camera) const;
 
 private:
+    // `bare`: draws recorded as they are, from `bareGeometry` (null: the scene's buffer).
     bool record(const FrameView& view, bool draw, const std::vector<DrawBlock>* bare,
-                const std::vector<std::uint32_t>* bareIndices, std::vector<std::uint8_t>* rgba,
-                std::string& error);
+                const std::vector<std::uint32_t>* bareIndices, VkBuffer bareGeometry,
+                std::vector<std::uint8_t>* rgba, std::string& error);
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };

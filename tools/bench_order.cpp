@@ -55,6 +55,7 @@
 #include "stats.h"
 #include "synthetic.h"
 #include "ulod.h"
+#include "viewtin.h"
 
 namespace {
 
@@ -77,21 +78,6 @@ std::size_t peakRssBytes() {
     return std::size_t(ru.ru_maxrss) * 1024;
 }
 
-// A block's vertices as metres: origin + exact grid position.
-unilod::PointSet blockPoints(const unilod::format::Block& b) {
-    unilod::PointSet set;
-    set.points.reserve(b.vertices.size());
-    for (std::size_t i = 0; i < b.vertices.size(); ++i) {
-        const unilod::format::Vertex& v = b.vertices[i];
-        const double x = b.grid.empty() ? b.originX + v.x
-                                         : b.originX + b.grid[i].x * unilod::format::kGridUnit;
-        const double y = b.grid.empty() ? b.originY + v.y
-                                         : b.originY + b.grid[i].y * unilod::format::kGridUnit;
-        set.points.push_back({x, y, double(v.z)});
-    }
-    return set;
-}
-
 // The one block's vertices of a .ulod file.
 unilod::PointSet readBlockPoints(const std::string& path) {
     unilod::format::Reader reader;
@@ -103,58 +89,15 @@ unilod::PointSet readBlockPoints(const std::string& path) {
     }
     unilod::format::Block b;
     if (!reader.readBlock(0, b, error)) fail(error);
-    return blockPoints(b);
+    return unilod::blockPoints(b);
 }
 
-// The whole model at full resolution as ONE block: every leaf block's vertices once (a border
-// point held by several leaves is merged by its exact world position on the 1 mm grid), on one
-// grid from the header's origin, and every leaf's full-resolution river edges (level 0 only).
-// What a whole-DEM TIN sees.
+// The whole model at full resolution as ONE block (viewtin.h mergedLeaves).
 unilod::format::Block mergedLeaves(const std::string& path) {
     unilod::format::Reader reader;
     std::string error;
-    if (!reader.open(path, error)) fail(error);
-    const double u = unilod::format::kGridUnit;
     unilod::format::Block out;
-    out.originX = reader.header().originX;
-    out.originY = reader.header().originY;
-    std::vector<std::pair<std::pair<std::int64_t, std::int64_t>, std::uint32_t>> keys;
-    std::vector<std::pair<std::uint64_t, std::uint64_t>> edges;  // global vertex numbers
-    std::vector<float> z;
-    unilod::format::Block b;
-    for (std::size_t i = 0; i < reader.blocks().size(); ++i) {
-        if (reader.blocks()[i].level != 0) continue;
-        if (!reader.readBlock(i, b, error)) fail(error);
-        const std::uint64_t first = z.size();
-        for (std::size_t k = 0; k < b.vertices.size(); ++k) {
-            const double x = b.originX + b.grid[k].x * u, y = b.originY + b.grid[k].y * u;
-            keys.push_back({{std::llround((x - out.originX) / u), std::llround((y - out.originY) / u)},
-                            std::uint32_t(z.size())});
-            z.push_back(b.vertices[k].z);
-        }
-        const unilod::format::Level& full = b.levels.front();
-        for (std::uint32_t e = full.riverFirst; e < full.riverFirst + full.riverCount; ++e)
-            edges.push_back({first + b.riverIndices[e].a, first + b.riverIndices[e].b});
-    }
-    std::sort(keys.begin(), keys.end());
-    std::vector<std::uint32_t> id(z.size());
-    for (std::size_t k = 0; k < keys.size(); ++k) {
-        if (k == 0 || keys[k].first != keys[k - 1].first) {
-            out.grid.push_back({std::int32_t(keys[k].first.first), std::int32_t(keys[k].first.second)});
-            out.vertices.push_back({float(keys[k].first.first * u), float(keys[k].first.second * u),
-                                    z[keys[k].second], 0});
-        }
-        id[keys[k].second] = std::uint32_t(out.vertices.size() - 1);
-    }
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> merged;
-    for (const auto& [ea, eb] : edges)
-        merged.push_back(std::minmax(id[ea], id[eb]));
-    std::sort(merged.begin(), merged.end());
-    merged.erase(std::unique(merged.begin(), merged.end()), merged.end());
-    for (const auto& [ea, eb] : merged) out.riverIndices.push_back({ea, eb});
-    unilod::format::Level full;
-    full.riverCount = std::uint32_t(out.riverIndices.size());
-    out.levels.push_back(full);
+    if (!reader.open(path, error) || !unilod::mergedLeaves(reader, out, error)) fail(error);
     return out;
 }
 
@@ -336,9 +279,8 @@ json viewBenchmark(const std::string& path, const std::string& cameraPath, std::
     const std::vector<unilod::engine::Camera> cameras =
         unilod::engine::sampleCameraPath(route, frames);
     const unilod::format::Block all = mergedLeaves(path);
-    const unilod::PointSet set = blockPoints(all);
+    const unilod::PointSet set = unilod::blockPoints(all);
     const double width = 1920, height = 1080, aspect = width / height;
-    constexpr double kDegree = 3.14159265358979323846 / 180.0;
     // A triangle meets the view when its bounding box does (conservative, as the cut's culling).
     const auto inView = [&](const unilod::engine::Camera& c, const double a[3], const double b[3],
                             const double d[3]) {
@@ -369,18 +311,15 @@ json viewBenchmark(const std::string& path, const std::string& cameraPath, std::
     std::uint64_t sumCut = 0, sumCutInView = 0, sumTin = 0, sumBlockTin = 0;
     double tinSeconds = 0;
     std::vector<double> weights(set.points.size()), blockWeights(set.points.size());
-    // A greedy TIN of every point to its weight (greedytin.h setWeights); its triangles that
+    // A greedy TIN of every point to its weight (viewtin.h weightedTin); its triangles that
     // meet the view.
     const auto weightedTin = [&](const unilod::engine::Camera& c, const std::vector<double>& w,
                                  std::uint32_t& vertices) {
-        unilod::GreedyTin tin;
+        std::vector<unilod::TriangleTriple> triangles;
         std::string why;
-        tin.setWeights(&w);
-        if (!tin.init(set, why)) fail(why);
-        tin.refineTo(1.0);
-        vertices = tin.vertexCount();
+        if (!unilod::weightedTin(set, w, triangles, vertices, why)) fail(why);
         std::uint64_t count = 0;
-        for (const unilod::TriangleTriple& t : unilod::collectTriangles(tin.cdt())) {
+        for (const unilod::TriangleTriple& t : triangles) {
             double p[3][3];
             for (int k = 0; k < 3; ++k) {
                 const unilod::Point& q = set.points[t.v[k]];
@@ -457,22 +396,8 @@ json viewBenchmark(const std::string& path, const std::string& cameraPath, std::
             }
         }
         // Each point's own tolerance (a box of one point), 0 weight off screen.
-        const unilod::engine::ViewTolerance tolerance{pixels, c.fovDegrees * kDegree, width,
-                                                      height,
-                                                      unilod::engine::DistanceMode::Nearest};
-        std::uint64_t onScreen = 0;
-        for (std::size_t m = 0; m < set.points.size(); ++m) {
-            const double at[3] = {set.points[m].x, set.points[m].y, set.points[m].z};
-            if (!unilod::engine::boxInFrustum(c, aspect, at, at)) {
-                weights[m] = 0;
-                continue;
-            }
-            ++onScreen;
-            const double s = unilod::engine::nearestBoxDistance(c.eye, at, at);
-            const double hLim = unilod::engine::blockTolerance(
-                tolerance, s, unilod::engine::boxView(c, at, at));
-            weights[m] = 1.0 / std::max(hLim, 1e-6);
-        }
+        const std::uint64_t onScreen =
+            unilod::viewWeights(set, unilod::TinView{c, width, height, pixels}, weights);
         const auto start = std::chrono::steady_clock::now();
         std::uint32_t tinVertices = 0;
         const std::uint64_t tinInView = weightedTin(c, weights, tinVertices);
@@ -934,7 +859,7 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "bench_order: greedy TINs of the whole DEM...\n");
         const json tin = unilod::bench::runInChild([&] {
             const unilod::format::Block all = mergedLeaves(o.outPath);
-            const unilod::PointSet set = blockPoints(all);
+            const unilod::PointSet set = unilod::blockPoints(all);
             auto start = std::chrono::steady_clock::now();
             std::vector<std::uint64_t> counts, held;
             std::string error;

@@ -680,4 +680,131 @@ TEST_F(Streaming, BenchSkipsThePreloadedRunsOfAModelLargerThanTheDevice) {
     EXPECT_TRUE(j["skipped"].empty());
 }
 
+// The whole model at full resolution as ONE mesh of the header's origin (every leaf's level 0,
+// its vertices moved from the leaf's origin).
+engine::BenchMesh fullResolutionMesh(const format::Reader& reader) {
+    engine::BenchMesh mesh;
+    mesh.originX = reader.header().originX;
+    mesh.originY = reader.header().originY;
+    for (std::size_t i = 0; i < reader.blocks().size(); ++i) {
+        if (reader.blocks()[i].level != 0) continue;
+        format::BlockGeometry g;
+        std::string error;
+        EXPECT_TRUE(reader.readGeometry(i, 0, g, error)) << error;
+        const std::uint32_t base = std::uint32_t(mesh.vertices.size());
+        for (const format::Vertex& v : g.vertices)
+            mesh.vertices.push_back({float(g.originX - mesh.originX + v.x),
+                                     float(g.originY - mesh.originY + v.y), v.z, 0});
+        for (const format::Triangle& t : g.terrainIndices)
+            for (std::uint32_t v : {t.a, t.b, t.c})
+                mesh.indices.push_back(base + v);
+    }
+    return mesh;
+}
+
+// The benchmark's baseline meshes (`bench --runs tin`) are drawn where the model is: the whole
+// model at full resolution as one mesh of the header's origin, uploaded with uploadBenchMeshes
+// and drawn by renderMeshFrame, gives the image of the full-resolution scene (rivers off);
+// validation on.
+TEST_F(Streaming, BaselineMeshesAreDrawnWhereTheModelIs) {
+    engine::HeadlessOptions o = options(512u << 20);
+    o.scene.preloadAll = true;
+    o.scene.policy = engine::LodPolicy::Finest;
+    engine::HeadlessRenderer r;
+    std::string error;
+    ASSERT_TRUE(r.open(o, error)) << error;
+    engine::FrameView view = r.view(oblique(0.5));
+    view.rivers = false;
+    std::vector<std::uint8_t> scene, mesh;
+    ASSERT_TRUE(r.renderFrame(view, true, &scene, error)) << error;
+    engine::Buffer geometry;
+    std::vector<std::vector<engine::DrawBlock>> lists;
+    const engine::BenchMesh full = fullResolutionMesh(reader_);
+    ASSERT_TRUE(
+        engine::uploadBenchMeshes(r.device(), {full, engine::BenchMesh{}}, geometry, lists, error))
+        << error;
+    ASSERT_EQ(lists.size(), 2u);
+    ASSERT_EQ(lists[0].size(), 1u);
+    EXPECT_EQ(lists[0][0].terrainCount, full.indices.size());
+    EXPECT_TRUE(lists[1].empty()) << "an empty mesh has no draw";
+    r.renderMeshFrame(view, geometry.buffer, lists[0], &mesh);
+    // An empty draw list draws the background only.
+    std::vector<std::uint8_t> empty;
+    r.renderMeshFrame(view, geometry.buffer, lists[1], &empty);
+    r.finish();
+    engine::destroyBuffer(r.device(), geometry);
+    const std::vector<std::string> messages = r.close();
+    EXPECT_TRUE(messages.empty()) << messages.front();
+    ASSERT_EQ(scene.size(), mesh.size());
+    ASSERT_EQ(scene.size(), empty.size());
+    // Pixels the terrain covers (background: clear colour black) and pixels that differ.
+    std::size_t covered = 0, coveredEmpty = 0, differ = 0, pixels = scene.size() / 4;
+    for (std::size_t p = 0; p < pixels; ++p) {
+        const std::uint8_t* a = &scene[4 * p];
+        const std::uint8_t* b = &mesh[4 * p];
+        covered += a[0] + a[1] + a[2] > 0;
+        coveredEmpty += empty[4 * p] + empty[4 * p + 1] + empty[4 * p + 2] > 0;
+        int d = 0;
+        for (int k = 0; k < 3; ++k)
+            d = std::max(d, std::abs(int(a[k]) - int(b[k])));
+        differ += d > 8;
+    }
+    EXPECT_GT(covered, pixels / 4) << "the view does not show the terrain";
+    EXPECT_EQ(coveredEmpty, 0u);
+    // The same triangles from other float origins: a few edge pixels may round the other way.
+    EXPECT_LT(differ, pixels / 200) << differ << " of " << pixels << " pixels differ";
+}
+
+// The `tin` run draws the caller's mesh for each frame (built once, drawn every round) with the
+// same timing as the other runs, and its ratios come out; without a baseline it is an error.
+TEST_F(Streaming, BenchTinRunDrawsTheBaselineMeshOfEachFrame) {
+    engine::BenchOptions o;
+    o.path = file_;
+    o.width = 160;
+    o.height = 90;
+    o.warmup = 1;
+    o.warmupMs = 0;
+    o.cameras = {oblique(0.3), oblique(0.5), oblique(0.7)};
+    o.device.validation = true;
+    o.runs = {"full", "tin"};
+    o.runsGiven = true;
+    o.rounds = 2;
+    nlohmann::json j;
+    std::string error;
+    EXPECT_FALSE(engine::runBench(o, j, error));
+    EXPECT_NE(error.find("baseline"), std::string::npos) << error;
+
+    // Frame i: the first (i + 1) * 1000 triangles of the full-resolution mesh.
+    const engine::BenchMesh full = fullResolutionMesh(reader_);
+    int calls = 0;
+    o.baselineName = "test";
+    o.baseline = [&](const engine::Camera& camera, engine::BenchMesh& mesh, std::string&) {
+        std::size_t frame = 0;
+        while (frame < o.cameras.size() && o.cameras[frame].eye[0] != camera.eye[0])
+            ++frame;
+        ++calls;
+        mesh = full;
+        mesh.indices.resize((frame + 1) * 3000);
+        return true;
+    };
+    ASSERT_TRUE(engine::runBench(o, j, error)) << error;
+    EXPECT_EQ(calls, 3) << "one mesh per frame, built once for both rounds";
+    const nlohmann::json& tin = j["runs"]["tin"];
+    EXPECT_EQ(tin["frames"].get<int>(), 6);
+    EXPECT_EQ(tin["triangles"]["min"].get<double>(), 1000.0);
+    EXPECT_EQ(tin["triangles"]["max"].get<double>(), 3000.0);
+    EXPECT_EQ(tin["baseline"].get<std::string>(), "test");
+    EXPECT_GT(j["runs"]["full"]["triangles"]["min"].get<double>(), 3000.0);
+    EXPECT_TRUE(j["ratios_of_median_frame_ms"].contains("full_over_tin"));
+    EXPECT_FALSE(j["ratios_of_median_frame_ms"].contains("lod_over_tin")) << "no lod run";
+
+    // A baseline that fails stops the benchmark with its message.
+    o.baseline = [](const engine::Camera&, engine::BenchMesh&, std::string& why) {
+        why = "no mesh here";
+        return false;
+    };
+    EXPECT_FALSE(engine::runBench(o, j, error));
+    EXPECT_EQ(error, "no mesh here");
+}
+
 }  // namespace

@@ -8,8 +8,10 @@
 
 #include "cdt.h"
 #include "greedytin.h"
+#include "lod.h"
 #include "modelerror.h"
 #include "trianglepool.h"
+#include "viewtin.h"
 
 namespace unilod {
 namespace {
@@ -381,6 +383,83 @@ TEST(GreedyTinRivers, CrossingOriginalSegmentsAreAnError) {
     const Polyline bad{0, PointId(set.points.size())};
     EXPECT_FALSE(tin.init(set, {bad}, 1.0, error));
     EXPECT_NE(error.find("out of range"), std::string::npos) << error;
+}
+
+// The view-dependent TIN (viewtin.h, the baseline of `bench --runs tin` and `bench_order
+// --view`): points outside the view frustum weigh nothing, every point on screen is within its
+// own P-pixel bound (brute force over the triangles, independent of the TIN's bookkeeping), the
+// bounds differ point by point, and a smaller P needs more triangles.
+TEST(ViewTin, EveryPointOnScreenIsWithinItsOwnBound) {
+    const PointSet set = makeGrid(64, 48, 30.0, 11);
+    engine::Camera camera;
+    camera.eye[0] = 1500, camera.eye[1] = 1500, camera.eye[2] = 600;
+    camera.yawDegrees = 0, camera.pitchDegrees = -20;
+    const TinView view{camera, 1920, 1080, 1.0};
+    std::vector<double> weights;
+    const std::uint64_t onScreen = viewWeights(set, view, weights);
+    ASSERT_EQ(weights.size(), set.points.size());
+    std::uint64_t inFrustum = 0;
+    for (std::size_t m = 0; m < set.points.size(); ++m) {
+        const double at[3] = {set.points[m].x, set.points[m].y, set.points[m].z};
+        const bool in = engine::boxInFrustum(camera, 1920.0 / 1080.0, at, at);
+        inFrustum += in;
+        EXPECT_EQ(weights[m] > 0, in) << "point " << m;
+        if (!in) continue;
+        // The engine's bound for a box that is the point alone (lod.h, Eq. 11, nearest distance).
+        const engine::ViewTolerance tolerance{1.0, 60 * 3.14159265358979323846 / 180, 1920, 1080,
+                                              engine::DistanceMode::Nearest};
+        const double hLim =
+            engine::blockTolerance(tolerance, engine::nearestBoxDistance(camera.eye, at, at),
+                                   engine::boxView(camera, at, at));
+        EXPECT_NEAR(weights[m], 1 / hLim, 1e-12 / hLim) << "point " << m;
+    }
+    EXPECT_EQ(onScreen, inFrustum);
+    ASSERT_GT(onScreen, set.points.size() / 4);
+    ASSERT_LT(onScreen, set.points.size()) << "the view should leave some points out";
+    // Each point its own bound (distance and view angles), not one for the whole view.
+    double lo = 0, hi = 0;
+    for (double w : weights)
+        if (w > 0) lo = lo == 0 ? w : std::min(lo, w), hi = std::max(hi, w);
+    EXPECT_GT(hi, 1.5 * lo);
+
+    std::vector<TriangleTriple> triangles;
+    std::uint32_t vertices = 0;
+    std::string error;
+    ASSERT_TRUE(weightedTin(set, weights, triangles, vertices, error)) << error;
+    EXPECT_GT(triangles.size(), 2u);
+    EXPECT_LT(triangles.size(), std::size_t(2 * 63 * 47)) << "no coarser than the grid";
+    // Brute force: the TIN's height under every point on screen (any triangle that holds it;
+    // the surface is continuous) within 1 / weight.
+    double worst = 0;
+    for (std::size_t m = 0; m < set.points.size(); ++m) {
+        if (weights[m] == 0) continue;
+        const Point& p = set.points[m];
+        bool found = false;
+        for (const TriangleTriple& t : triangles) {
+            const Point &a = set.points[t.v[0]], &b = set.points[t.v[1]], &c = set.points[t.v[2]];
+            const double det = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
+            const double l1 = ((p.x - a.x) * (c.y - a.y) - (c.x - a.x) * (p.y - a.y)) / det;
+            const double l2 = ((b.x - a.x) * (p.y - a.y) - (p.x - a.x) * (b.y - a.y)) / det;
+            const double l0 = 1 - l1 - l2;
+            if (l0 < -1e-9 || l1 < -1e-9 || l2 < -1e-9) continue;
+            const double z = l0 * a.z + l1 * b.z + l2 * c.z;
+            worst = std::max(worst, std::abs(z - p.z) * weights[m]);
+            EXPECT_LE(std::abs(z - p.z), 1.0 / weights[m] + 1e-6) << "point " << m;
+            found = true;
+            break;
+        }
+        EXPECT_TRUE(found) << "point " << m << " outside the TIN";
+    }
+    EXPECT_GT(worst, 0.5) << "the bound should be used, not met by accident";
+
+    // A tighter P: more triangles; the same inputs: the same TIN.
+    std::vector<double> tight;
+    viewWeights(set, TinView{camera, 1920, 1080, 0.25}, tight);
+    std::vector<TriangleTriple> more, again;
+    ASSERT_TRUE(weightedTin(set, tight, more, vertices, error)) << error;
+    EXPECT_GT(more.size(), triangles.size());
+    ASSERT_TRUE(weightedTin(set, weights, again, vertices, error)) << error;
+    EXPECT_EQ(again, triangles);
 }
 
 }  // namespace

@@ -312,6 +312,28 @@ TEST_F(Inputs, EmptyBenchRunsAreUsageErrors) {
     EXPECT_NE(r.err.find("--runs: unknown run 'fast'"), std::string::npos) << r.err;
 }
 
+// bench --runs tin: the best known method's frames (the view-dependent greedy TIN of each frame,
+// preprocess/viewtin.h) drawn and timed like the other runs; its ratios are in the JSON.
+TEST_F(Inputs, BenchTinRunDrawsAViewDependentTinPerFrame) {
+    const std::string out = (dir / "bench_tin.json").string();
+    const auto r = runCli("bench -q " + q(model) +
+                          " --runs full,tin,lod --frames 3 --size 160x90 --warmup 0 "
+                          "--warmup-ms 0 --validation -o " +
+                          q(out));
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.out.find("full_over_tin = "), std::string::npos) << r.out;
+    const nlohmann::json j = nlohmann::json::parse(slurp(out));
+    const nlohmann::json& tin = j["runs"]["tin"];
+    EXPECT_EQ(tin["frames"].get<int>(), 3);
+    EXPECT_NE(tin["baseline"].get<std::string>().find("greedy TIN"), std::string::npos);
+    // More than the hull's two triangles where the terrain is in view, fewer than full resolution.
+    EXPECT_GT(tin["triangles"]["max"].get<double>(), 2.0);
+    EXPECT_LT(tin["triangles"]["max"].get<double>(),
+              j["runs"]["full"]["triangles"]["max"].get<double>());
+    EXPECT_TRUE(j["ratios_of_median_frame_ms"].contains("full_over_tin"));
+    EXPECT_TRUE(j["ratios_of_median_frame_ms"].contains("lod_over_tin"));
+}
+
 // --fov: one range, (0, 180) degrees, for capture, export, stats and report (capture took [1,
 // 179]); capture refuses it without --camera (it was ignored: the frame said 60), since a --path
 // has its own "fov" and the default view its 60 degrees.
