@@ -1,7 +1,8 @@
 // `unilod bench FILE [--path PATH.json] [--frames 200] [--size 1920x1080] [--pixels 1]
 // [-o OUT.json] [--json [-]]`: the paper's §4.2.3 roaming experiment (engine/bench.h): one fixed
 // camera path, four runs (streamed LOD, everything resident, bare replay of the same draws, full
-// resolution), FPS and frame time median / p95 / p99, GPU time, triangles, resident blocks, bytes
+// resolution; with --runs ...,tin a fifth: the best known method's meshes, setBaseline below), FPS
+// and frame time median / p95 / p99, GPU time, triangles, resident blocks, bytes
 // uploaded. Prints a table on stdout, or the JSON with --json (or -o -); -o FILE writes the JSON
 // to FILE (an existing one needs --overwrite: outputopts.h; `--json FILE` is the old spelling).
 // Progress on stderr (progress.h). A benchmark, not a test: it prints numbers and asserts nothing.
