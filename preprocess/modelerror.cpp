@@ -267,7 +267,139 @@ void ModelError::loadTriangle(const Cdt& cdt, PointId a, PointId b, PointId c, s
     q.den = double(cdt.orient(a, b, c));
     q.slot = slot;
     q.exterior = exterior;
+    q.v[0] = a, q.v[1] = b, q.v[2] = c;
     addedTris_.push_back(q);
+}
+
+bool ModelError::linkAdded() {
+    const std::size_t count = addedTris_.size();
+    if (count < walkFrom || count < 2) return false;
+    // Directed edges (from, to) -> triangle * 3 + edge, sorted; the triangle across edge (u, w)
+    // holds (w, u) (every triangle counter-clockwise).
+    edgeScratch_.clear();
+    for (std::size_t j = 0; j < count; ++j)
+        for (int e = 0; e < 3; ++e) {
+            const AddedTri& q = addedTris_[j];
+            const std::uint64_t from = q.v[(e + 1) % 3], to = q.v[(e + 2) % 3];
+            edgeScratch_.push_back({from << 32 | to, std::uint32_t(3 * j + e)});
+        }
+    std::sort(edgeScratch_.begin(), edgeScratch_.end());
+    addedNext_.assign(3 * count, Cdt::kNone);
+    std::fill(recent_, recent_ + kRecent, Cdt::kNone);
+    for (const auto& [key, at] : edgeScratch_) {
+        const std::uint64_t twin = (key & 0xFFFFFFFFu) << 32 | key >> 32;
+        const auto it = std::lower_bound(edgeScratch_.begin(), edgeScratch_.end(),
+                                         std::pair<std::uint64_t, std::uint32_t>{twin, 0});
+        if (it != edgeScratch_.end() && it->first == twin) addedNext_[at] = it->second / 3;
+    }
+    return true;
+}
+
+double ModelError::walkError(const PoolPoint& p, std::size_t& last, std::uint32_t& slot) {
+    const std::size_t count = addedTris_.size();
+    const std::int64_t px = p.gx, py = p.gy;
+    std::int64_t w[3];
+    auto weights = [&](std::size_t j) {
+        const AddedTri& q = addedTris_[j];
+        for (int e = 0; e < 3; ++e)
+            w[e] = q.a[e] * px + q.b[e] * py + q.c[e];
+    };
+    // How far p lies outside triangle j (0: inside, closed): the largest squared distance from p
+    // to the line of an edge that has p on its outer side; its edge in `out` (-1: none). Exact
+    // only in its sign; it steers the walk, which the exact weights end.
+    auto outside = [&](std::size_t j, int& out) {
+        weights(j);
+        const AddedTri& q = addedTris_[j];
+        double worst = 0;
+        out = -1;
+        for (int e = 0; e < 3; ++e) {
+            if (w[e] >= 0) continue;
+            const double d = double(w[e]) * double(w[e]) /
+                             (double(q.a[e]) * double(q.a[e]) + double(q.b[e]) * double(q.b[e]));
+            if (out < 0 || d > worst) worst = d, out = e;
+        }
+        return worst;
+    };
+    // Start from the nearest of the last triangles found (points of one step alternate between
+    // a few places: two rows of a strip), then walk towards p across the edge it is farthest
+    // outside of, until a triangle holds it.
+    std::size_t j = last < count ? last : 0;
+    int out = -1;
+    double best = outside(j, out);
+    for (std::uint32_t h : recent_) {
+        if (out < 0) break;
+        if (h >= count || h == j) continue;
+        int o = -1;
+        const double d = outside(h, o);
+        if (d < best) best = d, j = h, out = o;
+    }
+    for (std::size_t steps = 0; out >= 0; ++steps) {
+        const std::uint32_t next = addedNext_[3 * j + std::size_t(out)];
+        if (next == Cdt::kNone || steps > count) return locateError(p, last, slot);
+        j = next;
+        outside(j, out);
+    }
+    weights(j);
+    if (recent_[0] != j) {
+        std::copy_backward(recent_, recent_ + kRecent - 1, recent_ + kRecent);
+        recent_[0] = std::uint32_t(j);
+    }
+    // The added triangles holding p (closed): j alone when p is inside it; j and the triangle
+    // across the edge p lies on; on a corner (p at a vertex's position: a tree node's extra
+    // samples include its own vertices) every added triangle around that corner.
+    held_.assign(1, std::uint32_t(j));
+    int zeros = 0, corner = -1;
+    for (int e = 0; e < 3; ++e)
+        if (w[e] == 0) ++zeros;
+    if (zeros == 1) {
+        for (int e = 0; e < 3; ++e)
+            if (w[e] == 0 && addedNext_[3 * j + std::size_t(e)] != Cdt::kNone)
+                held_.push_back(addedNext_[3 * j + std::size_t(e)]);
+    } else if (zeros == 2) {
+        for (int c = 0; c < 3; ++c)
+            if (w[c] != 0) corner = c;
+        // Round the corner both ways across the edges at it (edge e is opposite corner e).
+        const PointId v = addedTris_[j].v[corner];
+        for (int turn = 1; turn <= 2; ++turn) {
+            std::size_t t = j;
+            int edge = (corner + turn) % 3;
+            for (std::size_t guard = 0; guard < count; ++guard) {
+                const std::uint32_t next = addedNext_[3 * t + std::size_t(edge)];
+                if (next == Cdt::kNone || next == j) break;
+                const AddedTri& n = addedTris_[next];
+                const int c = n.v[0] == v ? 0 : n.v[1] == v ? 1 : 2;
+                // Of the two edges at the corner, the one not shared with t.
+                const int e1 = (c + 1) % 3, e2 = (c + 2) % 3;
+                edge = addedNext_[3 * std::size_t(next) + std::size_t(e1)] == t ? e2 : e1;
+                t = next;
+                if (std::find(held_.begin(), held_.end(), next) == held_.end())
+                    held_.push_back(next);
+            }
+        }
+    } else if (zeros > 2) {
+        return locateError(p, last, slot);  // not a triangle (cannot happen: den > 0)
+    }
+    // As the scan (order last, 0, 1, ...): the first domain triangle, else the first exterior one.
+    auto before = [&](std::size_t x, std::size_t y) {
+        if (x == last || y == last) return x == last;
+        return x < y;
+    };
+    std::size_t domain = count, exterior = count;
+    for (std::uint32_t k : held_) {
+        std::size_t& pick = addedTris_[k].exterior ? exterior : domain;
+        if (pick == count || before(k, pick)) pick = k;
+    }
+    if (domain != count) {
+        const AddedTri& q = addedTris_[domain];
+        weights(domain);
+        slot = q.slot;
+        last = domain;
+        const double height =
+            (double(w[0]) * q.z[0] + double(w[1]) * q.z[1] + double(w[2]) * q.z[2]) / q.den;
+        return std::fabs(p.z - height);
+    }
+    slot = addedTris_[exterior].slot;
+    return 0.0;
 }
 
 double ModelError::locateError(const PoolPoint& p, std::size_t& last, std::uint32_t& slot) const {
@@ -330,11 +462,12 @@ double ModelError::evaluateLoaded(const std::vector<std::uint32_t>& removedSlots
     double stepMax = 0;
     std::size_t last = 0;
     std::uint32_t slot = kNil;
+    const bool walk = linkAdded();
     for (std::uint32_t t : removedSlots) {
         if (t >= rangeStart_.size()) continue;
         const PoolPoint* begin = pool_.data() + rangeStart_[t];
         for (std::uint32_t i = 0; i < rangeCount_[t]; ++i)
-            stepMax = std::max(stepMax, locateError(begin[i], last, slot));
+            stepMax = std::max(stepMax, locate(begin[i], last, slot, walk));
     }
     return stepMax;
 }
@@ -364,11 +497,12 @@ double ModelError::updateMax(const Cdt& cdt, const std::vector<std::uint32_t>& r
     // Locate every pending point among the created triangles (exact, closed triangles).
     destination_.resize(pending_.size());
     loadAddedTriangles(cdt, addedSlots);
+    const bool walk = linkAdded();
     double stepMax = 0;
     std::size_t last = 0;
     for (std::size_t i = 0; i < pending_.size(); ++i) {
         std::uint32_t found = kNil;
-        stepMax = std::max(stepMax, locateError(pending_[i], last, found));
+        stepMax = std::max(stepMax, locate(pending_[i], last, found, walk));
         destination_[i] = found;
         ++rangeCount_[found];
     }

@@ -8,11 +8,13 @@
 //   test; a point on the outline in a domain triangle's: the domain is closed, and a ring step
 //   hands the triangle across its new outline edge over as changed, deletion.cpp apply); after
 //   a step only the points of the destroyed triangles are re-located among the
-//   created triangles and re-evaluated. Points outside the step's region keep their value, so the
-//   running maximum over steps is max(previous running maximum, the re-evaluated values). Each
-//   triangle's points are one contiguous range of a pool (the step appends the created
-//   triangles' ranges; the pool is compacted in place when half of it is garbage), so the
-//   re-evaluation streams through memory.
+//   created triangles and re-evaluated (a scan of the created triangles; from walkFrom of them
+//   on, a walk across their shared edges from the nearest recent hit, with the scan's answers:
+//   a star of hundreds of triangles, as a 2-row DEM makes, made the scan cubic overall). Points
+//   outside the step's region keep their value, so the running maximum over steps is max(previous
+//   running maximum, the re-evaluated values). Each triangle's points are one contiguous range of a
+//   pool (the step appends the created triangles' ranges; the pool is compacted in place when half
+//   of it is garbage), so the re-evaluation streams through memory.
 // `paper`: mean over m in M of |H_m - H_n(m)|, n(m) the retained point nearest to m in 3D (Eq. 3,
 //   4; ties: lowest id), Eq. 5-6. Horizontal distances are taken on the block's exact grid
 //   (cdt.h, 1 mm), heights in metres. Each point keeps its nearest retained vertex; deleting v
@@ -120,8 +122,21 @@ private:
                       bool exterior);
     double evaluateLoaded(const std::vector<std::uint32_t>& removedSlots);
     // Locates p among the added triangles (exact, closed; `last`: the previous hit, tried first)
-    // and returns its vertical error; `slot` receives the triangle.
+    // and returns its vertical error; `slot` receives the triangle. Scans them in the order
+    // last, 0, 1, ...: the first domain triangle holding p, else the first exterior one.
     double locateError(const PoolPoint& p, std::size_t& last, std::uint32_t& slot) const;
+    // The same answer, found by walking from `last` across the added triangles' shared edges
+    // (a star of very high degree: the scan made a 2-row DEM build in cubic time), starting from
+    // the nearest of the last few hits; the tie of a point on an edge or at a corner is decided
+    // among the triangles there as the scan's order would. Falls back to locateError where the
+    // walk leaves the added triangles or goes round too long. Needs linkAdded().
+    double walkError(const PoolPoint& p, std::size_t& last, std::uint32_t& slot);
+    // Links the added triangles across their shared edges (addedNext_) when there are at least
+    // walkFrom of them (else the scan is as fast); returns whether it did.
+    bool linkAdded();
+    double locate(const PoolPoint& p, std::size_t& last, std::uint32_t& slot, bool walk) {
+        return walk ? walkError(p, last, slot) : locateError(p, last, slot);
+    }
     PointId nearest(std::int32_t gx, std::int32_t gy, double z) const;
 
     const PointSet* set_ = nullptr;
@@ -143,8 +158,23 @@ private:
         double den;
         std::uint32_t slot;
         bool exterior;  // a triangle outside the domain: points in it have no vertical error
+        PointId v[3];   // the corners (edge e runs from v[e + 1] to v[e + 2], mod 3)
     };
     std::vector<AddedTri> addedTris_;
+    // linkAdded: per added triangle and edge e, the added triangle across it (kNone: none).
+    std::vector<std::uint32_t> addedNext_;
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> edgeScratch_;
+    // walkError: the last triangles it found, most recent first (kNone: none yet).
+    static constexpr int kRecent = 4;
+    std::uint32_t recent_[kRecent] = {Cdt::kNone, Cdt::kNone, Cdt::kNone, Cdt::kNone};
+    std::vector<std::uint32_t> held_;  // walkError: the added triangles holding the point
+
+public:
+    // The star size from which points are located by walking (walkError) instead of scanning;
+    // the answers are the same (tests build with 0 and with SIZE_MAX and compare).
+    static inline std::size_t walkFrom = 32;
+
+private:
     double runningMax_ = 0;
     // paper metric
     std::vector<std::uint32_t> nearHead_;  // per vertex id: first sample
