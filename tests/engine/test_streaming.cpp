@@ -65,6 +65,18 @@ protected:
         return o;
     }
 
+    // A short benchmark of the model: 160 x 90, one warm-up frame, validation on.
+    static engine::BenchOptions benchOptions() {
+        engine::BenchOptions o;
+        o.path = file_;
+        o.width = 160;
+        o.height = 90;
+        o.warmup = 1;
+        o.warmupMs = 0;
+        o.device.validation = true;
+        return o;
+    }
+
     // Oblique camera south of the data looking north-east over it.
     static engine::Camera oblique(double t) {
         const format::Header& h = reader_.header();
@@ -642,14 +654,8 @@ TEST_F(Streaming, ADamagedEntryBelowTheRootFailsTheFrameThatStreamsIt) {
 // block resident needs): with the default runs `bench` measures the streamed run and says why the
 // others were skipped; with the runs named (--runs) it fails before any run.
 TEST_F(Streaming, BenchSkipsThePreloadedRunsOfAModelLargerThanTheDevice) {
-    engine::BenchOptions o;
-    o.path = file_;
-    o.width = 160;
-    o.height = 90;
-    o.warmup = 1;
-    o.warmupMs = 0;
+    engine::BenchOptions o = benchOptions();
     o.cameras = {oblique(0.3), oblique(0.5)};
-    o.device.validation = true;
     o.scene.gpuBudget = 4u << 20;
     o.scene.uploadBytesPerFrame = 1u << 20;
     o.device.allocationCap = 6u << 20;  // the streamed run's 4 MiB fit, the whole model does not
@@ -758,14 +764,8 @@ TEST_F(Streaming, BaselineMeshesAreDrawnWhereTheModelIs) {
 // The `tin` run draws the caller's mesh for each frame (built once, drawn every round) with the
 // same timing as the other runs, and its ratios come out; without a baseline it is an error.
 TEST_F(Streaming, BenchTinRunDrawsTheBaselineMeshOfEachFrame) {
-    engine::BenchOptions o;
-    o.path = file_;
-    o.width = 160;
-    o.height = 90;
-    o.warmup = 1;
-    o.warmupMs = 0;
+    engine::BenchOptions o = benchOptions();
     o.cameras = {oblique(0.3), oblique(0.5), oblique(0.7)};
-    o.device.validation = true;
     o.runs = {"full", "tin"};
     o.runsGiven = true;
     o.rounds = 2;
