@@ -24,7 +24,11 @@ bool mergedLeaves(const format::Reader& reader, format::Block& out, std::string&
         if (!reader.readBlock(i, b, error)) return false;
         const std::uint64_t first = z.size();
         for (std::size_t k = 0; k < b.vertices.size(); ++k) {
-            const double x = b.originX + b.grid[k].x * u, y = b.originY + b.grid[k].y * u;
+            // The exact grid position where the block has one (a block may store none: then the
+            // float offsets, which the 1 mm rounding below puts on the grid).
+            const bool exact = b.grid.size() == b.vertices.size();
+            const double x = b.originX + (exact ? b.grid[k].x * u : double(b.vertices[k].x));
+            const double y = b.originY + (exact ? b.grid[k].y * u : double(b.vertices[k].y));
             keys.push_back(
                 {{std::llround((x - out.originX) / u), std::llround((y - out.originY) / u)},
                  std::uint32_t(z.size())});

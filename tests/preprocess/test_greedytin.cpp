@@ -5,12 +5,17 @@
 
 #include <cmath>
 #include <cstdint>
+#include <set>
 
+#include "build.h"
 #include "cdt.h"
 #include "greedytin.h"
 #include "lod.h"
 #include "modelerror.h"
+#include "synthbuild.h"
+#include "testutil.h"
 #include "trianglepool.h"
+#include "ulod.h"
 #include "viewtin.h"
 
 namespace unilod {
@@ -460,6 +465,56 @@ TEST(ViewTin, EveryPointOnScreenIsWithinItsOwnBound) {
     EXPECT_GT(more.size(), triangles.size());
     ASSERT_TRUE(weightedTin(set, weights, again, vertices, error)) << error;
     EXPECT_EQ(again, triangles);
+}
+
+// mergedLeaves (the whole model as one block, what the view TIN starts from): every leaf point
+// once, a border point shared by two leaves merged, at its world position; the same from blocks
+// that store no exact grid positions (valid: the float offsets then place them).
+TEST(ViewTin, MergedLeavesHoldEveryLeafPointOnce) {
+    const test::TempDir dir("merged");
+    BuildOptions o;
+    std::string error;
+    ASSERT_TRUE(test::writeTwoByTwoWorld(dir, 4000, 9, o, error)) << error;
+    o.outPath = dir.file("model.ulod");
+    BuildSummary summary;
+    ASSERT_TRUE(runBuild(o, summary, error)) << error;
+    format::Reader reader;
+    ASSERT_TRUE(reader.open(o.outPath, error)) << error;
+    format::Block merged;
+    ASSERT_TRUE(mergedLeaves(reader, merged, error)) << error;
+    const PointSet all = blockPoints(merged);
+    std::set<std::pair<long long, long long>> positions;
+    for (const Point& p : all.points)
+        EXPECT_TRUE(positions.insert({std::llround(p.x * 1000), std::llround(p.y * 1000)}).second)
+            << "a point twice";
+    std::size_t leafVertices = 0;
+    std::vector<format::Block> blocks;
+    for (std::size_t i = 0; i < reader.blocks().size(); ++i) {
+        format::Block b;
+        ASSERT_TRUE(reader.readBlock(i, b, error)) << error;
+        if (b.level == 0) {
+            leafVertices += b.vertices.size();
+            for (const Point& p : blockPoints(b).points)
+                EXPECT_TRUE(positions.count({std::llround(p.x * 1000), std::llround(p.y * 1000)}))
+                    << "a leaf point missing";
+        }
+        b.grid.clear();
+        blocks.push_back(std::move(b));
+    }
+    EXPECT_LT(all.points.size(), leafVertices) << "the shared borders are merged";
+    EXPECT_FALSE(merged.riverIndices.empty());
+
+    const std::string noGrid = dir.file("nogrid.ulod");
+    ASSERT_TRUE(format::writeUlod(noGrid, reader.header(), blocks, error)) << error;
+    format::Reader plain;
+    ASSERT_TRUE(plain.open(noGrid, error)) << error;
+    format::Block mergedPlain;
+    ASSERT_TRUE(mergedLeaves(plain, mergedPlain, error)) << error;
+    ASSERT_EQ(mergedPlain.vertices.size(), merged.vertices.size());
+    for (std::size_t k = 0; k < merged.vertices.size(); ++k) {
+        EXPECT_EQ(mergedPlain.grid[k].x, merged.grid[k].x) << k;
+        EXPECT_EQ(mergedPlain.grid[k].y, merged.grid[k].y) << k;
+    }
 }
 
 }  // namespace
