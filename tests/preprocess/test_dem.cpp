@@ -703,12 +703,18 @@ TEST(Dem, ReprojectionThatStretchesTheTerrainIsRefusedOrWarned) {
 // Cells so large that two of them exceed the exact grid's 537 km are refused by what they are,
 // not with a --block-size advice no value can follow ("use --block-size 2 or more", then "use
 // --block-size 0 or less"); cells of 200 km still fit.
-TEST(Dem, CellsTooLargeForTheExactGridAreNamed) {
+// A flat 20 x 20 DEM (100 m) of cells `cell` wide, north up.
+static DemGrid flatDem(double cell) {
     DemGrid dem;
     dem.width = dem.height = 20;
-    dem.cellX = 300000;
-    dem.cellY = -300000;
+    dem.cellX = cell;
+    dem.cellY = -cell;
     dem.z.assign(400, 100.0f);
+    return dem;
+}
+
+TEST(Dem, CellsTooLargeForTheExactGridAreNamed) {
+    DemGrid dem = flatDem(300000);
     std::string error;
     EXPECT_FALSE(checkCellsFitExactGrid(dem, 1, error));
     EXPECT_NE(error.find("its cells are 300 km wide"), std::string::npos) << error;
@@ -723,11 +729,7 @@ TEST(Dem, CellsTooLargeForTheExactGridAreNamed) {
 // Cells below 1 cm are refused too: on the 1 mm grid their points merged silently (a 20 x 20 DEM
 // of 0.5 mm cells became 121 vertices); --stride sampling them 1 cm apart is suggested.
 TEST(Dem, CellsTooSmallForTheExactGridAreNamed) {
-    DemGrid dem;
-    dem.width = dem.height = 20;
-    dem.cellX = 0.0005;
-    dem.cellY = -0.0005;
-    dem.z.assign(400, 100.0f);
+    DemGrid dem = flatDem(0.0005);
     std::string error;
     EXPECT_FALSE(checkCellsFitExactGrid(dem, 1, error));
     EXPECT_NE(error.find("its cells are 0.5 mm wide: too small"), std::string::npos) << error;

@@ -74,15 +74,33 @@ std::string writeTiff(const DemGrid& d, const std::string& name) {
     return path;
 }
 
-// One short river away from the nodata.
-std::string riverFile(const std::string& name) {
+// A GeoJSON river network in UTM 16N under the test folder: one LineString per item of `lines`
+// (its coordinates, "[[x,y],...]"); by default one short river away from the nodata.
+std::string riverFile(const std::string& name,
+                      const std::vector<std::string>& lines = {
+                          "[[500301,3999499],[500452,3999402],[500607,3999301]]"}) {
     const std::string path = testing::TempDir() + name;
-    std::ofstream(path)
-        << R"({"type":"FeatureCollection","crs":{"type":"name","properties":)"
-        << R"({"name":"urn:ogc:def:crs:EPSG::32616"}},"features":[{"type":)"
-        << R"("Feature","properties":{},"geometry":{"type":"LineString",)"
-        << R"("coordinates":[[500301,3999499],[500452,3999402],[500607,3999301]]}}]})";
+    std::ofstream out(path);
+    out << R"({"type":"FeatureCollection","crs":{"type":"name","properties":)"
+        << R"({"name":"urn:ogc:def:crs:EPSG::32616"}},"features":[)";
+    for (std::size_t i = 0; i < lines.size(); ++i)
+        out << (i ? "," : "") << R"({"type":"Feature","properties":{},"geometry":{"type":)"
+            << R"("LineString","coordinates":)" << lines[i] << "}}";
+    out << "]}";
     return path;
+}
+
+// Build options for `d` written as NAME.tif with `rivers`, blocks of `blockSize` cells, output
+// NAME.ulod under the test folder (replaced).
+BuildOptions modelOptions(const DemGrid& d, const std::string& name, const std::string& rivers,
+                          int blockSize) {
+    BuildOptions o;
+    o.demPath = writeTiff(d, name + ".tif");
+    o.riversPath = rivers;
+    o.outPath = testing::TempDir() + name + ".ulod";
+    o.blockSize = blockSize;
+    o.force = true;
+    return o;
 }
 
 }  // namespace
@@ -154,12 +172,7 @@ std::int64_t doubleDomainArea(const DemGrid& d) {
 void expectDomainModel(const DemGrid& dem, const std::string& name, int blockSize,
                        std::size_t expectedBlocks, const DemGrid* filled = nullptr) {
     SCOPED_TRACE(name);
-    BuildOptions o;
-    o.demPath = writeTiff(dem, name + ".tif");
-    o.riversPath = riverFile(name + "_rivers.geojson");
-    o.outPath = testing::TempDir() + name + ".ulod";
-    o.blockSize = blockSize;
-    o.force = true;
+    const BuildOptions o = modelOptions(dem, name, riverFile(name + "_rivers.geojson"), blockSize);
     BuildSummary summary;
     std::string err;
     ASSERT_TRUE(runBuild(o, summary, err)) << err;
@@ -510,20 +523,12 @@ TEST(Nodata, RiverAcrossAHoleKeepsBothBanks) {
     DemGrid d = plane(40, 40);
     punch(d, 15, 15, 24, 24);  // centres x in [500450, 500720], y in [3999280, 3999550]
     // Squares touching the hole: x in (500420, 500750), y in (3999250, 3999580).
-    const std::string rivers = testing::TempDir() + "nodata_lake_rivers.geojson";
-    std::ofstream(rivers) << R"({"type":"FeatureCollection","crs":{"type":"name","properties":)"
-                          << R"({"name":"urn:ogc:def:crs:EPSG::32616"}},"features":[{"type":)"
-                          << R"("Feature","properties":{},"geometry":{"type":"LineString",)"
-                          << R"("coordinates":[[500100,3999415],[501100,3999415]]}}]})";
+    const std::string rivers =
+        riverFile("nodata_lake_rivers.geojson", {"[[500100,3999415],[501100,3999415]]"});
     for (int stride : {1, 2}) {
         SCOPED_TRACE("stride " + std::to_string(stride));
-        BuildOptions o;
-        o.demPath = writeTiff(d, "nodata_lake.tif");
-        o.riversPath = rivers;
-        o.outPath = testing::TempDir() + "nodata_lake.ulod";
-        o.blockSize = 16;
+        BuildOptions o = modelOptions(d, "nodata_lake", rivers, 16);
         o.stride = stride;
-        o.force = true;
         BuildSummary summary;
         std::string err;
         ASSERT_TRUE(runBuild(o, summary, err)) << err;
@@ -587,18 +592,10 @@ TEST(Nodata, LongRiverSegmentsGetVerticesEveryCell) {
         for (int c = 0; c < d.width; ++c)  // a tent: 100 m at the sides, 400 m on the ridge
             d.z[std::size_t(r) * d.width + c] = float(100 + 10 * std::min(c, 60 - c));
     }
-    const std::string rivers = testing::TempDir() + "nodata_ridge_river.geojson";
     // Along the cell centres of row 10 (y = 3999700), from column 2 to column 57.
-    std::ofstream(rivers) << R"({"type":"FeatureCollection","crs":{"type":"name","properties":)"
-                          << R"({"name":"urn:ogc:def:crs:EPSG::32616"}},"features":[{"type":)"
-                          << R"("Feature","properties":{},"geometry":{"type":"LineString",)"
-                          << R"("coordinates":[[500060,3999700],[501710,3999700]]}}]})";
-    BuildOptions o;
-    o.demPath = writeTiff(d, "nodata_ridge.tif");
-    o.riversPath = rivers;
-    o.outPath = testing::TempDir() + "nodata_ridge.ulod";
-    o.blockSize = 16;
-    o.force = true;
+    const std::string rivers =
+        riverFile("nodata_ridge_river.geojson", {"[[500060,3999700],[501710,3999700]]"});
+    const BuildOptions o = modelOptions(d, "nodata_ridge", rivers, 16);
     BuildSummary summary;
     std::string err;
     ASSERT_TRUE(runBuild(o, summary, err)) << err;
@@ -629,16 +626,10 @@ TEST(Nodata, LongRiverSegmentsGetVerticesEveryCell) {
 // counts said it); it is a warning now, the usual cut at the DEM's edge is not.
 TEST(Nodata, RiverLinesOutsideTheDemAreWarnedAbout) {
     const DemGrid d = plane(20, 20);
-    const std::string rivers = testing::TempDir() + "nodata_outside_rivers.geojson";
-    std::ofstream(rivers)
-        << R"({"type":"FeatureCollection","crs":{"type":"name","properties":)"
-        << R"({"name":"urn:ogc:def:crs:EPSG::32616"}},"features":[)"
-        << R"({"type":"Feature","properties":{},"geometry":{"type":)"
-        << R"("LineString","coordinates":[[500100,3999800],[500300,3999700]]}},)"
-        << R"({"type":"Feature","properties":{},"geometry":{"type":)"
-        << R"("LineString","coordinates":[[600100,3999800],[600300,3999700]]}},)"
-        << R"({"type":"Feature","properties":{},"geometry":{"type":)"
-        << R"("LineString","coordinates":[[499000,3999800],[500200,3999750]]}}]})";
+    const std::string rivers =
+        riverFile("nodata_outside_rivers.geojson",
+                  {"[[500100,3999800],[500300,3999700]]", "[[600100,3999800],[600300,3999700]]",
+                   "[[499000,3999800],[500200,3999750]]"});
     IngestOptions o;
     o.demPath = writeTiff(d, "nodata_outside.tif");
     o.riversPath = rivers;
