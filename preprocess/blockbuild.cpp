@@ -22,6 +22,7 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
     const auto t0 = std::chrono::steady_clock::now();
     stats = {};
     stats.points = set.points.size();
+    stats.droppedPoints = set.dropped.size();
     for (const Point& p : set.points) {
         stats.riverPoints += p.kind == PointKind::River;
         stats.lockedPoints += p.locked;
@@ -64,6 +65,13 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
         }
         del.extraSamples = &extra;
         del.releaseExtraSamples = true;  // a root's are every original point of the model
+    } else if (!set.dropped.empty()) {
+        // The DEM points the river clearance left out: original points, measured like the rest.
+        extra.reserve(set.dropped.size());
+        for (const Point& p : set.dropped)
+            extra.push_back({std::int32_t(std::llround((p.x - cdt.originX) / cdt.gridUnit)),
+                             std::int32_t(std::llround((p.y - cdt.originY) / cdt.gridUnit)), p.z});
+        del.extraSamples = &extra;
     }
     DeletionRecords records;
     // The state the parent starts from (CoarseState): the alive mesh at the hand-over, compacted
@@ -130,6 +138,10 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
         }
         if (!runGreedyDeletion(set, cdt, keys, del, records, error)) return false;
     }
+
+    // A leaf's error before any deletion is that of the points not triangulated (the dropped
+    // ones; points merged on the 1 mm grid add at most millimetres).
+    if (node == nullptr && !set.dropped.empty()) stats.droppedDeviation = records.initialErrorMax;
 
     block = format::Block{};
     block.col = col;

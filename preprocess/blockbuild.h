@@ -41,6 +41,10 @@ struct BlockBuildOptions {
 
 struct BlockBuildStats {
     std::size_t points = 0, riverPoints = 0, lockedPoints = 0;
+    // The DEM points the river clearance dropped (PointSet::dropped) and the largest vertical
+    // distance of one of them from the full-resolution surface (counted in the `max` error).
+    std::size_t droppedPoints = 0;
+    double droppedDeviation = 0;
     std::size_t vertices = 0;   // after merging duplicates on the grid
     std::size_t steps = 0;      // deletions done
     std::size_t kept = 0;       // ranked vertices never deleted (hull, refused, deferred)

@@ -159,6 +159,16 @@ bool BlockSource::init(const DemGrid& dem, const RiverLines& rivers, const Block
         }
         pieces_.push_back(std::move(out));
     }
+    // A river vertex where a river passes a dropped DEM point (after the crossings, so that none
+    // comes closer than the clearance to one), snapped like the others.
+    stats_.droppedCellVertices =
+        addVerticesAtDroppedCells(dem, options.riverClearance, options.stride, pieces_);
+    for (RiverPiece& piece : pieces_) {
+        for (RiverVertex& v : piece) {
+            snap(v.x, snapX);
+            snap(v.y, snapY);
+        }
+    }
 
     // Runs of each piece inside each block. A segment never crosses a border line now, so its
     // midpoint decides its block; a segment lying ON a border line belongs to both blocks beside
@@ -296,7 +306,11 @@ PointSet BlockSource::points(std::size_t b) const {
             const int col = i * s, row = j * s;
             const std::size_t cell = static_cast<std::size_t>(row) * dem.width + col;
             const std::size_t l = local(i, j);
-            if (!onRing[l] && !drop_.empty() && drop_[cell]) continue;
+            if (!onRing[l] && !drop_.empty() && drop_[cell]) {
+                set.dropped.push_back({dem.centreX(col), dem.centreY(row), double(dem.z[cell]),
+                                       PointKind::Dem, false});
+                continue;
+            }
             const bool border =
                 (row == r.cellRow0 && (outer || row != borderRows_.front())) ||
                 (row == r.cellRow1 && (outer || row != borderRows_.back())) ||

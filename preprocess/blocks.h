@@ -60,6 +60,7 @@ struct BlockSourceStats {
     std::size_t riverPieces = 0;       // river pieces on the DEM (before the block split)
     std::size_t crossings = 0;         // border crossing vertices inserted
     std::size_t droppedDemPoints = 0;  // DEM points dropped by the river clearance
+    std::size_t droppedCellVertices = 0;  // river vertices added there (addVerticesAtDroppedCells)
 };
 
 // Produces the point set of each block on demand (thread-safe once initialised).

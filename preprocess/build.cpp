@@ -157,6 +157,7 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
     }
     summary.crossings = source.stats().crossings;
     summary.droppedDemPoints = source.stats().droppedDemPoints;
+    summary.droppedCellVertices = source.stats().droppedCellVertices;
 
     format::Header header;
     header.crsWkt = dem.wkt;
@@ -348,11 +349,13 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
                             const PointSet leaf = source.points(items[l].source);
                             for (const Point& p : leaf.points)
                                 f(p);
+                            for (const Point& p : leaf.dropped)
+                                f(p);
                         }
                     };
                     std::size_t originalCount = 0;
                     for (std::size_t l = it.leafFirst; l < it.leafFirst + it.leafCount; ++l)
-                        originalCount += stats[l].points;
+                        originalCount += stats[l].points + stats[l].droppedPoints;
 #ifdef __GLIBC__
                     // A node high in the tree measures its error against millions of original
                     // points (16 B each, in large buffers of their own): first hand the pages the
@@ -441,6 +444,7 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
             summary.riverPoints += st.riverPoints;
             summary.lockedPoints += st.lockedPoints;
             summary.fullTriangles += st.fullTriangles;
+            summary.droppedDeviation = std::max(summary.droppedDeviation, st.droppedDeviation);
             summary.coarsestTriangles += st.coarsestTriangles;
         }
         if (items[i].parent == format::kNoChild) summary.rootTriangles += st.coarsestTriangles;

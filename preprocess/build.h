@@ -94,6 +94,8 @@ struct BuildSummary {
     std::size_t nodes = 0, treeLevels = 0, rootTriangles = 0;
     std::size_t fullTriangles = 0, coarsestTriangles = 0, indexTriangles = 0;
     std::size_t crossings = 0, droppedDemPoints = 0;
+    std::size_t droppedCellVertices = 0;  // river vertices added beside them (blocks.h)
+    double droppedDeviation = 0;          // the largest BlockBuildStats::droppedDeviation (metres)
     std::size_t nodataCells = 0, filledNodataCells = 0;  // nodata.h: holes and bays filled
     std::uint64_t outputBytes = 0;
     double seconds = 0;

@@ -870,19 +870,8 @@ std::size_t DeletionRecords::memoryBytes() const {
            kept.capacity() * sizeof(KeptVertex);
 }
 
-namespace {
-bool extraSamplesValid(const DeletionOptions& options, std::string& error) {
-    if (options.extraSamples != nullptr && options.paperError) {
-        error = "extra original points count in the max metric only (turn the paper metric off)";
-        return false;
-    }
-    return true;
-}
-}  // namespace
-
 bool runDeletion(const PointSet& set, Cdt& cdt, const std::vector<PointId>& order,
                  const DeletionOptions& options, DeletionRecords& records, std::string& error) {
-    if (!extraSamplesValid(options, error)) return false;
     Sequence sequence(set, cdt, options, records);
     return sequence.run(order, error);
 }
@@ -890,7 +879,6 @@ bool runDeletion(const PointSet& set, Cdt& cdt, const std::vector<PointId>& orde
 bool runGreedyDeletion(const PointSet& set, Cdt& cdt, const BaiKeys& keys,
                        const DeletionOptions& options, DeletionRecords& records,
                        std::string& error) {
-    if (!extraSamplesValid(options, error)) return false;
     Sequence sequence(set, cdt, options, records);
     return sequence.runGreedy(keys, error);
 }

@@ -143,8 +143,9 @@ struct DeletionOptions {
     std::function<void()> onHandover;
     // Called after every step with the step count (tests run the checker here).
     std::function<void(std::uint32_t)> afterStep;
-    // Original points beyond the set's, counted in the `max` metric (modelerror.h ExtraSample;
-    // max metric only). Must outlive the call.
+    // Original points beyond the set's, counted in the `max` metric only (modelerror.h
+    // ExtraSample: a tree node's original points, a block's DEM points dropped by the river
+    // clearance). Must outlive the call.
     std::vector<ExtraSample>* extraSamples = nullptr;
     bool releaseExtraSamples = false;  // free them once placed (ModelError::init releaseExtra)
     // Issue 18's tree nodes (nodebuild.h), whose points are their children's coarsest vertices:

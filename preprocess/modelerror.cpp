@@ -71,7 +71,6 @@ double surfaceHeight(const PointSet& set, const Cdt& cdt, std::uint32_t t, Point
 void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool paperMetric,
                       const std::vector<ExtraSample>* extra,
                       std::vector<ExtraSample>* releaseExtra) {
-    assert((extra == nullptr || !paperMetric) && "extra samples: max metric only");
     set_ = &set;
     maxMetric_ = maxMetric;
     paperMetric_ = paperMetric;

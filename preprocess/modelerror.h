@@ -51,13 +51,14 @@ struct ExtraSample {
 
 class ModelError {
 public:
-    // `cdt`: the full triangulation of `set` (before any deletion). `extra` (max metric only):
-    // more original points, counted in M like the set's; each is located in the triangulation
-    // (exact, closed), and one outside the domain has no vertical error. `releaseExtra` (null,
-    // or the same vector as `extra`): the caller no longer needs them (a tree root holds every
-    // original point of the model): its buffer becomes the pool, the points permuted in place,
-    // so that they are never held twice; reserve it to about 1.25 x its size plus the set's
-    // points (the pool's room for re-appended points; less costs a reallocation).
+    // `cdt`: the full triangulation of `set` (before any deletion). `extra`: more original points,
+    // counted in M like the set's (the paper metric, Eq. 3-6, is over the set's points only); each
+    // is located in the triangulation (exact, closed), and one outside the domain has no vertical
+    // error. `releaseExtra` (null, or the same vector as `extra`): the caller no longer needs them
+    // (a tree root holds every original point of the model): its buffer becomes the pool, the
+    // points permuted in place, so that they are never held twice; reserve it to about 1.25 x its
+    // size plus the set's points (the pool's room for re-appended points; less costs a
+    // reallocation).
     void init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool paperMetric,
               const std::vector<ExtraSample>* extra = nullptr,
               std::vector<ExtraSample>* releaseExtra = nullptr);

@@ -34,6 +34,10 @@ struct PointSet {
     // repeated at the end), the domain on the left of every edge. Each edge is a constraint of
     // the triangulation (cdt.h "Domain"). Empty: the domain is the convex hull of the points.
     std::vector<Polyline> boundaries;
+    // Original DEM points left out of `points` by the river clearance (a cell centre on a river
+    // edge would make slivers; PointSetOptions::riverClearance). Not triangulated, but original
+    // points all the same: the `max` error counts them (modelerror.h ExtraSample).
+    std::vector<Point> dropped;
 };
 
 }  // namespace unilod

@@ -50,11 +50,12 @@ void indexRange(double from, double to, double origin, double step, int n, int& 
     hi = static_cast<int>(std::clamp(std::floor(b), -1.0, static_cast<double>(n - 1)));
 }
 
-// Marks in `drop` the cells whose centre is closer than `c` to segment ab. Walks only the rows
-// the segment passes within c of, and in each row only the columns near its crossing, so that a
-// long diagonal segment costs its length in cells, not its bounding box.
-void markNearSegment(const DemGrid& dem, const RiverVertex& a, const RiverVertex& b, double c,
-                     std::vector<std::uint8_t>& drop) {
+// Calls f(col, row) for the cells whose centre is closer than `c` to segment ab. Walks only the
+// rows the segment passes within c of, and in each row only the columns near its crossing, so
+// that a long diagonal segment costs its length in cells, not its bounding box.
+template <typename F>
+void forCellsNearSegment(const DemGrid& dem, const RiverVertex& a, const RiverVertex& b, double c,
+                         F&& f) {
     const double c2 = c * c;
     int r0, r1;
     indexRange(std::min(a.y, b.y) - c, std::max(a.y, b.y) + c, dem.originY, dem.cellY, dem.height,
@@ -79,9 +80,7 @@ void markNearSegment(const DemGrid& dem, const RiverVertex& a, const RiverVertex
         indexRange(std::min(xa, xb) - c, std::max(xa, xb) + c, dem.originX, dem.cellX, dem.width,
                    c0, c1);
         for (int col = c0; col <= c1; ++col) {
-            if (distanceSquaredToSegment(dem.centreX(col), yr, a, b) < c2) {
-                drop[static_cast<std::size_t>(r) * dem.width + col] = 1;
-            }
+            if (distanceSquaredToSegment(dem.centreX(col), yr, a, b) < c2) f(col, r);
         }
     }
 }
@@ -119,10 +118,57 @@ std::vector<std::uint8_t> riverClearanceMask(const DemGrid& dem,
     drop.assign(dem.z.size(), 0);
     for (const auto& piece : pieces) {
         for (std::size_t i = 0; i + 1 < piece.size(); ++i) {
-            markNearSegment(dem, piece[i], piece[i + 1], clearance, drop);
+            forCellsNearSegment(dem, piece[i], piece[i + 1], clearance, [&](int col, int row) {
+                drop[static_cast<std::size_t>(row) * dem.width + col] = 1;
+            });
         }
     }
     return drop;
+}
+
+std::size_t addVerticesAtDroppedCells(const DemGrid& dem, double clearance, int stride,
+                                      std::vector<RiverPiece>& pieces) {
+    if (clearance <= 0) return 0;
+    // New vertices closer than the clearance to a vertex of the segment (or to each other) are
+    // left out: the river already passes within about the clearance of the cell there, and no
+    // vertices crowd (a near-duplicate vertex makes slivers of its own).
+    const double kApart = clearance;
+    std::size_t added = 0;
+    std::vector<std::pair<double, RiverVertex>> along;
+    for (RiverPiece& piece : pieces) {
+        RiverPiece out;
+        out.reserve(piece.size());
+        for (std::size_t i = 0; i + 1 < piece.size(); ++i) {
+            const RiverVertex a = piece[i], b = piece[i + 1];
+            out.push_back(a);
+            const double dx = b.x - a.x, dy = b.y - a.y;
+            const double len = std::hypot(dx, dy);
+            if (!(len > 2 * kApart)) continue;
+            along.clear();
+            forCellsNearSegment(dem, a, b, clearance, [&](int col, int row) {
+                if (col % stride != 0 || row % stride != 0) return;
+                if (!std::isfinite(dem.z[static_cast<std::size_t>(row) * dem.width + col])) return;
+                const double t =
+                    ((dem.centreX(col) - a.x) * dx + (dem.centreY(row) - a.y) * dy) / (len * len);
+                if (t * len < kApart || (1 - t) * len < kApart) return;
+                const double x = a.x + t * dx, y = a.y + t * dy;
+                const double z = dem.sample(x, y);
+                along.push_back({t, {x, y, std::isfinite(z) ? z : a.z + t * (b.z - a.z)}});
+            });
+            std::sort(along.begin(), along.end(),
+                      [](const auto& l, const auto& r) { return l.first < r.first; });
+            double last = 0;
+            for (const auto& [t, v] : along) {
+                if ((t - last) * len < kApart || (1 - t) * len < kApart) continue;
+                out.push_back(v);
+                last = t;
+                ++added;
+            }
+        }
+        out.push_back(piece.back());
+        piece = std::move(out);
+    }
+    return added;
 }
 
 void appendRiverPieces(const std::vector<RiverPiece>& pieces, PointSet& set) {
@@ -164,8 +210,9 @@ PointSet buildPointSet(const DemGrid& dem, const RiverLines& rivers,
     assert(options.riverClearance >= 0);
     assert(dem.z.size() == static_cast<std::size_t>(dem.width) * dem.height);
 
-    const std::vector<RiverPiece> pieces = sampleRiverPieces(dem, rivers);
+    std::vector<RiverPiece> pieces = sampleRiverPieces(dem, rivers);
     const std::vector<std::uint8_t> drop = riverClearanceMask(dem, pieces, options.riverClearance);
+    addVerticesAtDroppedCells(dem, options.riverClearance, options.stride, pieces);
 
     PointSet set;
     const int stride = options.stride;
@@ -174,12 +221,16 @@ PointSet buildPointSet(const DemGrid& dem, const RiverLines& rivers,
     for (int r = 0; r < dem.height; r += stride) {
         for (int c = 0; c < dem.width; c += stride) {
             const std::size_t cell = static_cast<std::size_t>(r) * dem.width + c;
-            if (std::isnan(dem.z[cell]) || (!drop.empty() && drop[cell])) continue;
+            if (std::isnan(dem.z[cell])) continue;
             Point p;
             p.x = dem.centreX(c);
             p.y = dem.centreY(r);
             p.z = dem.z[cell];
             p.kind = PointKind::Dem;
+            if (!drop.empty() && drop[cell]) {
+                set.dropped.push_back(p);
+                continue;
+            }
             p.locked = options.lockBorder && (r == 0 || r == lastRow || c == 0 || c == lastCol);
             set.points.push_back(p);
         }

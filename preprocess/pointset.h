@@ -52,6 +52,16 @@ std::vector<std::uint8_t> riverClearanceMask(const DemGrid& dem,
                                              const std::vector<RiverPiece>& pieces,
                                              double clearance);
 
+// Where a river passes within `clearance` of a DEM point on the stride's lattice (a point the
+// clearance drops, riverClearanceMask), a river vertex at the point's projection onto the
+// segment, z from the DEM (DemGrid::sample): the river's surface then meets the DEM at the
+// dropped point instead of interpolating over it between vertices up to two cells apart (on the
+// bundled data the dropped points were up to 6 m off the river's chord). A projection closer than
+// the clearance to a vertex (an end of the segment or one added before it) adds none. Returns how
+// many were added.
+std::size_t addVerticesAtDroppedCells(const DemGrid& dem, double clearance, int stride,
+                                      std::vector<RiverPiece>& pieces);
+
 // Appends the pieces to `set` as river points and polylines: one id per distinct (x, y) (a
 // junction), first and last vertex of every piece and every junction locked.
 void appendRiverPieces(const std::vector<RiverPiece>& pieces, PointSet& set);

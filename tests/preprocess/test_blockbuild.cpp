@@ -95,6 +95,7 @@ TEST(Blocks, SharedBordersAndCrossings) {
 TEST(LodIndex, LevelsMatchRecordsAndBounds) {
     Fixture f(30000, 96);
     BlockBuildOptions opt;
+    double droppedSeen = 0;  // the largest error of a dropped DEM point at full resolution
     for (std::size_t i = 0; i < f.source.blockCount(); ++i) {
         const PointSet set = f.source.points(i);
         format::Block b;
@@ -158,9 +159,39 @@ TEST(LodIndex, LevelsMatchRecordsAndBounds) {
         }
         EXPECT_TRUE(std::is_sorted(b.errorMax.begin(), b.errorMax.end()));
         EXPECT_TRUE(std::is_sorted(b.errorPaper.begin(), b.errorPaper.end()));
-        // Full resolution reproduces every point up to the height quantum, which every stored
-        // error includes (lodindex.h).
-        EXPECT_EQ(b.errorMax.front(), float(format::kDefaultZQuantum));
+        // Full resolution reproduces every point of the set up to the height quantum, which
+        // every stored error includes (lodindex.h); the DEM points the river clearance dropped
+        // are measured too: their largest distance from the level-0 surface, found here by
+        // brute force, is in the stored error.
+        double dropped = 0;
+        for (const Point& p : set.dropped) {
+            const double x = p.x - b.originX, y = p.y - b.originY;
+            double best = HUGE_VAL;  // the triangle holding it (smallest barycentric deficit)
+            double z = 0;
+            for (std::uint32_t t = 0; t < b.levels[0].triangleCount; ++t) {
+                const auto& tri = b.terrainIndices[b.levels[0].triangleFirst + t];
+                const format::Vertex& A = b.vertices[tri.a];
+                const format::Vertex& B = b.vertices[tri.b];
+                const format::Vertex& C = b.vertices[tri.c];
+                const double d = (B.x - A.x) * (C.y - A.y) - (B.y - A.y) * (C.x - A.x);
+                const double wa = ((B.x - x) * (C.y - y) - (B.y - y) * (C.x - x)) / d;
+                const double wb = ((C.x - x) * (A.y - y) - (C.y - y) * (A.x - x)) / d;
+                const double wc = 1 - wa - wb;
+                const double deficit = -std::min({wa, wb, wc, 0.0});
+                if (deficit < best) best = deficit, z = wa * A.z + wb * B.z + wc * C.z;
+            }
+            ASSERT_LT(best, 1e-6) << "dropped point outside the block's surface";
+            dropped = std::max(dropped, std::fabs(p.z - z));
+        }
+        droppedSeen = std::max(droppedSeen, dropped);
+        const double q = format::kDefaultZQuantum;
+        if (set.dropped.empty()) {
+            EXPECT_EQ(b.errorMax.front(), float(q));
+        } else {
+            // The vertices' heights are quantised (q / 2) and the error rounded up to q.
+            EXPECT_GE(b.errorMax.front(), dropped + q / 2 - 1e-4);
+            EXPECT_LE(b.errorMax.front(), dropped + 2.5 * q + 1e-4);
+        }
 
         // Locked points (borders, river ends, junctions, crossings) are in the coarsest level.
         std::size_t lockedVertices = 0;
@@ -172,6 +203,9 @@ TEST(LodIndex, LevelsMatchRecordsAndBounds) {
         }
         EXPECT_GT(lockedVertices, 4u);
     }
+    // The synthetic rivers pass DEM points the clearance drops, some of them well off the
+    // surface (so that the check above can fail).
+    EXPECT_GT(droppedSeen, 0.1);
 }
 
 TEST(LodIndex, Deterministic) {

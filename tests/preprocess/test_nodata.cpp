@@ -622,6 +622,49 @@ TEST(Nodata, LongRiverSegmentsGetVerticesEveryCell) {
     EXPECT_NEAR(highest, 400.0, 0.1);  // the river crosses the ridge at its height
 }
 
+// A DEM point within the river clearance of a river is dropped (it would make slivers). Between
+// two river vertices the river's heights ran along the chord, so a dropped point on a spike was
+// 40 m off the full-resolution surface, in no stored error. Now the river gets a vertex where it
+// passes the point (z from the DEM: the spike's height when it passes over the centre), and what
+// is left (a river passing 0.6 m off a spike's centre) is in the leaf's stored error.
+TEST(Nodata, DroppedPointsNextToRiversAreOnTheSurfaceAndInTheError) {
+    DemGrid d = plane(20, 20);
+    d.z[std::size_t(5) * d.width + 6] += 60;    // spike A at (500180, 3999850)
+    d.z[std::size_t(12) * d.width + 14] += 60;  // spike B at (500420, 3999640)
+    // Segments shorter than two cells (no densification); A's over the centre, B's 0.6 m off.
+    const std::string rivers = riverFile(
+        "nodata_spike_rivers.geojson",
+        {"[[500160,3999850],[500200,3999850]]", "[[500400,3999640.6],[500445,3999640.6]]"});
+    const BuildOptions o = modelOptions(d, "nodata_spikes", rivers, 16);
+    BuildSummary summary;
+    std::string err;
+    ASSERT_TRUE(runBuild(o, summary, err)) << err;
+    EXPECT_EQ(summary.droppedDemPoints, 2u);
+    EXPECT_EQ(summary.droppedCellVertices, 2u);
+    EXPECT_GT(summary.droppedDeviation, 0.5);  // B: the DEM's bilinear height 0.6 m off its top
+    EXPECT_LT(summary.droppedDeviation, 3.0);  // not the chord's 40 m
+    format::Reader reader;
+    ASSERT_TRUE(reader.open(o.outPath, err)) << err;
+    bool spikeA = false;
+    double stored = 0;  // the largest full-resolution error of a leaf
+    for (std::size_t i = 0; i < reader.blocks().size(); ++i) {
+        if (reader.blocks()[i].level > 0) continue;
+        format::Block b;
+        ASSERT_TRUE(reader.readBlock(i, b, err)) << err;
+        stored = std::max(stored, double(b.errorMax.front()));
+        for (const format::Vertex& v : b.vertices) {
+            if (std::fabs(b.originX + v.x - 500180) < 1e-3 &&
+                std::fabs(b.originY + v.y - 3999850) < 1e-3) {
+                spikeA = true;
+                EXPECT_NEAR(v.z, 100 + 2 * 6 + 3 * 5 + 60, 0.01);  // the spike's own height
+            }
+        }
+    }
+    EXPECT_TRUE(spikeA) << "no river vertex on spike A";
+    EXPECT_GT(stored, 0.5);
+    EXPECT_GE(stored, summary.droppedDeviation);
+}
+
 // A river line entirely outside the DEM was dropped with no word (only the summary's line
 // counts said it); it is a warning now, the usual cut at the DEM's edge is not.
 TEST(Nodata, RiverLinesOutsideTheDemAreWarnedAbout) {

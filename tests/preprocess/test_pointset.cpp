@@ -2,6 +2,7 @@
 // river altitudes, splitting at vertices off the DEM, shared junction ids, locks, clearance.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -165,4 +166,56 @@ TEST(PointSet, RiverClearanceDropsDemPointsOnRivers) {
     EXPECT_EQ(dem2.count({75, 55}), 0u);
     EXPECT_EQ(dem2.count({55, 45}), 1u);  // beyond the river's end
     EXPECT_EQ(dem2.count({65, 55}), 1u);  // 7 m off the diagonal
+    // The dropped points are kept apart, with their DEM heights (the error counts them).
+    std::map<std::pair<double, double>, double> dropped;
+    for (const Point& p : set.dropped) {
+        EXPECT_EQ(p.kind, PointKind::Dem);
+        dropped[{p.x, p.y}] = p.z;
+    }
+    const std::map<std::pair<double, double>, double> expected = {{{15, 45}, 105}, {{25, 45}, 115},
+                                                                  {{35, 45}, 125}, {{45, 45}, 135},
+                                                                  {{65, 65}, 195}, {{75, 55}, 185}};
+    EXPECT_EQ(dropped, expected);
+    EXPECT_TRUE(keep.dropped.empty());
+    // Each river has a vertex where it passes a dropped point, z from the DEM.
+    auto line = [](const PointSet& s, std::size_t i) {
+        std::vector<std::array<double, 3>> v;
+        for (PointId id : s.rivers[i])
+            v.push_back({s.points[id].x, s.points[id].y, s.points[id].z});
+        return v;
+    };
+    using V = std::vector<std::array<double, 3>>;
+    EXPECT_EQ(line(set, 0), (V{{10, 45, 100},
+                               {15, 45, 105},
+                               {25, 45, 115},
+                               {35, 45, 125},
+                               {45, 45, 135},
+                               {50, 45, 140}}));
+    EXPECT_EQ(line(set, 1), (V{{60, 70, 200}, {65, 65, 195}, {75, 55, 185}, {80, 50, 180}}));
+    EXPECT_EQ(line(keep, 0), (V{{10, 45, 100}, {50, 45, 140}}));
+}
+
+// The river's vertex goes where the river passes the dropped point (its projection), not onto
+// the point; none where a vertex of the river is already closer than the clearance.
+TEST(PointSet, RiverVerticesAtDroppedPointsLieOnTheRiver) {
+    const DemGrid dem = makeGrid();
+    const RiverLines lines = {{{15.05, 45.3}, {45.6, 45.3}}};
+    PointSetOptions o;
+    o.riverClearance = 0.5;
+    const PointSet set = buildPointSet(dem, lines, o);
+    ASSERT_EQ(set.dropped.size(), 4u);  // (15, 45) .. (45, 45), 0.3 m off the river
+    ASSERT_EQ(set.rivers.size(), 1u);
+    std::vector<std::array<double, 2>> xy;
+    for (PointId id : set.rivers[0]) {
+        const Point& p = set.points[id];
+        xy.push_back({p.x, p.y});
+        EXPECT_EQ(p.z, dem.sample(p.x, p.y));
+    }
+    // (15, 45) projects 0.05 m from the first vertex: none there; (45, 45) 0.6 m from the last.
+    using V = std::vector<std::array<double, 2>>;
+    EXPECT_EQ(xy, (V{{15.05, 45.3}, {25, 45.3}, {35, 45.3}, {45, 45.3}, {45.6, 45.3}}));
+    o.riverClearance = 0.7;
+    const PointSet wider = buildPointSet(dem, lines, o);
+    EXPECT_EQ(wider.dropped.size(), 4u);
+    EXPECT_EQ(wider.rivers[0].size(), 4u);  // no vertex 0.6 m from the last one
 }

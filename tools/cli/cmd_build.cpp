@@ -86,8 +86,14 @@ int run(BuildCli& c) {
     }
     std::printf(
         "  points           %zu DEM + %zu river (%zu locked, %zu border crossings, "
-        "%zu DEM points dropped next to rivers)\n",
+        "%zu DEM points dropped next to rivers",
         s.demPoints, s.riverPoints, s.lockedPoints, s.crossings, s.droppedDemPoints);
+    if (s.droppedDemPoints > 0)
+        std::printf(
+            ", %zu river vertices added where rivers pass them; the dropped points at most "
+            "%.3g m off the full-resolution surface, in the error",
+            s.droppedCellVertices, s.droppedDeviation);
+    std::printf(")\n");
     std::printf("  blocks           %zu (block size %d cells, stride %d)\n", s.blocks, s.blockSize,
                 c.o.stride);
     if (s.nodes > 0)
