@@ -782,6 +782,82 @@ void Cdt::removeVertex(PointId v, const std::vector<PointId>& ring,
     legalize(legal_);
 }
 
+void Cdt::removeVertexWithDiagonal(PointId v, const std::vector<PointId>& ring,
+                                   const std::vector<std::uint32_t>& triangles, std::uint32_t ia,
+                                   std::uint32_t ic) {
+    const std::uint32_t k = std::uint32_t(ring.size());
+    assert(ia < k && ic < k && ia != ic);
+    outer_.resize(k);
+    cons_.resize(k);
+    for (std::size_t i = 0; i < k; ++i) {
+        outer_[i] = tn[triangles[i]];
+        cons_[i] = isConstrained(triangles[i]) ? 1 : 0;
+    }
+    bool riverAtV = false;
+    for (std::uint32_t h : triangles)
+        riverAtV = riverAtV || isConstrained(h - h % 3 + nextIndex(h % 3)) ||
+                   isConstrained(h - h % 3 + prevIndex(h % 3));
+    // Sides: ring[ia .. ic] and ring[ic .. ia] (cyclic), each closed by the new edge.
+    const std::uint32_t n1 = (ic + k - ia) % k + 1, n2 = (ia + k - ic) % k + 1;
+    std::uint32_t chord[2] = {kNone, kNone};
+    if (n1 < 3 || n2 < 3) {
+        // The diagonal is a link edge already (ring[ia] -> ring[ic] or back): one polygon.
+        planHole(ring, plan_);
+    } else {
+        // Both plans in ring indices, one after the other; the closing edge of each side (from
+        // its last vertex to its first) is linked to the other's.
+        std::vector<PointId>& side = splitSide_;
+        std::vector<std::uint32_t>& sub = splitPlan_;
+        plan_.clear();
+        splitNbr_.clear();
+        for (int s = 0; s < 2; ++s) {
+            const std::uint32_t first = s == 0 ? ia : ic, count = s == 0 ? n1 : n2;
+            side.resize(count);
+            for (std::uint32_t j = 0; j < count; ++j)
+                side[j] = ring[(first + j) % k];
+            planHole(side, sub);
+            const std::uint32_t offset = std::uint32_t(plan_.size());
+            for (std::uint32_t q = 0; q < sub.size(); ++q) {
+                plan_.push_back((first + sub[q]) % k);
+                const std::uint32_t g = planNbr_[q];
+                splitNbr_.push_back(g == kNone ? kNone : g + offset);
+                // The half-edge opposite corner q % 3 runs from the next corner to the one after.
+                const std::uint32_t from = sub[q - q % 3 + nextIndex(q % 3)];
+                const std::uint32_t to = sub[q - q % 3 + prevIndex(q % 3)];
+                if (g == kNone && from == count - 1 && to == 0) chord[s] = offset + q;
+            }
+        }
+        assert(chord[0] != kNone && chord[1] != kNone);
+        splitNbr_[chord[0]] = chord[1];
+        splitNbr_[chord[1]] = chord[0];
+        planNbr_.swap(splitNbr_);
+    }
+    for (std::uint32_t h : triangles)
+        destroyTriangle(h / 3);
+    setVertexTriangle(v, kNone);
+    --vertexCount;
+    createPlanned(ring);
+    linkPlanned();
+    // The new edge, constrained before the flips below, which may not cross it.
+    const std::uint32_t e = chord[0] != kNone ? 3 * created_[chord[0] / 3] + chord[0] % 3
+                            : n2 < 3          ? tn[outer_[ic]]  // ring[ic] -> ring[ia]
+                                              : tn[outer_[ia]];          // ring[ia] -> ring[ic]
+    assert((origin(e) == ring[ic] && destination(e) == ring[ia]) ||
+           (origin(e) == ring[ia] && destination(e) == ring[ic]));
+    setConstrained(e, true);
+    ++constraintEdgeCount;
+    if (riverAtV) {
+        // As removeVertex: a constraint at v no longer hides the link from beyond the hole.
+        legal_.clear();
+        for (std::uint32_t t : created_) {
+            legal_.push_back(3 * t);
+            legal_.push_back(3 * t + 1);
+            legal_.push_back(3 * t + 2);
+        }
+        legalize(legal_);
+    }
+}
+
 // --- Point insertion (Bowyer-Watson) ---------------------------------------------------------
 
 std::uint32_t Cdt::locateGridFrom(std::int64_t x, std::int64_t y, std::uint32_t start) const {

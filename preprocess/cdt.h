@@ -214,6 +214,22 @@ public:
     // The same with v's star as returned by star() (unchanged since).
     void removeVertex(PointId v, const std::vector<PointId>& link,
                       const std::vector<std::uint32_t>& triangles);
+    // Removes v (its star as returned by star()) and makes link[ia] - link[ic] a constraint edge,
+    // where that segment is a diagonal of the hole or one of its edges (the caller knows: no link
+    // vertex but those two in the closed triangle (link[ia], v, link[ic]), or v strictly between
+    // them on one line). A diagonal splits the hole into two polygons, each re-triangulated by
+    // planHole; the edge is constrained before the Delaunay flips after the removal. The same
+    // constrained Delaunay triangulation as removeVertex and insertSegment(link[ia], link[ic]),
+    // without the flips across the new edge and back, which cost the square of the star's size
+    // (a ring step next to a frame vertex that meets the whole outline of a strip).
+    void removeVertexWithDiagonal(PointId v, const std::vector<PointId>& link,
+                                  const std::vector<std::uint32_t>& triangles, std::uint32_t ia,
+                                  std::uint32_t ic);
+    // Whether v lies strictly between a and c on one line.
+    bool strictlyBetween(PointId a, PointId v, PointId c) const {
+        return orient(a, v, c) == 0 && a != c &&
+               betweenCollinear(gx[a], gy[a], gx[c], gy[c], gx[v], gy[v]);
+    }
     // The star of v: link vertices counter-clockwise and, for each, the triangle (v, link[i],
     // link[i+1]) half-edge index of v. Returns false when v is on the hull (a ghost triangle).
     bool star(PointId v, std::vector<PointId>& link, std::vector<std::uint32_t>& triangles) const;
@@ -292,6 +308,9 @@ private:
     std::vector<std::uint32_t> outer_, starTris_;
     std::vector<std::uint8_t> cons_;
     std::vector<std::uint32_t> plan_, planNbr_;
+    // removeVertexWithDiagonal's scratch: one side's polygon, its plan, the joined neighbours.
+    std::vector<PointId> splitSide_;
+    std::vector<std::uint32_t> splitPlan_, splitNbr_;
     // planHole's scratch: the outline's links, the plan half-edge across each outline edge and
     // the polygon's grid coordinates, indexed by polygon position; the flip stack (its size is
     // its capacity).

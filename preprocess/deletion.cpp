@@ -453,17 +453,31 @@ void Sequence::apply(PointId x, PointId a, PointId c) {
     const bool oneSide = !boundaryStep_ && !hullStar_;
     const bool side = oneSide && cdt_.exterior(tris_.front() / 3);
     cdt_.beginJournal(step_ + 1);
-    if (hullStar_) {
+    // Where a-c is a diagonal or an edge of x's hole (a ring step: classify deferred x for any
+    // neighbour inside the triangle (a, x, c) or on a-c; a river step: x on the straight segment
+    // a-c), the new edge is made with the removal (Cdt::removeVertexWithDiagonal, counted);
+    // elsewhere it is inserted after it.
+    const bool diagonal =
+        !hullStar_ && a != kNil && (boundaryStep_ || cdt_.strictlyBetween(a, x, c));
+    if (diagonal) {
+        const auto ia = std::find(link_.begin(), link_.end(), a) - link_.begin();
+        const auto ic = std::find(link_.begin(), link_.end(), c) - link_.begin();
+        cdt_.removeVertexWithDiagonal(x, link_, tris_, std::uint32_t(ia), std::uint32_t(ic));
+    } else if (hullStar_) {
         cdt_.removeHullVertex(x, link_, tris_);
     } else {
         cdt_.removeVertex(x, link_, tris_);
     }
     if (a != kNil) {
-        cdt_.constraintEdgeCount -= 2;
-        std::string why;
-        const bool ok = cdt_.insertSegment(a, c, path_, why);
-        assert(ok && path_.size() == 2);
-        (void)ok;
+        cdt_.constraintEdgeCount -= 2;  // x's two edges
+        if (diagonal) {
+            path_.assign({a, c});
+        } else {
+            std::string why;
+            const bool ok = cdt_.insertSegment(a, c, path_, why);
+            assert(ok && path_.size() == 2);
+            (void)ok;
+        }
         if (boundaryStep_) setBoundary(x, a, c, true);
     }
     if (cdt_.frameFirst != Cdt::kGhost) {

@@ -398,6 +398,57 @@ TEST(Nodata, OutlineCornersSimplifyWithInvariantsAfterEveryStep) {
     EXPECT_GT(rec.steps.size(), set.points.size() / 2);
 }
 
+// A step whose new edge a-c is a diagonal of the hole (every ring step; a river vertex on the
+// straight segment between its neighbours) makes the edge with the removal (the hole split in
+// two: Cdt::removeVertexWithDiagonal) instead of inserting it afterwards by flips, which took
+// minutes on a 2-row DEM (a frame vertex meets the whole outline). The invariants (constrained
+// Delaunay, the outline and rivers as the constraints, sides) and the stored error hold after
+// every step: a 2-row strip of rough heights, and a 3-row strip whose middle row is a straight
+// river (its vertices at the dropped DEM points, collinear).
+TEST(Nodata, StepsWhoseNewEdgeSplitsTheHoleKeepTheInvariants) {
+    for (const bool river : {false, true}) {
+        SCOPED_TRACE(river ? "river along a row" : "2-row strip");
+        DemGrid d = plane(90, river ? 3 : 2);
+        std::mt19937 rng(11);
+        for (float& z : d.z)
+            z = float(rng() % 5000) / 50.0f;
+        RiverLines lines;
+        if (river)
+            lines.push_back({{d.centreX(1) + 3, d.centreY(1)}, {d.centreX(88) - 3, d.centreY(1)}});
+        BlockSource source;
+        BlockOptions bo;
+        bo.blockSize = 100;
+        bo.lockOuterEdge = false;
+        std::string err;
+        ASSERT_TRUE(source.init(d, lines, bo, err)) << err;
+        ASSERT_EQ(source.blockCount(), 1u);
+        const PointSet set = source.points(0);
+        ASSERT_FALSE(set.boundaries.empty());
+        if (river) {
+            ASSERT_EQ(set.rivers.size(), 1u);
+            EXPECT_GT(set.rivers[0].size(), 80u);  // a vertex at each of the row's cells
+        }
+        Cdt cdt;
+        ASSERT_TRUE(buildCdt(set, {}, cdt, err)) << err;
+        const CheckReference ref = captureCheckReference(cdt);
+        DeletionRecords rec;
+        DeletionOptions options;
+        std::uint32_t failures = 0;
+        options.afterStep = [&](std::uint32_t step) {
+            std::string m;
+            if (!checkCdt(cdt, ref, nullptr, m) && failures++ < 3)
+                ADD_FAILURE() << "after step " << step << ": " << m;
+            const double brute = bruteForceMaxError(set, cdt);
+            if (brute > rec.errorMax[step - 1] + 1e-9 && failures++ < 3)
+                ADD_FAILURE() << "step " << step << ": vertical " << brute << " > stored "
+                              << rec.errorMax[step - 1];
+        };
+        ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, err)) << err;
+        EXPECT_EQ(failures, 0u);
+        EXPECT_GT(rec.steps.size(), set.points.size() / 2);
+    }
+}
+
 // Thin strips of data with scattered nodata and terraced heights (found by a random build
 // fuzzer): the outline moves in and out again over the same points. A point on an outline edge
 // is in the domain (closed) and its vertical error counts; it used to stay in the bucket of the
