@@ -331,6 +331,31 @@ void Cdt::flip(std::uint32_t h) {
     setVertexTriangle(c, n);
 }
 
+bool Cdt::takeHole(const std::vector<std::uint32_t>& triangles) {
+    const std::size_t k = triangles.size();
+    outer_.resize(k);
+    cons_.resize(k);
+    bool constraintAtV = false;
+    for (std::size_t i = 0; i < k; ++i) {
+        const std::uint32_t h = triangles[i];
+        outer_[i] = tn[h];
+        cons_[i] = isConstrained(h) ? 1 : 0;
+        constraintAtV = constraintAtV || isConstrained(h - h % 3 + nextIndex(h % 3)) ||
+                        isConstrained(h - h % 3 + prevIndex(h % 3));
+    }
+    return constraintAtV;
+}
+
+void Cdt::legalizeTriangles(const std::vector<std::uint32_t>& triangles) {
+    legal_.clear();
+    for (std::uint32_t t : triangles) {
+        legal_.push_back(3 * t);
+        legal_.push_back(3 * t + 1);
+        legal_.push_back(3 * t + 2);
+    }
+    legalize(legal_);
+}
+
 void Cdt::legalize(std::vector<std::uint32_t>& stack) {
     while (!stack.empty()) {
         const std::uint32_t h = stack.back();
@@ -597,13 +622,7 @@ bool Cdt::insertSegment(PointId a, PointId b, std::vector<PointId>& path, std::s
         assert(e != kNone);
         setConstrained(e, true);
         ++constraintEdgeCount;
-        legal_.clear();
-        for (std::uint32_t t : touched_) {
-            legal_.push_back(3 * t);
-            legal_.push_back(3 * t + 1);
-            legal_.push_back(3 * t + 2);
-        }
-        legalize(legal_);
+        legalizeTriangles(touched_);
         path.push_back(end);
         cur = end;
     }
@@ -752,18 +771,9 @@ void Cdt::removeVertex(PointId v) {
 
 void Cdt::removeVertex(PointId v, const std::vector<PointId>& ring,
                        const std::vector<std::uint32_t>& triangles) {
-    const std::uint32_t k = std::uint32_t(ring.size());
-    outer_.resize(k);
-    cons_.resize(k);
-    for (std::size_t i = 0; i < k; ++i) {
-        outer_[i] = tn[triangles[i]];
-        cons_[i] = isConstrained(triangles[i]) ? 1 : 0;
-    }
+    assert(ring.size() == triangles.size());
+    const bool riverAtV = takeHole(triangles);
     planHole(ring, plan_);
-    bool riverAtV = false;
-    for (std::uint32_t h : triangles)
-        riverAtV = riverAtV || isConstrained(h - h % 3 + nextIndex(h % 3)) ||
-                   isConstrained(h - h % 3 + prevIndex(h % 3));
     for (std::uint32_t h : triangles)
         destroyTriangle(h / 3);
     setVertexTriangle(v, kNone);
@@ -773,13 +783,7 @@ void Cdt::removeVertex(PointId v, const std::vector<PointId>& ring,
     // A river edge at v is gone with it: a link vertex it hid may now be visible from a
     // triangle beyond the hole and inside its circumcircle, so those edges are checked too.
     if (!riverAtV) return;
-    legal_.clear();
-    for (std::uint32_t t : created_) {
-        legal_.push_back(3 * t);
-        legal_.push_back(3 * t + 1);
-        legal_.push_back(3 * t + 2);
-    }
-    legalize(legal_);
+    legalizeTriangles(created_);
 }
 
 void Cdt::removeVertexWithDiagonal(PointId v, const std::vector<PointId>& ring,
@@ -787,16 +791,7 @@ void Cdt::removeVertexWithDiagonal(PointId v, const std::vector<PointId>& ring,
                                    std::uint32_t ic) {
     const std::uint32_t k = std::uint32_t(ring.size());
     assert(ia < k && ic < k && ia != ic);
-    outer_.resize(k);
-    cons_.resize(k);
-    for (std::size_t i = 0; i < k; ++i) {
-        outer_[i] = tn[triangles[i]];
-        cons_[i] = isConstrained(triangles[i]) ? 1 : 0;
-    }
-    bool riverAtV = false;
-    for (std::uint32_t h : triangles)
-        riverAtV = riverAtV || isConstrained(h - h % 3 + nextIndex(h % 3)) ||
-                   isConstrained(h - h % 3 + prevIndex(h % 3));
+    const bool riverAtV = takeHole(triangles);
     // Sides: ring[ia .. ic] and ring[ic .. ia] (cyclic), each closed by the new edge.
     const std::uint32_t n1 = (ic + k - ia) % k + 1, n2 = (ia + k - ic) % k + 1;
     std::uint32_t chord[2] = {kNone, kNone};
@@ -848,13 +843,7 @@ void Cdt::removeVertexWithDiagonal(PointId v, const std::vector<PointId>& ring,
     ++constraintEdgeCount;
     if (riverAtV) {
         // As removeVertex: a constraint at v no longer hides the link from beyond the hole.
-        legal_.clear();
-        for (std::uint32_t t : created_) {
-            legal_.push_back(3 * t);
-            legal_.push_back(3 * t + 1);
-            legal_.push_back(3 * t + 2);
-        }
-        legalize(legal_);
+        legalizeTriangles(created_);
     }
 }
 

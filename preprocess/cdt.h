@@ -181,6 +181,11 @@ public:
     void flip(std::uint32_t h);
     // Flips every edge on the stack (and the edges it uncovers) that is not locally Delaunay.
     void legalize(std::vector<std::uint32_t>& stack);
+    // legalize on every edge of these triangles.
+    void legalizeTriangles(const std::vector<std::uint32_t>& triangles);
+    // Before a vertex's star `triangles` (star()) is re-triangulated: outer_ and cons_ of its
+    // link's edges; returns whether a constraint edge meets the vertex.
+    bool takeHole(const std::vector<std::uint32_t>& triangles);
     // The constrained Delaunay triangulation of the hole an interior vertex leaves: its link
     // `poly` (vertex ids, counter-clockwise, star-shaped around the vertex) is ear-clipped, then
     // the diagonals are flipped until each is locally Delaunay (Lawson). The polygon's own edges

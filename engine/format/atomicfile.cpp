@@ -271,18 +271,25 @@ bool AtomicFile::openImpl(const std::string& path, const OutputOptions& options,
     removeStaleTemporaries(path);
     for (int attempt = 0; attempt < 100; ++attempt) {
         const std::string temp = newTempName(path);
+        // Armed before the file exists: a signal between its creation and the arming left it
+        // behind (seen once in tests that signal as soon as it appears). The name carries our
+        // pid, so a signal before the creation removes nothing of another process's.
+        int slot = folder ? -1 : armSignalCleanup(temp);
         // 0666 / 0777 less the umask: an output is ordinary data.
         const int made = folder
                              ? ::mkdir(temp.c_str(), 0777)
                              : ::open(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-        if (made < 0 && errno == EEXIST) continue;
         if (made < 0) {
+            const int why = errno;
+            disarmSignalCleanup(slot);
+            if (why == EEXIST) continue;
+            errno = why;
             return fail(std::string("cannot create a temporary ") + (folder ? "folder" : "file") +
                             " beside it: " + errnoText(),
                         error);
         }
         temp_ = temp;
-        if (!folder) signalSlot_ = armSignalCleanup(temp);
+        signalSlot_ = slot;
         if (kind == Kind::File) fd_ = made;
         // ByName: the name was unique a moment ago (O_EXCL) and carries our pid; the library
         // creates the file.

@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <set>
 
 #include "blocks.h"
@@ -101,6 +102,23 @@ BuildOptions modelOptions(const DemGrid& d, const std::string& name, const std::
     o.blockSize = blockSize;
     o.force = true;
     return o;
+}
+
+// An afterStep hook (deletion.h) that checks the invariants (checker.h) and that the stored `max`
+// error bounds the brute-force one after every step; failures are counted, the first 3 reported.
+std::function<void(std::uint32_t)> checkEveryStep(const PointSet& set, const Cdt& cdt,
+                                                  const CheckReference& ref,
+                                                  const DeletionRecords& rec,
+                                                  std::uint32_t& failures) {
+    return [&set, &cdt, &ref, &rec, &failures](std::uint32_t step) {
+        std::string m;
+        if (!checkCdt(cdt, ref, nullptr, m) && failures++ < 3)
+            ADD_FAILURE() << "after step " << step << ": " << m;
+        const double brute = bruteForceMaxError(set, cdt);
+        if (brute > rec.errorMax[step - 1] + 1e-9 && failures++ < 3)
+            ADD_FAILURE() << "step " << step << ": vertical " << brute << " > stored "
+                          << rec.errorMax[step - 1];
+    };
 }
 
 }  // namespace
@@ -382,14 +400,9 @@ TEST(Nodata, OutlineCornersSimplifyWithInvariantsAfterEveryStep) {
     DeletionRecords rec;
     DeletionOptions options;
     std::uint32_t failures = 0, moved = 0;
+    const auto check = checkEveryStep(set, cdt, ref, rec, failures);
     options.afterStep = [&](std::uint32_t step) {
-        std::string m;
-        if (!checkCdt(cdt, ref, nullptr, m) && failures++ < 3)
-            ADD_FAILURE() << "after step " << step << ": " << m;
-        const double brute = bruteForceMaxError(set, cdt);
-        if (brute > rec.errorMax[step - 1] + 1e-9 && failures++ < 3)
-            ADD_FAILURE() << "step " << step << ": vertical " << brute << " > stored "
-                          << rec.errorMax[step - 1];
+        check(step);
         moved += domainArea() != initialArea;
     };
     ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, err)) << err;
@@ -434,15 +447,7 @@ TEST(Nodata, StepsWhoseNewEdgeSplitsTheHoleKeepTheInvariants) {
         DeletionRecords rec;
         DeletionOptions options;
         std::uint32_t failures = 0;
-        options.afterStep = [&](std::uint32_t step) {
-            std::string m;
-            if (!checkCdt(cdt, ref, nullptr, m) && failures++ < 3)
-                ADD_FAILURE() << "after step " << step << ": " << m;
-            const double brute = bruteForceMaxError(set, cdt);
-            if (brute > rec.errorMax[step - 1] + 1e-9 && failures++ < 3)
-                ADD_FAILURE() << "step " << step << ": vertical " << brute << " > stored "
-                              << rec.errorMax[step - 1];
-        };
+        options.afterStep = checkEveryStep(set, cdt, ref, rec, failures);
         ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, err)) << err;
         EXPECT_EQ(failures, 0u);
         EXPECT_GT(rec.steps.size(), set.points.size() / 2);
