@@ -769,17 +769,22 @@ void Cdt::removeVertex(PointId v) {
     removeVertex(v, poly_, starTris_);
 }
 
-void Cdt::removeVertex(PointId v, const std::vector<PointId>& ring,
-                       const std::vector<std::uint32_t>& triangles) {
-    assert(ring.size() == triangles.size());
-    const bool riverAtV = takeHole(triangles);
-    planHole(ring, plan_);
+void Cdt::replaceStar(PointId v, const std::vector<PointId>& ring,
+                      const std::vector<std::uint32_t>& triangles) {
     for (std::uint32_t h : triangles)
         destroyTriangle(h / 3);
     setVertexTriangle(v, kNone);
     --vertexCount;
     createPlanned(ring);
     linkPlanned();
+}
+
+void Cdt::removeVertex(PointId v, const std::vector<PointId>& ring,
+                       const std::vector<std::uint32_t>& triangles) {
+    assert(ring.size() == triangles.size());
+    const bool riverAtV = takeHole(triangles);
+    planHole(ring, plan_);
+    replaceStar(v, ring, triangles);
     // A river edge at v is gone with it: a link vertex it hid may now be visible from a
     // triangle beyond the hole and inside its circumcircle, so those edges are checked too.
     if (!riverAtV) return;
@@ -827,12 +832,7 @@ void Cdt::removeVertexWithDiagonal(PointId v, const std::vector<PointId>& ring,
         splitNbr_[chord[1]] = chord[0];
         planNbr_.swap(splitNbr_);
     }
-    for (std::uint32_t h : triangles)
-        destroyTriangle(h / 3);
-    setVertexTriangle(v, kNone);
-    --vertexCount;
-    createPlanned(ring);
-    linkPlanned();
+    replaceStar(v, ring, triangles);
     // The new edge, constrained before the flips below, which may not cross it.
     const std::uint32_t e = chord[0] != kNone ? 3 * created_[chord[0] / 3] + chord[0] % 3
                             : n2 < 3          ? tn[outer_[ic]]  // ring[ic] -> ring[ia]

@@ -186,6 +186,9 @@ public:
     // Before a vertex's star `triangles` (star()) is re-triangulated: outer_ and cons_ of its
     // link's edges; returns whether a constraint edge meets the vertex.
     bool takeHole(const std::vector<std::uint32_t>& triangles);
+    // v's star `triangles` replaced by the plan_ of its link `ring` (takeHole first).
+    void replaceStar(PointId v, const std::vector<PointId>& ring,
+                     const std::vector<std::uint32_t>& triangles);
     // The constrained Delaunay triangulation of the hole an interior vertex leaves: its link
     // `poly` (vertex ids, counter-clockwise, star-shaped around the vertex) is ear-clipped, then
     // the diagonals are flipped until each is locally Delaunay (Lawson). The polygon's own edges
