@@ -269,7 +269,6 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
         levels = L;
     }
     const std::size_t n = items.size();
-    const int side = blockSize / std::max(o.stride, 1);  // sampled cells per block side
     format::Writer writer;
     if (!writer.open(o.outPath, header, n, outputOptions(o), error)) return false;
     writer.storeRaw(o.rawBlocks);
@@ -288,12 +287,20 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
     bool failed = false;
     // The node border lines (nodebuild.h): the outer border of its leaf rectangle, locked unless
     // it is the DEM's outer edge (leaves lock that only for the 3ddp order, which builds no tree).
+    // The first and last block of an item's rectangle of blocks (a leaf: itself twice).
+    auto cornerRects = [&](const Item& it) {
+        const std::uint32_t c0 = it.col << it.level, r0 = it.row << it.level;
+        const std::uint32_t c1 = std::min(source.blocksX(), (it.col + 1) << it.level) - 1;
+        const std::uint32_t r1 = std::min(source.blocksY(), (it.row + 1) << it.level) - 1;
+        return std::pair<const BlockRect&, const BlockRect&>(
+            source.rect(std::size_t(r0) * source.blocksX() + c0),
+            source.rect(std::size_t(r1) * source.blocksX() + c1));
+    };
     auto nodeBorder = [&](const Item& it) {
         const std::uint32_t c0 = it.col << it.level, r0 = it.row << it.level;
         const std::uint32_t c1 = std::min(source.blocksX(), (it.col + 1) << it.level) - 1;
         const std::uint32_t r1 = std::min(source.blocksY(), (it.row + 1) << it.level) - 1;
-        const BlockRect& lo = source.rect(std::size_t(r0) * source.blocksX() + c0);
-        const BlockRect& hi = source.rect(std::size_t(r1) * source.blocksX() + c1);
+        const auto [lo, hi] = cornerRects(it);
         NodeBorder b;
         b.x0 = dem.centreX(lo.cellCol0);
         b.x1 = dem.centreX(hi.cellCol1);
@@ -328,7 +335,13 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
             try {
                 BlockBuildOptions itemOptions = blockOptions;
                 if (it.parent != format::kNoChild) {
-                    itemOptions.handoverTriangles = nodeHandoffTriangles(side, it.level);
+                    // Its rectangle in sampled cells and the cells along its locked sides.
+                    const auto [lo, hi] = cornerRects(it);
+                    const NodeBorder b = nodeBorder(it);
+                    const std::uint64_t w = std::uint64_t(hi.cellCol1 - lo.cellCol0) / o.stride,
+                                        h = std::uint64_t(hi.cellRow1 - lo.cellRow0) / o.stride;
+                    itemOptions.handoverTriangles = nodeHandoffTriangles(
+                        w, h, (b.lockX0 + b.lockX1) * h + (b.lockY0 + b.lockY1) * w, it.level);
                     itemOptions.handoverKey =
                         nodeHandoffError(std::max(header.blockWidth, header.blockHeight),
                                          std::max(dem.width * std::fabs(dem.cellX),

@@ -26,10 +26,12 @@ struct XYHash {
 
 }  // namespace
 
-std::uint32_t nodeHandoffTriangles(int side, std::uint32_t level) {
-    const std::uint64_t s = std::uint64_t(std::max(side, 1));
-    const std::uint64_t border = 8 * s << std::min<std::uint32_t>(level, 31);
-    const std::uint64_t count = level == 0 ? std::max(s * s / 8, border) : border;
+std::uint32_t nodeHandoffTriangles(std::uint64_t width, std::uint64_t height,
+                                   std::uint64_t lockedCells, std::uint32_t level) {
+    const std::uint64_t border = 2 * std::min<std::uint64_t>(lockedCells, 1ull << 40);
+    const std::uint64_t area =
+        std::min<std::uint64_t>(width, 1u << 30) * std::min<std::uint64_t>(height, 1u << 30) / 8;
+    const std::uint64_t count = level == 0 ? std::max(area, border) : border;
     return std::uint32_t(std::clamp<std::uint64_t>(count, 64, 1u << 30));
 }
 

@@ -742,3 +742,49 @@ TEST(Nodata, RiverLinesOutsideTheDemAreWarnedAbout) {
     EXPECT_NE(warnings[0].find("1 of 3 lines lie entirely outside the DEM"), std::string::npos)
         << warnings[0];
 }
+
+// A DEM far from square: a strip of 8 rows (the long sides are the DEM's outer edge, not locked),
+// cut into blocks of 64 cells. Each block's hand-over (nodebuild.h nodeHandoffTriangles) counts
+// its actual rectangle and locked sides; with a square block's counts (64^2 / 8 = 512 triangles
+// of the block's 1 024, and 8 64 2^L for a node, above what its children hand over) every node
+// started from its children whole and the tree stored each point once per level. On a gently
+// rough plane (below every hand-over error) the nodes together hold at most 1.3 times the
+// leaves' vertices (issue 18's file-size rule), every node starts from far fewer vertices than
+// its leaves hold, and the model passes `check --errors`.
+TEST(Nodata, StripNodesStartFromSimplifiedChildren) {
+    DemGrid d = plane(1000, 8);
+    std::mt19937 rng(5);
+    for (float& z : d.z)
+        z += float(rng() % 100) / 200.0f;  // 0 - 0.5 m
+    const BuildOptions o = modelOptions(d, "strip", "", 64);
+    BuildSummary summary;
+    std::string err;
+    ASSERT_TRUE(runBuild(o, summary, err)) << err;
+    UlodCheckOptions co;
+    co.errors = true;
+    UlodCheckSummary cs;
+    ASSERT_TRUE(checkUlod(o.outPath, co, cs, err)) << err;
+    format::Reader reader;
+    ASSERT_TRUE(reader.open(o.outPath, err)) << err;
+    const std::vector<format::BlockInfo>& dir = reader.blocks();
+    std::uint64_t leafVertices = 0, nodeVertices = 0;
+    std::uint32_t levels = 0;
+    for (const format::BlockInfo& b : dir)
+        (b.level == 0 ? leafVertices : nodeVertices) += b.vertexCount;
+    // The vertices of the leaves under each node (file order: a node's children come before it).
+    std::vector<std::uint64_t> under(dir.size(), 0);
+    for (std::size_t i = 0; i < dir.size(); ++i) {
+        const format::BlockInfo& b = dir[i];
+        levels = std::max(levels, b.level);
+        if (b.level == 0) {
+            under[i] = b.vertexCount;
+            continue;
+        }
+        for (std::uint32_t c = b.firstChild; c < b.firstChild + b.childCount; ++c)
+            under[i] += under[c];
+        EXPECT_LT(4 * std::uint64_t(b.vertexCount), under[i])
+            << "node (" << b.col << "," << b.row << ") of level " << b.level;
+    }
+    EXPECT_GE(levels, 4u);
+    EXPECT_LE(double(nodeVertices), 1.3 * double(leafVertices));
+}
