@@ -123,6 +123,7 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
         del.maxError = true;
         del.handoverTriangles = options.handoverTriangles;
         del.handoverKey = options.handoverKey;
+        del.handoverKeyTriangles = options.handoverKeyTriangles;
         if (coarse != nullptr) del.onHandover = takeCoarse;
         BaiKeys keys;
         if (options.importance.useBai && options.importance.baiByThreshold) {

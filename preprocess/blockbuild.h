@@ -34,9 +34,11 @@ struct BlockBuildOptions {
     // its parent starts from (buildBlock's `coarse`) is taken at this many alive triangles or
     // before a step whose key exceeds `handoverKey`, whichever comes first
     // (DeletionOptions::handoverTriangles / handoverKey); the block itself simplifies on to the
-    // end (its own coarser levels, drawn where its parent does not fit but it does).
+    // end (its own coarser levels, drawn where its parent does not fit but it does). The key
+    // rule applies from `handoverKeyTriangles` alive triangles on (DeletionOptions).
     std::uint32_t handoverTriangles = 0;
     double handoverKey = std::numeric_limits<double>::infinity();
+    std::uint32_t handoverKeyTriangles = std::numeric_limits<std::uint32_t>::max();
 };
 
 struct BlockBuildStats {

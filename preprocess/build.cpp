@@ -349,8 +349,17 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
                                          it.level, o.handoffPixels);
                 }
                 if (it.level > 0) itemOptions.lodRatio = kNodeLodTriangleRatio;
+                // The key rule's hand-over from a share of the original points' triangles
+                // (about two per point) under the item on (nodebuild.h kHandoffShare).
+                auto keyTriangles = [&](std::uint64_t originals) {
+                    return std::uint32_t(
+                        std::min<double>(kHandoffShare * 2.0 * double(originals),
+                                         double(std::numeric_limits<std::uint32_t>::max())));
+                };
                 if (it.level == 0) {
                     const PointSet set = source.points(it.source);
+                    if (it.parent != format::kNoChild)
+                        itemOptions.handoverKeyTriangles = keyTriangles(set.points.size());
                     ok = buildBlock(set, it.col, it.row, itemOptions, results[i], stats[i],
                                     errors[i], nullptr, tree ? &coarse[i] : nullptr);
                 } else {
@@ -369,6 +378,8 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
                     std::size_t originalCount = 0;
                     for (std::size_t l = it.leafFirst; l < it.leafFirst + it.leafCount; ++l)
                         originalCount += stats[l].points + stats[l].droppedPoints;
+                    if (it.parent != format::kNoChild)
+                        itemOptions.handoverKeyTriangles = keyTriangles(originalCount);
 #ifdef __GLIBC__
                     // A node high in the tree measures its error against millions of original
                     // points (16 B each, in large buffers of their own): first hand the pages the

@@ -798,7 +798,7 @@ bool Sequence::runGreedy(const BaiKeys& keys, std::string& error) {
         const double key = heap_.topKey();
         if (!handedOver &&
             ((options_.handoverTriangles > 0 && domainTriangles_ <= options_.handoverTriangles) ||
-             key > options_.handoverKey))
+             (key > options_.handoverKey && domainTriangles_ <= options_.handoverKeyTriangles)))
             handOver();
         if (key > options_.stopKey) break;
         heap_.pop();

@@ -140,6 +140,9 @@ struct DeletionOptions {
     // simplifying for its own drawing past the state its parent starts from.
     std::uint32_t handoverTriangles = 0;
     double handoverKey = std::numeric_limits<double>::infinity();
+    // The key rule hands over only at this many alive triangles or fewer (nodebuild.h
+    // kHandoffShare: terrain rougher than the hand-over error handed every state over whole).
+    std::uint32_t handoverKeyTriangles = std::numeric_limits<std::uint32_t>::max();
     std::function<void()> onHandover;
     // Called after every step with the step count (tests run the checker here).
     std::function<void(std::uint32_t)> afterStep;

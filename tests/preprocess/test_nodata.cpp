@@ -743,48 +743,75 @@ TEST(Nodata, RiverLinesOutsideTheDemAreWarnedAbout) {
         << warnings[0];
 }
 
-// A DEM far from square: a strip of 8 rows (the long sides are the DEM's outer edge, not locked),
-// cut into blocks of 64 cells. Each block's hand-over (nodebuild.h nodeHandoffTriangles) counts
-// its actual rectangle and locked sides; with a square block's counts (64^2 / 8 = 512 triangles
-// of the block's 1 024, and 8 64 2^L for a node, above what its children hand over) every node
-// started from its children whole and the tree stored each point once per level. On a gently
-// rough plane (below every hand-over error) the nodes together hold at most 1.3 times the
-// leaves' vertices (issue 18's file-size rule), every node starts from far fewer vertices than
-// its leaves hold, and the model passes `check --errors`.
-TEST(Nodata, StripNodesStartFromSimplifiedChildren) {
-    DemGrid d = plane(1000, 8);
-    std::mt19937 rng(5);
-    for (float& z : d.z)
-        z += float(rng() % 100) / 200.0f;  // 0 - 0.5 m
-    const BuildOptions o = modelOptions(d, "strip", "", 64);
+// Builds `dem` without rivers in blocks of `blockSize` cells, checks it (`check --errors`) and
+// returns the vertices of its leaves and of its tree nodes; every node must start from at most
+// `nodeShare` of the vertices of the leaves under it, and the tree must have `minLevels` levels.
+static std::pair<std::uint64_t, std::uint64_t> treeVertices(const DemGrid& dem,
+                                                            const std::string& name, int blockSize,
+                                                            double nodeShare,
+                                                            std::uint32_t minLevels) {
+    const BuildOptions o = modelOptions(dem, name, "", blockSize);
     BuildSummary summary;
     std::string err;
-    ASSERT_TRUE(runBuild(o, summary, err)) << err;
+    EXPECT_TRUE(runBuild(o, summary, err)) << err;
     UlodCheckOptions co;
     co.errors = true;
     UlodCheckSummary cs;
-    ASSERT_TRUE(checkUlod(o.outPath, co, cs, err)) << err;
+    EXPECT_TRUE(checkUlod(o.outPath, co, cs, err)) << err;
     format::Reader reader;
-    ASSERT_TRUE(reader.open(o.outPath, err)) << err;
+    EXPECT_TRUE(reader.open(o.outPath, err)) << err;
     const std::vector<format::BlockInfo>& dir = reader.blocks();
     std::uint64_t leafVertices = 0, nodeVertices = 0;
-    std::uint32_t levels = 0;
-    for (const format::BlockInfo& b : dir)
-        (b.level == 0 ? leafVertices : nodeVertices) += b.vertexCount;
-    // The vertices of the leaves under each node (file order: a node's children come before it).
+    std::uint32_t levels = 0, large = 0;
+    // The vertices of the leaves under each entry (file order: a node's children before it).
     std::vector<std::uint64_t> under(dir.size(), 0);
     for (std::size_t i = 0; i < dir.size(); ++i) {
         const format::BlockInfo& b = dir[i];
         levels = std::max(levels, b.level);
+        (b.level == 0 ? leafVertices : nodeVertices) += b.vertexCount;
         if (b.level == 0) {
             under[i] = b.vertexCount;
             continue;
         }
         for (std::uint32_t c = b.firstChild; c < b.firstChild + b.childCount; ++c)
             under[i] += under[c];
-        EXPECT_LT(4 * std::uint64_t(b.vertexCount), under[i])
-            << "node (" << b.col << "," << b.row << ") of level " << b.level;
+        if (double(b.vertexCount) > nodeShare * double(under[i]) && large++ < 3)
+            ADD_FAILURE() << "node (" << b.col << "," << b.row << ") of level " << b.level
+                          << " starts from " << b.vertexCount << " of its leaves' " << under[i]
+                          << " vertices";
     }
-    EXPECT_GE(levels, 4u);
-    EXPECT_LE(double(nodeVertices), 1.3 * double(leafVertices));
+    EXPECT_GE(levels, minLevels);
+    return {leafVertices, nodeVertices};
+}
+
+// A DEM far from square: a strip of 8 rows (the long sides are the DEM's outer edge, not locked),
+// cut into blocks of 64 cells. Each block's hand-over (nodebuild.h nodeHandoffTriangles) counts
+// its actual rectangle and locked sides; with a square block's counts (64^2 / 8 = 512 triangles
+// of the block's 1 024, and 8 64 2^L for a node, above what its children hand over) every node
+// started from its children whole and the tree stored each point once per level. On a gently
+// rough plane (below every hand-over error) every node starts from under a quarter of its
+// leaves' vertices, the nodes together hold at most 1.3 times the leaves' (issue 18's file-size
+// rule), and the model passes `check --errors`.
+TEST(Nodata, StripNodesStartFromSimplifiedChildren) {
+    DemGrid d = plane(1000, 8);
+    std::mt19937 rng(5);
+    for (float& z : d.z)
+        z += float(rng() % 100) / 200.0f;  // 0 - 0.5 m
+    const auto [leaves, nodes] = treeVertices(d, "strip", 64, 0.25, 4);
+    EXPECT_LE(double(nodes), 1.3 * double(leaves));
+}
+
+// Terrain rougher than every hand-over error (heights 0 - 100 m at random, blocks of 32 cells
+// of 30 m: hand-over errors 3.75 m and above, capped at the model's extent / 1920 = 2 m): the
+// first deletion of every block costs more, so the error rule handed every state over whole and
+// the root held every point (3.4 deletion steps per point on a 1M-point model of 1 m cells).
+// The error rule hands over only below an eighth of the triangles of the original points
+// (nodebuild.h kHandoffShare): every node starts from at most a quarter of its leaves' vertices.
+TEST(Nodata, RoughTerrainNodesStartFromSimplifiedChildren) {
+    DemGrid d = plane(128, 128);
+    std::mt19937 rng(7);
+    for (float& z : d.z)
+        z = float(rng() % 10000) / 100.0f;
+    const auto [leaves, nodes] = treeVertices(d, "rough", 32, 0.25, 2);
+    EXPECT_LE(double(nodes), 0.5 * double(leaves));
 }
