@@ -104,6 +104,19 @@ BuildOptions modelOptions(const DemGrid& d, const std::string& name, const std::
     return o;
 }
 
+// Builds `o`, checks the model (`unilod check --errors`: the invariants and every level's error
+// recomputed) and opens it in `reader`.
+void buildAndCheck(const BuildOptions& o, format::Reader& reader) {
+    BuildSummary summary;
+    std::string err;
+    ASSERT_TRUE(runBuild(o, summary, err)) << err;
+    UlodCheckOptions co;
+    co.errors = true;
+    UlodCheckSummary cs;
+    ASSERT_TRUE(checkUlod(o.outPath, co, cs, err)) << err;
+    ASSERT_TRUE(reader.open(o.outPath, err)) << err;
+}
+
 // An afterStep hook (deletion.h) that checks the invariants (checker.h) and that the stored `max`
 // error bounds the brute-force one after every step; failures are counted, the first 3 reported.
 std::function<void(std::uint32_t)> checkEveryStep(const PointSet& set, const Cdt& cdt,
@@ -191,15 +204,9 @@ void expectDomainModel(const DemGrid& dem, const std::string& name, int blockSiz
                        std::size_t expectedBlocks, const DemGrid* filled = nullptr) {
     SCOPED_TRACE(name);
     const BuildOptions o = modelOptions(dem, name, riverFile(name + "_rivers.geojson"), blockSize);
-    BuildSummary summary;
-    std::string err;
-    ASSERT_TRUE(runBuild(o, summary, err)) << err;
-    UlodCheckOptions co;
-    co.errors = true;
-    UlodCheckSummary cs;
-    ASSERT_TRUE(checkUlod(o.outPath, co, cs, err)) << err;
     format::Reader reader;
-    ASSERT_TRUE(reader.open(o.outPath, err)) << err;
+    ASSERT_NO_FATAL_FAILURE(buildAndCheck(o, reader));
+    std::string err;
     std::vector<std::size_t> leaves;  // the blocks (tree level 0; nodes are checked by `check`)
     for (std::size_t i = 0; i < reader.blocks().size(); ++i)
         if (reader.blocks()[i].level == 0) leaves.push_back(i);
@@ -299,6 +306,7 @@ void expectDomainModel(const DemGrid& dem, const std::string& name, int blockSiz
     BuildOptions fo = o;
     fo.demPath = writeTiff(full, name + "_unmasked.tif");
     fo.outPath = testing::TempDir() + name + "_unmasked.ulod";
+    BuildSummary summary;
     ASSERT_TRUE(runBuild(fo, summary, err)) << err;
     const double cx = full.centreX(0) + 0.5 * (full.width - 1) * full.cellX;
     const double cy = full.centreY(0) + 0.5 * (full.height - 1) * full.cellY;
@@ -585,15 +593,9 @@ TEST(Nodata, RiverAcrossAHoleKeepsBothBanks) {
         SCOPED_TRACE("stride " + std::to_string(stride));
         BuildOptions o = modelOptions(d, "nodata_lake", rivers, 16);
         o.stride = stride;
-        BuildSummary summary;
-        std::string err;
-        ASSERT_TRUE(runBuild(o, summary, err)) << err;
-        UlodCheckOptions co;
-        co.errors = true;
-        UlodCheckSummary cs;
-        ASSERT_TRUE(checkUlod(o.outPath, co, cs, err)) << err;
         format::Reader reader;
-        ASSERT_TRUE(reader.open(o.outPath, err)) << err;
+        ASSERT_NO_FATAL_FAILURE(buildAndCheck(o, reader));
+        std::string err;
         // On the stride-2 lattice (even cells) the squares touching the hole's nodes (cells 16
         // to 24) reach to cell 14 (x 500420) and 26 (x 500780).
         const double lo = 500420, hi = 500750 + 30.0 * (stride - 1);
@@ -750,16 +752,8 @@ static std::pair<std::uint64_t, std::uint64_t> treeVertices(const DemGrid& dem,
                                                             const std::string& name, int blockSize,
                                                             double nodeShare,
                                                             std::uint32_t minLevels) {
-    const BuildOptions o = modelOptions(dem, name, "", blockSize);
-    BuildSummary summary;
-    std::string err;
-    EXPECT_TRUE(runBuild(o, summary, err)) << err;
-    UlodCheckOptions co;
-    co.errors = true;
-    UlodCheckSummary cs;
-    EXPECT_TRUE(checkUlod(o.outPath, co, cs, err)) << err;
     format::Reader reader;
-    EXPECT_TRUE(reader.open(o.outPath, err)) << err;
+    buildAndCheck(modelOptions(dem, name, "", blockSize), reader);
     const std::vector<format::BlockInfo>& dir = reader.blocks();
     std::uint64_t leafVertices = 0, nodeVertices = 0;
     std::uint32_t levels = 0, large = 0;
