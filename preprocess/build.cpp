@@ -285,8 +285,6 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
     std::condition_variable changed;
     std::size_t next = 0, written = 0;
     bool failed = false;
-    // The node border lines (nodebuild.h): the outer border of its leaf rectangle, locked unless
-    // it is the DEM's outer edge (leaves lock that only for the 3ddp order, which builds no tree).
     // The first and last block of an item's rectangle of blocks (a leaf: itself twice).
     auto cornerRects = [&](const Item& it) {
         const std::uint32_t c0 = it.col << it.level, r0 = it.row << it.level;
@@ -296,6 +294,8 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
             source.rect(std::size_t(r0) * source.blocksX() + c0),
             source.rect(std::size_t(r1) * source.blocksX() + c1));
     };
+    // The node border lines (nodebuild.h): the outer border of its leaf rectangle, locked unless
+    // it is the DEM's outer edge (leaves lock that only for the 3ddp order, which builds no tree).
     auto nodeBorder = [&](const Item& it) {
         const std::uint32_t c0 = it.col << it.level, r0 = it.row << it.level;
         const std::uint32_t c1 = std::min(source.blocksX(), (it.col + 1) << it.level) - 1;

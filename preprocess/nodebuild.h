@@ -65,7 +65,7 @@ namespace unilod {
 // far from square: a 10-row strip of 256-cell blocks (every block 4 608 triangles, below a
 // square block's 8 192) handed every block over at full resolution, and each tree level took its
 // children whole; the root held 45 % of the DEM's points and the build did 4.7 deletion steps
-// per point (tests: Tree.StripNodesStartFromSimplifiedChildren). The error rule
+// per point (test: Nodata.StripNodesStartFromSimplifiedChildren). The error rule
 // (nodeHandoffError) usually hands a node over first.
 std::uint32_t nodeHandoffTriangles(std::uint64_t width, std::uint64_t height,
                                    std::uint64_t lockedCells, std::uint32_t level);
@@ -85,14 +85,14 @@ inline constexpr double kDefaultHandoffPixels = 256;
 // handoverKeyTriangles). On terrain rougher than the hand-over errors (1 m cells under 2000 m of
 // relief: the first deletions of a 256-m block already cost more than 1 m, and the cap of a 1 km
 // model is 0.5 m at every level) every state went up whole and the root re-deleted 88 % of the
-// points (1M points: 3.4 deletion steps per point, 23 MB, 65 s, 1.4 GB). Now each tree level
-// holds at most this share of the model's triangles, the tree at most 1 + levels / 8 times its
-// leaves. A parent then starts above its level's hand-over error (drawn only farther away; its
-// children are drawn until then); errors stay monotone up the tree. Where the error rule hands
-// over below this share anyway (the usual case) nothing changes. A share of the node's own
-// starting state instead (a quarter) bound where the cap stops several levels at one error by
-// design (the bundled 64-cell model's upper levels at 17 m: 1 node at 20-100 km became 4-12,
-// 50 km 5 587 -> 9 006 triangles).
+// points (1M points: 3.4 deletion steps per point, 23 MB, 65 s, 1.4 GB). Now the error rule
+// hands no tree level more than this share of the model's triangles (the triangle rule above
+// bounds the rest; test: Nodata.RoughTerrainNodesStartFromSimplifiedChildren). A parent then starts
+// above its level's hand-over error (drawn only farther away; its children are drawn until then);
+// errors stay monotone up the tree. Where the error rule hands over below this share anyway (the
+// usual case) nothing changes. A share of the node's own starting state instead (a quarter) bound
+// where the cap stops several levels at one error by design (the bundled 64-cell model's upper
+// levels at 17 m: 1 node at 20-100 km became 4-12, 50 km 5 587 -> 9 006 triangles).
 inline constexpr double kHandoffShare = 0.125;
 
 // Stored levels of a tree node are kNodeLodTriangleRatio apart in triangles (a block's:
