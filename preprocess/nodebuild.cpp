@@ -28,9 +28,11 @@ struct XYHash {
 
 std::uint32_t nodeHandoffTriangles(std::uint64_t width, std::uint64_t height,
                                    std::uint64_t lockedCells, std::uint32_t level) {
-    const std::uint64_t border = 2 * std::min<std::uint64_t>(lockedCells, 1ull << 40);
-    const std::uint64_t area =
-        std::min<std::uint64_t>(width, 1u << 30) * std::min<std::uint64_t>(height, 1u << 30) / 8;
+    const std::uint64_t w = std::min<std::uint64_t>(width, 1u << 30),
+                        h = std::min<std::uint64_t>(height, 1u << 30);
+    const std::uint64_t border =
+        2 * std::max(std::min<std::uint64_t>(lockedCells, 1ull << 40), 4 * std::min(w, h));
+    const std::uint64_t area = w * h / 8;
     const std::uint64_t count = level == 0 ? std::max(area, border) : border;
     return std::uint32_t(std::clamp<std::uint64_t>(count, 64, 1u << 30));
 }

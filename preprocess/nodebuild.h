@@ -58,14 +58,17 @@ namespace unilod {
 // The hand-over triangle count of a block or node of tree `level` (0: a block) whose rectangle
 // is `width` x `height` sampled cells, `lockedCells` of them along its locked border lines (the
 // sides it shares with a neighbour; the DEM's outer edge is not locked, NodeBorder): twice that,
-// the points no deletion removes: below it the node would be its border alone, with an error of
-// the whole relief; for a block at least width height / 8 (1/16 of its triangles; 8192 for
-// 256-cell blocks, 512 for 64-cell ones). For a whole inner node of blocks of `side` cells that is
-// 8 side 2^level. Counting the actual rectangle and locked sides matters where the rectangle is
-// far from square: a 10-row strip of 256-cell blocks (every block 4 608 triangles, below a
-// square block's 8 192) handed every block over at full resolution, and each tree level took its
-// children whole; the root held 45 % of the DEM's points and the build did 4.7 deletion steps
-// per point (test: Nodata.StripNodesStartFromSimplifiedChildren). The error rule
+// the points no deletion removes (below it the node would be its border alone, with an error of
+// the whole relief), but at least twice the perimeter of a square of its shorter side; for a
+// block at least width height / 8 (1/16 of its triangles; 8192 for 256-cell blocks, 512 for
+// 64-cell ones). For any square of `side` cells a side that is 8 side (8 side 2^level for a whole
+// node of blocks of `side` cells), whatever its locked sides. Counting the actual rectangle
+// matters where it is far from square: a 10-row strip of 256-cell blocks (every block 4 608
+// triangles, below a square block's 8 192) handed every block over at full resolution, and each
+// tree level took its children whole; the root held 45 % of the DEM's points and the build did
+// 4.7 deletion steps per point (test: Nodata.StripNodesStartFromSimplifiedChildren). Counting
+// only the locked sides of squares too (the DEM-edge nodes) was measured and not kept: their
+// parents start coarser and draw more (MEASURED.md, twenty-third session). The error rule
 // (nodeHandoffError) usually hands a node over first.
 std::uint32_t nodeHandoffTriangles(std::uint64_t width, std::uint64_t height,
                                    std::uint64_t lockedCells, std::uint32_t level);
