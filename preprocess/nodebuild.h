@@ -30,9 +30,9 @@
 // at 7.5 m, and the 100 m cut was 4.9x the river-holding TIN; with it 1.6x).
 //
 // Hand-over: a block or node that has a parent hands its state over before a deletion costing
-// more than nodeHandoffError (the same for every node of a tree level: siblings hand over alike)
-// or once it has nodeHandoffTriangles(side, level) triangles or fewer: that state is what the
-// parent starts from. Errors then double per tree level, as the view distance at which a node
+// more than nodeHandoffError (the same for every node of a tree level: siblings hand over alike;
+// not above kHandoffShare of its original points' triangles) or once it has
+// nodeHandoffTriangles triangles or fewer: that state is what the parent starts from. Errors then double per tree level, as the view distance at which a node
 // is drawn does (the chunked-LOD rule), up to the cap at which one root draws the whole model.
 // The block or node itself simplifies on to the end of its order (its own coarser levels):
 // where its parent does not fit h_lim (the parent's box comes nearer the eye) the child may
