@@ -32,13 +32,14 @@
 // Hand-over: a block or node that has a parent hands its state over before a deletion costing
 // more than nodeHandoffError (the same for every node of a tree level: siblings hand over alike;
 // not above kHandoffShare of its original points' triangles) or once it has
-// nodeHandoffTriangles triangles or fewer: that state is what the parent starts from. Errors then double per tree level, as the view distance at which a node
-// is drawn does (the chunked-LOD rule), up to the cap at which one root draws the whole model.
-// The block or node itself simplifies on to the end of its order (its own coarser levels):
-// where its parent does not fit h_lim (the parent's box comes nearer the eye) the child may
-// still, at an error above the hand-over. Measured on the bundled 64-cell model (median
-// triangles of the `bench` paths at P = 1): fly-over 12 904 -> 11 747, jacksboro_path
-// 25 752 -> 21 730, orbit 24 506 -> 11 625 (there the cap had stopped every level at 17 m).
+// nodeHandoffTriangles triangles or fewer: that state is what the parent starts from. Errors then
+// double per tree level, as the view distance at which a node is drawn does (the chunked-LOD rule),
+// up to the cap at which one root draws the whole model. The block or node itself simplifies on to
+// the end of its order (its own coarser levels): where its parent does not fit h_lim (the parent's
+// box comes nearer the eye) the child may still, at an error above the hand-over. Measured on the
+// bundled 64-cell model (median triangles of the `bench` paths at P = 1): fly-over
+// 12 904 -> 11 747, jacksboro_path 25 752 -> 21 730, orbit 24 506 -> 11 625 (there the cap had
+// stopped every level at 17 m).
 //
 // Stop rule: the tree is built up to one root covering the whole model (a block grid of
 // bx x by blocks has ceil(log2(max(bx, by))) levels above the leaves); the leaves are the blocks,
