@@ -7,6 +7,7 @@
 #include <cassert>
 #include <cmath>
 #include <set>
+#include <tuple>
 
 namespace unilod {
 
@@ -112,6 +113,15 @@ bool BlockSource::init(const DemGrid& dem, const RiverLines& rivers, const Block
         else if (at != lines.begin() && std::round(*(at - 1) / format::kGridUnit) == q)
             c = *(at - 1);
     };
+    // The crossing vertices on each interior border line (not at a block corner), to keep them
+    // apart on the exact grid below.
+    struct OnLine {
+        bool vertical;     // on borderCols_[line] (x exact), else on borderRows_[line]
+        std::size_t line;  // index into borderCols_ / borderRows_
+        double along;      // y on a vertical line, x on a horizontal one
+        std::uint32_t piece, vertex;
+    };
+    std::vector<OnLine> onLine;
     for (const RiverPiece& rawPiece : raw) {
         RiverPiece piece = rawPiece;
         for (RiverVertex& v : piece) {
@@ -123,7 +133,8 @@ bool BlockSource::init(const DemGrid& dem, const RiverLines& rivers, const Block
             const RiverVertex a = piece[i], b = piece[i + 1];
             struct Cross {
                 double t, x, y;
-                bool vertical;  // crossing of a vertical border line (x exact)
+                bool vertical;     // crossing of a vertical border line (x exact)
+                std::size_t line;  // its index in borderCols_ or borderRows_
             };
             std::vector<Cross> cross;
             // Interior border lines only: the outer ones bound the DEM, no segment crosses them.
@@ -131,14 +142,14 @@ bool BlockSource::init(const DemGrid& dem, const RiverLines& rivers, const Block
                 const double x = dem.centreX(borderCols_[k]);
                 if ((a.x - x) * (b.x - x) < 0) {
                     const double t = (x - a.x) / (b.x - a.x);
-                    cross.push_back({t, x, a.y + t * (b.y - a.y), true});
+                    cross.push_back({t, x, a.y + t * (b.y - a.y), true, k});
                 }
             }
             for (std::size_t k = 1; k + 1 < borderRows_.size(); ++k) {
                 const double y = dem.centreY(borderRows_[k]);
                 if ((a.y - y) * (b.y - y) < 0) {
                     const double t = (y - a.y) / (b.y - a.y);
-                    cross.push_back({t, a.x + t * (b.x - a.x), y, false});
+                    cross.push_back({t, a.x + t * (b.x - a.x), y, false, k});
                 }
             }
             std::sort(cross.begin(), cross.end(),
@@ -150,6 +161,10 @@ bool BlockSource::init(const DemGrid& dem, const RiverLines& rivers, const Block
                     const Cross& d = cross[++k];
                     c.x = c.vertical ? c.x : d.x;
                     c.y = c.vertical ? d.y : c.y;
+                } else {
+                    onLine.push_back({c.vertical, c.line, c.vertical ? c.y : c.x,
+                                      static_cast<std::uint32_t>(pieces_.size()),
+                                      static_cast<std::uint32_t>(out.size())});
                 }
                 const double z = dem.sample(c.x, c.y);
                 out.push_back({c.x, c.y, std::isfinite(z) ? z : a.z + c.t * (b.z - a.z)});
@@ -158,6 +173,27 @@ bool BlockSource::init(const DemGrid& dem, const RiverLines& rivers, const Block
             out.push_back(b);
         }
         pieces_.push_back(std::move(out));
+    }
+    // Crossings of one border line closer than the exact grid (two legs of a hairpin bend, a
+    // tributary meeting at a very small angle) rounded to one grid point: the triangulation
+    // merged them and found a river edge twice (the build failed). A crossing whose grid point
+    // an earlier one (in order along the line) took moves along the line to the next grid point:
+    // distinct, in the same order, a few units moved at most (the others stay where they are).
+    std::sort(onLine.begin(), onLine.end(), [](const OnLine& l, const OnLine& r) {
+        return std::tie(l.vertical, l.line, l.along, l.piece, l.vertex) <
+               std::tie(r.vertical, r.line, r.along, r.piece, r.vertex);
+    });
+    for (std::size_t i = 0; i < onLine.size(); ++i) {
+        const OnLine& c = onLine[i];
+        if (i == 0 || onLine[i - 1].vertical != c.vertical || onLine[i - 1].line != c.line)
+            continue;
+        const RiverVertex& prev = pieces_[onLine[i - 1].piece][onLine[i - 1].vertex];
+        const std::int64_t taken = std::llround((c.vertical ? prev.y : prev.x) / format::kGridUnit);
+        if (std::llround(c.along / format::kGridUnit) > taken) continue;
+        RiverVertex& v = pieces_[c.piece][c.vertex];
+        (c.vertical ? v.y : v.x) = static_cast<double>(taken + 1) * format::kGridUnit;
+        const double z = dem.sample(v.x, v.y);
+        if (std::isfinite(z)) v.z = z;
     }
     // A river vertex where a river passes a dropped DEM point (after the crossings, so that none
     // comes closer than the clearance to one), snapped like the others.

@@ -133,12 +133,51 @@ std::size_t addVerticesAtDroppedCells(const DemGrid& dem, double clearance, int 
     // left out: the river already passes within about the clearance of the cell there, and no
     // vertices crowd (a near-duplicate vertex makes slivers of its own).
     const double kApart = clearance;
+    auto onLattice = [&](int col, int row) {
+        return col % stride == 0 && row % stride == 0 &&
+               std::isfinite(dem.z[static_cast<std::size_t>(row) * dem.width + col]);
+    };
+    // Also left out: a new vertex closer than kRiverSeparation to another segment. Rounded to the
+    // exact grid it could land on that segment or beyond it: where two rivers meet at a very
+    // small angle (a hairpin bend, a tributary alongside), both got a vertex for the same cell
+    // and the two rounded to one grid point, so the block's triangulation found a river edge
+    // twice and the build failed. The segments near each lattice cell, sorted by cell:
+    struct Near {
+        std::size_t cell;
+        std::uint32_t piece, segment;
+        auto operator<=>(const Near&) const = default;
+    };
+    std::vector<Near> near;
+    for (std::uint32_t p = 0; p < pieces.size(); ++p) {
+        for (std::uint32_t i = 0; i + 1 < pieces[p].size(); ++i) {
+            forCellsNearSegment(
+                dem, pieces[p][i], pieces[p][i + 1], clearance + kRiverSeparation,
+                [&](int col, int row) {
+                    if (onLattice(col, row))
+                        near.push_back({static_cast<std::size_t>(row) * dem.width + col, p, i});
+                });
+        }
+    }
+    std::sort(near.begin(), near.end());
+    auto apart = [&](std::size_t cell, std::uint32_t p, std::uint32_t i, double x, double y) {
+        const auto lo = std::lower_bound(near.begin(), near.end(), Near{cell, 0, 0});
+        for (auto it = lo; it != near.end() && it->cell == cell; ++it) {
+            if (it->piece == p && it->segment == i) continue;
+            const RiverPiece& q = pieces[it->piece];
+            if (distanceSquaredToSegment(x, y, q[it->segment], q[it->segment + 1]) <
+                kRiverSeparation * kRiverSeparation)
+                return false;
+        }
+        return true;
+    };
     std::size_t added = 0;
     std::vector<std::pair<double, RiverVertex>> along;
-    for (RiverPiece& piece : pieces) {
-        RiverPiece out;
+    std::vector<RiverPiece> result(pieces.size());
+    for (std::uint32_t p = 0; p < pieces.size(); ++p) {
+        const RiverPiece& piece = pieces[p];
+        RiverPiece& out = result[p];
         out.reserve(piece.size());
-        for (std::size_t i = 0; i + 1 < piece.size(); ++i) {
+        for (std::uint32_t i = 0; i + 1 < piece.size(); ++i) {
             const RiverVertex a = piece[i], b = piece[i + 1];
             out.push_back(a);
             const double dx = b.x - a.x, dy = b.y - a.y;
@@ -146,12 +185,12 @@ std::size_t addVerticesAtDroppedCells(const DemGrid& dem, double clearance, int 
             if (!(len > 2 * kApart)) continue;
             along.clear();
             forCellsNearSegment(dem, a, b, clearance, [&](int col, int row) {
-                if (col % stride != 0 || row % stride != 0) return;
-                if (!std::isfinite(dem.z[static_cast<std::size_t>(row) * dem.width + col])) return;
+                if (!onLattice(col, row)) return;
                 const double t =
                     ((dem.centreX(col) - a.x) * dx + (dem.centreY(row) - a.y) * dy) / (len * len);
                 if (t * len < kApart || (1 - t) * len < kApart) return;
                 const double x = a.x + t * dx, y = a.y + t * dy;
+                if (!apart(static_cast<std::size_t>(row) * dem.width + col, p, i, x, y)) return;
                 const double z = dem.sample(x, y);
                 along.push_back({t, {x, y, std::isfinite(z) ? z : a.z + t * (b.z - a.z)}});
             });
@@ -166,8 +205,8 @@ std::size_t addVerticesAtDroppedCells(const DemGrid& dem, double clearance, int 
             }
         }
         out.push_back(piece.back());
-        piece = std::move(out);
     }
+    pieces = std::move(result);
     return added;
 }
 

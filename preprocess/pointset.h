@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "dem.h"
+#include "grid.h"
 #include "points.h"
 #include "rivers.h"
 
@@ -52,13 +53,17 @@ std::vector<std::uint8_t> riverClearanceMask(const DemGrid& dem,
                                              const std::vector<RiverPiece>& pieces,
                                              double clearance);
 
+// Four units of the exact grid (grid.h): a vertex this far from a segment stays off it (and
+// off its side) when both are rounded to the grid.
+inline constexpr double kRiverSeparation = 4 * kGridUnit;
+
 // Where a river passes within `clearance` of a DEM point on the stride's lattice (a point the
 // clearance drops, riverClearanceMask), a river vertex at the point's projection onto the
 // segment, z from the DEM (DemGrid::sample): the river's surface then meets the DEM at the
 // dropped point instead of interpolating over it between vertices up to two cells apart (on the
 // bundled data the dropped points were up to 6 m off the river's chord). A projection closer than
-// the clearance to a vertex (an end of the segment or one added before it) adds none. Returns how
-// many were added.
+// the clearance to a vertex (an end of the segment or one added before it), or closer than
+// kRiverSeparation to another segment of `pieces`, adds none. Returns how many were added.
 std::size_t addVerticesAtDroppedCells(const DemGrid& dem, double clearance, int stride,
                                       std::vector<RiverPiece>& pieces);
 

@@ -723,6 +723,27 @@ TEST(Nodata, DroppedPointsNextToRiversAreOnTheSurfaceAndInTheError) {
     EXPECT_GE(stored, summary.droppedDeviation);
 }
 
+// Rivers that meet at a very small angle (here both legs of a hairpin bend, millimetres apart
+// near the apex) failed the build with "river segments overlap": the vertices added where the
+// legs pass a dropped DEM point (pointset.h kRiverSeparation), or the legs' crossings of a block
+// border (blocks.cpp), rounded to one point of the exact grid, and the block held the edge from
+// the apex to it twice. Both models build and pass the full check.
+TEST(Nodata, HairpinBendsBuild) {
+    const DemGrid d = plane(20, 20);
+    // Apex on the DEM's east edge, legs 3 mm apart there: one block.
+    const std::string inBlock = riverFile(
+        "nodata_hairpin.geojson", {"[[500000,3999700],[500570,3999700.003],[500000,3999700.006]]"});
+    format::Reader reader;
+    buildAndCheck(modelOptions(d, "nodata_hairpin", inBlock, 64), reader);
+    // Apex 1 m east of the border line x = 500240 of 8-cell blocks, legs 1 cm apart at the apex.
+    const std::string atBorder =
+        riverFile("nodata_hairpin_border.geojson",
+                  {"[[500000,3999700],[500241,3999700.01],[500000,3999700.02]]"});
+    format::Reader reader2;
+    buildAndCheck(modelOptions(d, "nodata_hairpin_border", atBorder, 8), reader2);
+    EXPECT_GT(reader2.blocks().size(), 9u);
+}
+
 // A river line entirely outside the DEM was dropped with no word (only the summary's line
 // counts said it); it is a warning now, the usual cut at the DEM's edge is not.
 TEST(Nodata, RiverLinesOutsideTheDemAreWarnedAbout) {

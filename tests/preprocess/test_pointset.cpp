@@ -219,3 +219,33 @@ TEST(PointSet, RiverVerticesAtDroppedPointsLieOnTheRiver) {
     EXPECT_EQ(wider.dropped.size(), 4u);
     EXPECT_EQ(wider.rivers[0].size(), 4u);  // no vertex 0.6 m from the last one
 }
+
+// A hairpin bend (two legs 2.7 mm apart a cell from the apex, 5.3 mm two cells away): a vertex
+// at the dropped point next to the apex on each leg rounded to one grid point, so the block's
+// triangulation found the river edge apex - vertex twice and the build failed. A new vertex
+// closer than kRiverSeparation to another segment is left out; the others stay.
+TEST(PointSet, NoVertexAtDroppedPointsNextToAnotherRiver) {
+    const DemGrid dem = makeGrid();
+    std::vector<RiverPiece> pieces = {{{5, 45, 0}, {95, 45.012, 0}, {5, 45.024, 0}}};
+    ASSERT_EQ(addVerticesAtDroppedCells(dem, 1.0, 1, pieces), 14u);
+    ASSERT_EQ(pieces.size(), 1u);
+    const RiverPiece& p = pieces[0];
+    ASSERT_EQ(p.size(), 17u);
+    std::vector<double> xs;
+    for (const RiverVertex& v : p)
+        xs.push_back(std::round(v.x * 1000) / 1000);
+    const std::vector<double> expected = {5,  15, 25, 35, 45, 55, 65, 75, 95,
+                                          75, 65, 55, 45, 35, 25, 15, 5};
+    EXPECT_EQ(xs, expected);  // none at x = 85 on either leg
+    const RiverVertex apex = p[8];
+    auto offLeg = [&](const RiverVertex& v, const RiverVertex& end) {  // distance to apex-end
+        const double dx = end.x - apex.x, dy = end.y - apex.y;
+        return std::fabs((v.x - apex.x) * dy - (v.y - apex.y) * dx) / std::hypot(dx, dy);
+    };
+    for (std::size_t i = 1; i < 8; ++i) {
+        EXPECT_LT(offLeg(p[i], p[0]), 1e-9);
+        EXPECT_GE(offLeg(p[i], p[16]), kRiverSeparation) << i;
+        EXPECT_LT(offLeg(p[16 - i], p[16]), 1e-9);
+        EXPECT_GE(offLeg(p[16 - i], p[0]), kRiverSeparation) << i;
+    }
+}
