@@ -285,21 +285,26 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
     std::condition_variable changed;
     std::size_t next = 0, written = 0;
     bool failed = false;
+    // The first and last block column and row of an item's rectangle of blocks.
+    struct BlockRange {
+        std::uint32_t c0, r0, c1, r1;
+    };
+    auto blockRange = [&](const Item& it) {
+        return BlockRange{it.col << it.level, it.row << it.level,
+                          std::min(source.blocksX(), (it.col + 1) << it.level) - 1,
+                          std::min(source.blocksY(), (it.row + 1) << it.level) - 1};
+    };
     // The first and last block of an item's rectangle of blocks (a leaf: itself twice).
     auto cornerRects = [&](const Item& it) {
-        const std::uint32_t c0 = it.col << it.level, r0 = it.row << it.level;
-        const std::uint32_t c1 = std::min(source.blocksX(), (it.col + 1) << it.level) - 1;
-        const std::uint32_t r1 = std::min(source.blocksY(), (it.row + 1) << it.level) - 1;
+        const BlockRange r = blockRange(it);
         return std::pair<const BlockRect&, const BlockRect&>(
-            source.rect(std::size_t(r0) * source.blocksX() + c0),
-            source.rect(std::size_t(r1) * source.blocksX() + c1));
+            source.rect(std::size_t(r.r0) * source.blocksX() + r.c0),
+            source.rect(std::size_t(r.r1) * source.blocksX() + r.c1));
     };
     // The node border lines (nodebuild.h): the outer border of its leaf rectangle, locked unless
     // it is the DEM's outer edge (leaves lock that only for the 3ddp order, which builds no tree).
     auto nodeBorder = [&](const Item& it) {
-        const std::uint32_t c0 = it.col << it.level, r0 = it.row << it.level;
-        const std::uint32_t c1 = std::min(source.blocksX(), (it.col + 1) << it.level) - 1;
-        const std::uint32_t r1 = std::min(source.blocksY(), (it.row + 1) << it.level) - 1;
+        const auto [c0, r0, c1, r1] = blockRange(it);
         const auto [lo, hi] = cornerRects(it);
         NodeBorder b;
         b.x0 = dem.centreX(lo.cellCol0);
