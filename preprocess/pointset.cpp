@@ -114,7 +114,7 @@ std::vector<std::uint8_t> riverClearanceMask(const DemGrid& dem,
                                              const std::vector<RiverPiece>& pieces,
                                              double clearance) {
     std::vector<std::uint8_t> drop;
-    if (clearance <= 0) return drop;
+    if (clearance <= 0 || pieces.empty()) return drop;
     drop.assign(dem.z.size(), 0);
     for (const auto& piece : pieces) {
         for (std::size_t i = 0; i + 1 < piece.size(); ++i) {

@@ -48,7 +48,7 @@ using RiverPiece = std::vector<RiverVertex>;
 std::vector<RiverPiece> sampleRiverPieces(const DemGrid& dem, const RiverLines& rivers);
 
 // One byte per DEM cell: 1 where the cell centre is closer than `clearance` (horizontally) to a
-// segment of `pieces`. Empty when clearance <= 0.
+// segment of `pieces`. Empty when clearance <= 0 or there are no pieces.
 std::vector<std::uint8_t> riverClearanceMask(const DemGrid& dem,
                                              const std::vector<RiverPiece>& pieces,
                                              double clearance);
