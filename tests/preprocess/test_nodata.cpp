@@ -177,6 +177,43 @@ TEST(Nodata, LargeHoleIsKeptAndBorderNodataLeftAlone) {
     EXPECT_TRUE(std::isnan(e.at(10, 2)));
 }
 
+// Holes are 4-connected regions (found by joining runs of nodata along rows): diagonal
+// neighbours are two holes, a U whose arms meet only at its bottom row one hole, a region that
+// reaches the border by a one-cell channel none.
+TEST(Nodata, HolesAreFourConnectedRegions) {
+    DemGrid d = plane(30, 30);
+    punch(d, 3, 3, 3, 3);
+    punch(d, 4, 4, 4, 4);  // diagonal to (3, 3): a hole of its own
+    // A U: arms at columns 10 and 14 (rows 10..15), bottom row 16 (columns 10..14); 17 cells.
+    punch(d, 10, 10, 10, 15);
+    punch(d, 14, 10, 14, 15);
+    punch(d, 10, 16, 14, 16);
+    // A 5 x 5 block joined to the right border by a channel along row 22.
+    punch(d, 20, 20, 24, 24);
+    punch(d, 25, 22, 29, 22);
+    NodataStats s;
+    std::string err;
+    ASSERT_TRUE(fillSmallHoles(d, "holes.tif", 16, s, err)) << err;
+    EXPECT_EQ(s.nodataCells, 2u + 17u + 25u + 5u);
+    EXPECT_EQ(s.holes, 3u);
+    EXPECT_EQ(s.filledCells, 2u);
+    EXPECT_EQ(s.keptHoles, 1u);
+    EXPECT_EQ(s.keptHoleCells, 17u);
+    EXPECT_FALSE(std::isnan(d.at(3, 3)));
+    EXPECT_FALSE(std::isnan(d.at(4, 4)));
+    EXPECT_TRUE(std::isnan(d.at(10, 10)));
+    EXPECT_TRUE(std::isnan(d.at(14, 10)));
+    EXPECT_TRUE(std::isnan(d.at(22, 22)));
+    // The same U with arms a cell shorter (15 cells) is filled.
+    DemGrid e = plane(30, 30);
+    punch(e, 10, 11, 10, 15);
+    punch(e, 14, 11, 14, 15);
+    punch(e, 10, 16, 14, 16);
+    ASSERT_TRUE(fillSmallHoles(e, "u16.tif", 16, s, err)) << err;
+    EXPECT_EQ(s.holes, 1u);
+    EXPECT_EQ(s.filledCells, 15u);
+}
+
 // Twice the area of the domain (blocks.h "Domain") in grid units^2 (1 mm): every lattice square
 // with 4 valid corners counts whole, one with 3 valid corners half.
 std::int64_t doubleDomainArea(const DemGrid& d) {
