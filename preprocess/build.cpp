@@ -98,7 +98,9 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
     }
 
     Ingested data;
-    if (!ingest(o, data, error)) return false;
+    IngestOptions in = o;
+    if (o.stage) in.onStage = [&o](const std::string& name) { o.stage(name, 0); };
+    if (!ingest(in, data, error)) return false;
     const DemGrid& dem = data.dem;
     summary.demWidth = dem.width;
     summary.demHeight = dem.height;

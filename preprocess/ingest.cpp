@@ -198,6 +198,7 @@ bool ingest(const IngestOptions& o, Ingested& data, std::string& error) {
     // River cleaning (DESIGN.md "Point set"): clip to the DEM, snap, split at crossings, drop
     // duplicates, zero-length segments and short rivers, so that the constrained triangulation
     // gets a planar network whose rivers meet only at shared vertices.
+    if (o.onStage) o.onStage("cleaning the rivers");
     RiverCleaningOptions cleaning;
     cleaning.minRiverLength = o.minRiverLength;
     std::size_t notDensified = 0;

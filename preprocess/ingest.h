@@ -38,6 +38,8 @@ struct IngestOptions {
     double riverClearance = kDefaultRiverClearance;  // DEM points this close to a river go
     // Warnings for accepted-but-odd input (empty river layer, NaN cells...).
     std::function<void(const std::string&)> warn;
+    // Progress: the name of a long step as it starts ("cleaning the rivers").
+    std::function<void(const std::string&)> onStage;
 };
 
 struct Ingested {

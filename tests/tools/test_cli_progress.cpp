@@ -40,8 +40,9 @@ TEST(CliProgress, BuildPrintsElapsedAndEta) {
     // The first line comes before the inputs are read (so within a second of the start).
     EXPECT_EQ(lines.front().rfind("build: reading the DEM and the rivers  elapsed ", 0), 0u)
         << lines.front();
-    bool counted = false, done = false;
+    bool counted = false, done = false, cleaning = false;
     for (const std::string& l : lines) {
+        cleaning = cleaning || l.rfind("build: cleaning the rivers  elapsed ", 0) == 0;
         EXPECT_NE(l.find("  elapsed "), std::string::npos) << l;
         EXPECT_NE(l.find("  ETA "), std::string::npos) << l;
         if (l.find("blocks") != std::string::npos && l.find('/') != std::string::npos)
@@ -49,6 +50,7 @@ TEST(CliProgress, BuildPrintsElapsedAndEta) {
         if (l.find("100 %") != std::string::npos && l.find("ETA 0 s") != std::string::npos)
             done = true;
     }
+    EXPECT_TRUE(cleaning) << r.err;
     EXPECT_TRUE(counted) << r.err;
     EXPECT_TRUE(done) << r.err;
     EXPECT_NE(r.out.find("unilod build summary"), std::string::npos);
