@@ -521,6 +521,16 @@ TEST(CliBuildOdd, ZeroLengthLinesAndDuplicateVertices) {
     const Result r = run(build(c, c.in("dem.tif"), rivers));
     EXPECT_NE(r.err.find("dropped 4 repeated vertices and 2 zero-length lines"), std::string::npos)
         << r.err;
+    // Said once, with the numbers (cleaning's own counts are in the summary).
+    std::size_t said = 0;
+    for (std::size_t at = r.err.find("warning"); at != std::string::npos;
+         at = r.err.find("warning", at + 1)) {
+        const std::size_t end = r.err.find('\n', at);
+        const std::string line = r.err.substr(at, end == std::string::npos ? end : end - at);
+        said += line.find("repeated") != std::string::npos ||
+                line.find("duplicate") != std::string::npos;
+    }
+    EXPECT_EQ(said, 1u) << r.err;
     expectAcceptedAndChecked(c, r);
     // The same model as from the clean line (the two degenerate lines are gone entirely).
     const std::string clean = c.in("clean.geojson");

@@ -375,13 +375,45 @@ TEST_F(ReportTest, RiverComparison) {
         }
     }
     EXPECT_EQ(rivers10, rivers100);
-    EXPECT_GT(rivers10, 100u);  // the bundled network has 142 lines
+    EXPECT_GT(rivers10, 100u);  // the bundled network has 142 lines, cut at block borders
     // Jacksboro: rivers in the 0-500 m and 500-1000 m classes (z 245..1072 m).
     EXPECT_TRUE(classes.count("0"));
     EXPECT_TRUE(classes.count("1"));
     const std::string md = slurp(out + "/rivers.md");
     EXPECT_NE(md.find("| 0-500 m | 10 |"), std::string::npos);
     EXPECT_NE(md.find("| 500-1000 m | 10 |"), std::string::npos);
+}
+
+// The comparison ranks the build's own blocks (so its memory and time are a block's, not the
+// whole DEM's): smaller blocks cut the rivers into more pieces, each counted once per budget;
+// the rows do not depend on the number of threads.
+TEST_F(ReportTest, RiverComparisonRanksTheBuildsBlocks) {
+    ASSERT_EQ(result.code, 0) << result.err;
+    const std::string small = dir->file("j64.ulod");
+    auto r = runCli("build -q --block-size 64 " + q(kDem) + " " + q(kRivers) + " -o " + q(small));
+    ASSERT_EQ(r.code, 0) << r.err;
+    const auto pieces = [](const std::string& csv) {
+        std::uint64_t n = 0;
+        for (const auto& row : readCsv(csv)) {
+            if (row.size() > 4 && row[3] == "100") n += std::stoull(row[4]);
+        }
+        return n;
+    };
+    std::string csv[2];
+    for (int threads : {1, 2}) {
+        const std::string folder = dir->file("rivers64_" + std::to_string(threads));
+        r = runCli("report -q " + q(small) + " -o " + q(folder) +
+                   " --budget 10,100 --distance 30km --image-size 64 --bench-frames 0 --threads " +
+                   std::to_string(threads));
+        ASSERT_EQ(r.code, 0) << r.err;
+        csv[threads - 1] = folder + "/rivers.csv";
+    }
+    EXPECT_EQ(slurp(csv[0]), slurp(csv[1]));
+    // 142 lines; the default 256-cell blocks (2 x 2 here) cut a few of them, 64-cell blocks
+    // (7 x 7) many more.
+    const std::uint64_t big = pieces(out + "/rivers.csv"), many = pieces(csv[0]);
+    EXPECT_GE(big, 142u);
+    EXPECT_GT(many, big + 40) << big;
 }
 
 TEST_F(ReportTest, FailuresLeaveNothing) {

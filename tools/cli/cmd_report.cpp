@@ -16,6 +16,7 @@
 #include "progress.h"
 #include "report.h"
 #include "ulod.h"
+#include "workers.h"
 
 namespace unilod::cli {
 
@@ -53,6 +54,9 @@ int run(ReportCli& c) {
     }
     Progress progress("report", !c.quiet, "reading " + c.o.path);
     c.o.progress = [&progress](const std::string& s) { progress.stage(s); };
+    c.o.progressCount = [&progress](std::size_t done, std::size_t total) {
+        progress.update(done, total);
+    };
     report::ReportSummary summary;
     const bool ok = report::runReport(c.o, summary, error);
     progress.finish();
@@ -96,6 +100,11 @@ void addReportCommand(CLI::App& app, int& exitCode) {
     sub->add_option("--rivers", c->o.riversPath,
                     "rivers for the river comparison (default: the build's)");
     sub->add_flag("--no-rivers", c->noRivers, "skip the BAI vs plain 3D_DP river comparison");
+    sub->add_option("--threads", c->o.threads,
+                    "river comparison: blocks ranked at once (default 0: every core, at most " +
+                        std::to_string(engine::WorkerPool::kMaxThreads) +
+                        "); the report is the same for any number")
+        ->transform(integerIn(0, engine::WorkerPool::kMaxThreads));
     sub->add_option("--budget", c->budgets,
                     "river point budgets in percent of unlocked points, comma-separated "
                     "(default 5,10,20,40)")

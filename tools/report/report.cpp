@@ -186,11 +186,13 @@ std::string riversCsv(const std::vector<RiverRow>& rows) {
 std::string riversMd(const std::vector<RiverRow>& rows) {
     std::ostringstream s;
     s << "# BAI vs no BAI: river shapes at equal point budgets\n\n"
-      << "Symmetric 2D Hausdorff distance (m) between each simplified river and the original "
-         "polyline. Budget = share of a river's unlocked points kept (ends and junctions always "
-         "kept), the highest-ranked of the file's deletion order computed with and without BAI. Landform class by the river's "
-         "mean vertex altitude (Table 1 classes). Definitions: tools/report/report.h.\n\n"
-      << "| Landform class | Budget (%) | Rivers | Points kept / original | Mean BAI (m) | Mean "
+      << "Symmetric 2D Hausdorff distance (m) between each simplified river piece and the "
+         "original piece: the rivers as the build's blocks hold them, cut at block borders. "
+         "Budget = share of a piece's unlocked points kept (ends, border crossings and junctions "
+         "always kept), the highest-ranked of the block's deletion order computed with and "
+         "without BAI. Landform class by the piece's mean vertex altitude (Table 1 classes); "
+         "the CSV's `rivers` columns count pieces. Definitions: tools/report/report.h.\n\n"
+      << "| Landform class | Budget (%) | Pieces | Points kept / original | Mean BAI (m) | Mean "
          "plain (m) | Max BAI (m) | Max plain (m) | BAI better | Plain better |\n"
       << "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const RiverRow& r : rows) {
@@ -330,7 +332,7 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
     say("error vs retention curves");
     if (!computeCurve(o.path, summary.curve, summary.hasMax, summary.hasPaper, error)) return false;
     if (o.rivers) {
-        say("rivers: BAI vs no BAI");
+        say("rivers, BAI vs no BAI: reading the DEM and the rivers");
         if (!compareRivers(o, buildInfo, summary.rivers, error)) return false;
     }
 

@@ -19,16 +19,19 @@
 //   stays at its coarsest state), error_b = errors[k_b]; the curve shows the maximum and the mean
 //   of error_b over blocks, per metric.
 // - Rivers: the file's deletion order is computed twice on the model's inputs (DEM + rivers from
-//   the file's build info or --dem / --rivers, cleaned like `unilod build`, the whole DEM at the
-//   build's stride as one point set, as `unilod order` does): with BAI and without (--no-bai).
-//   For a greedy build that is the greedy deletion order of that point set as one block, with
+//   the file's build info or --dem / --rivers, cleaned like `unilod build` and cut into the
+//   build's blocks at its block size and stride, as the build's leaves are): with BAI and
+//   without (--no-bai). For a greedy build that is each block's greedy deletion order, with
 //   and without the BAI weights on river keys; for a 3ddp build (or a file without an `order`
-//   in its build info) improved 3D_DP with BAI and plain 3D_DP. For a budget f, each river polyline keeps its locked points (ends,
+//   in its build info) improved 3D_DP with BAI and plain 3D_DP. A file without a `block_size`
+//   in its build info is taken as one block. The unit compared is a river piece of a block (a
+//   river crossing a block border is cut there at a locked crossing vertex, as in the model).
+//   For a budget f, each piece keeps its locked points (ends, crossings,
 //   junctions) and the round(f · n) highest-ranked of its n unlocked points (rank = position in
 //   the deletion order: deleted later = more important); the simplified polyline joins the kept
 //   points in their original order. Its symmetric 2D Hausdorff distance to the original polyline
-//   is measured (hausdorff2D). Rivers without unlocked points are not counted. Landform class:
-//   the mean altitude of the river's vertices (z sampled from the DEM), classes by Table 1's
+//   is measured (hausdorff2D). Pieces without unlocked points are not counted. Landform class:
+//   the mean altitude of the piece's vertices (z sampled from the DEM), classes by Table 1's
 //   lower bounds 0 / 500 / 1000 m.
 // - Grid diagrams: the stats viewpoint (stats.h statsView: above the centre of the data, D above
 //   its maximum z, S = distance to the block centre, h_lim = 2·P·S·tan(α/2)/H, P the first
@@ -76,7 +79,11 @@ struct ReportOptions {
     std::string benchPath;  // camera path JSON (engine/capture.h); empty: a generated fly-over
     engine::DeviceOptions device;  // the benchmark's Vulkan device and validation
     std::string spirvDir;
+    std::size_t threads = 0;  // river comparison: blocks ranked at once (0: every core, <= 16)
     std::function<void(const std::string&)> progress;         // one line per stage
+    // Within a counted stage (the river comparison's blocks): done of total; called from one
+    // thread at a time.
+    std::function<void(std::size_t, std::size_t)> progressCount;
 };
 
 struct GridDiagram {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <nlohmann/json.hpp>
 
 #include "bai.h"
@@ -11,6 +12,7 @@
 #include "importance.h"
 #include "ingest.h"
 #include "report.h"
+#include "workers.h"
 
 namespace unilod::report {
 
@@ -73,100 +75,36 @@ bool greedyPositions(const PointSet& set, const BaiKeys& keys,
     return true;
 }
 
-}  // namespace
+// How both rankings are computed, from the file's build info.
+struct Rankings {
+    bool greedy = false, byThreshold = false;
+    ImportanceOptions withBai, plain;
+    int row = -1;  // greedy with a fixed BAI row: its index in the table
+};
 
-bool compareRivers(const ReportOptions& options, const std::string& buildInfo,
-                   std::vector<RiverRow>& rows, std::string& error) {
-    const auto say = [&](const std::string& s) {
-        if (options.progress) options.progress(s);
-    };
-    // The build's own ingestion (ingest.h) with the options it recorded, and the point set of
-    // one block covering the DEM as the build's order makes it (3ddp locks the outer edge).
-    const nlohmann::json info = nlohmann::json::parse(buildInfo, nullptr, false);
-    IngestOptions in = ingestOptionsFromInfo(info);
-    if (!options.demPath.empty()) in.demPath = options.demPath;
-    if (!options.riversPath.empty()) in.riversPath = options.riversPath;
-    // A terrain-only build (no RIVERS): nothing to compare.
-    if (options.riversPath.empty() && info.is_object() && info.contains("rivers") &&
-        info.at("rivers") == "") {
-        rows.clear();
-        return true;
+// Deletion positions of one block's points with and without BAI (as positions() above).
+bool rankBoth(const PointSet& set, const Rankings& k, std::vector<std::size_t>& posBai,
+              std::vector<std::size_t>& posPlain, std::string& error) {
+    if (k.greedy) {
+        const BaiKeys keys = k.byThreshold ? BaiKeys::byThreshold(set, k.withBai.baiTable)
+                                           : BaiKeys(baiFactors(set, k.withBai.baiTable, k.row));
+        return greedyPositions(set, keys, posBai, error) &&
+               greedyPositions(set, {}, posPlain, error);
     }
-    if (in.demPath.empty() || in.riversPath.empty()) {
-        error = options.path +
-                ": its build info names no DEM / rivers; give --dem and --rivers (or --no-rivers)";
+    ImportanceResult rBai, rPlain;
+    if (!computeImportance(set, k.withBai, rBai, error) ||
+        !computeImportance(set, k.plain, rPlain, error))
         return false;
-    }
-    // The file's own order (a file without the key predates the greedy order: 3ddp).
-    const bool greedy = infoValue<std::string>(info, "order", "3ddp") == "greedy";
-    Ingested data;
-    BlockSource source;
-    if (!ingest(in, data, error) || !splitIntoBlocks(data, in, kWholeDem, !greedy, source, error)) {
-        // Where the inputs came from: the options, or the file's build info (then the option
-        // that overrides it).
-        const bool dem = !options.demPath.empty(), rivers = !options.riversPath.empty();
-        const std::string named = "named by the build info of " + options.path;
-        if (dem && rivers)
-            error += " (the inputs given by --dem and --rivers)";
-        else if (dem)
-            error += " (the DEM given by --dem; the rivers " + named + ", override with --rivers)";
-        else if (rivers)
-            error += " (the rivers given by --rivers; the DEM " + named + ", override with --dem)";
-        else
-            error += " (the inputs " + named + "; override with --dem / --rivers)";
-        return false;
-    }
-    const PointSet set = source.points(0);
-    say("rivers: " + std::to_string(set.rivers.size()) + " polylines, " +
-        std::to_string(set.points.size()) + " points; importance with and without BAI");
+    posBai = positions(set, rBai);
+    posPlain = positions(set, rPlain);
+    return true;
+}
 
-    ImportanceOptions withBai;
-    const std::string tablePath = infoValue<std::string>(info, "bai_table", "");
-    if (!tablePath.empty() && !BaiTable::load(tablePath, withBai.baiTable, error)) return false;
-    // "threshold": the greedy order's C by threshold (bai.h BaiKeys); else a row.
-    const bool byThreshold = info.is_object() && info.contains("bai_row") &&
-                             info["bai_row"].is_string();
-    withBai.baiRow = byThreshold ? kDefaultBaiRow : infoValue<double>(info, "bai_row", kDefaultBaiRow);
-    ImportanceOptions plain = withBai;
-    plain.useBai = false;
-    std::vector<std::size_t> posBai, posPlain;
-    if (greedy && byThreshold) {
-        if (!greedyPositions(set, BaiKeys::byThreshold(set, withBai.baiTable), posBai, error) ||
-            !greedyPositions(set, {}, posPlain, error))
-            return false;
-    } else if (greedy) {
-        const int row = withBai.baiTable.findRow(withBai.baiRow);
-        if (row < 0) {
-            error = options.path + ": the BAI table has no row for its build's threshold";
-            return false;
-        }
-        if (!greedyPositions(set, BaiKeys(baiFactors(set, withBai.baiTable, row)), posBai, error) ||
-            !greedyPositions(set, {}, posPlain, error))
-            return false;
-    } else {
-        ImportanceResult rBai, rPlain;
-        if (!computeImportance(set, withBai, rBai, error)) return false;
-        if (!computeImportance(set, plain, rPlain, error)) return false;
-        posBai = positions(set, rBai);
-        posPlain = positions(set, rPlain);
-    }
-
-    const std::vector<double> bounds = withBai.baiTable.classLowerBounds.empty()
-                                           ? std::vector<double>{0, 500, 1000}
-                                           : withBai.baiTable.classLowerBounds;
+// Adds one block's river pieces to `rows` (sums: the caller divides the means at the end).
+void addPieces(const PointSet& set, const std::vector<std::size_t>& posBai,
+               const std::vector<std::size_t>& posPlain, const std::vector<double>& bounds,
+               const std::vector<double>& budgets, std::vector<RiverRow>& rows) {
     const int classes = int(bounds.size());
-    rows.clear();
-    for (int c = 0; c < classes; ++c) {
-        for (double f : options.budgets) {
-            RiverRow r;
-            r.landformClass = c;
-            r.classLow = bounds[std::size_t(c)];
-            r.classHigh = c + 1 < classes ? bounds[std::size_t(c) + 1]
-                                          : std::numeric_limits<double>::infinity();
-            r.budget = f;
-            rows.push_back(r);
-        }
-    }
     for (const Polyline& line : set.rivers) {
         std::size_t unlocked = 0;
         double meanZ = 0;
@@ -181,8 +119,8 @@ bool compareRivers(const ReportOptions& options, const std::string& buildInfo,
         int c = 0;
         while (c + 1 < classes && meanZ >= bounds[std::size_t(c) + 1])
             ++c;
-        for (std::size_t b = 0; b < options.budgets.size(); ++b) {
-            RiverRow& r = rows[std::size_t(c) * options.budgets.size() + b];
+        for (std::size_t b = 0; b < budgets.size(); ++b) {
+            RiverRow& r = rows[std::size_t(c) * budgets.size() + b];
             const std::size_t keep = std::size_t(std::lround(r.budget * double(unlocked)));
             const std::vector<XY> a = simplified(set, line, posBai, keep);
             const std::vector<XY> p = simplified(set, line, posPlain, keep);
@@ -198,6 +136,144 @@ bool compareRivers(const ReportOptions& options, const std::string& buildInfo,
             r.baiBetter += hb < hp;
             r.plainBetter += hp < hb;
         }
+    }
+}
+
+void addRows(const std::vector<RiverRow>& from, std::vector<RiverRow>& into) {
+    for (std::size_t i = 0; i < into.size(); ++i) {
+        RiverRow& r = into[i];
+        const RiverRow& f = from[i];
+        r.rivers += f.rivers;
+        r.originalPoints += f.originalPoints;
+        r.keptPoints += f.keptPoints;
+        r.meanBai += f.meanBai;
+        r.meanPlain += f.meanPlain;
+        r.maxBai = std::max(r.maxBai, f.maxBai);
+        r.maxPlain = std::max(r.maxPlain, f.maxPlain);
+        r.baiBetter += f.baiBetter;
+        r.plainBetter += f.plainBetter;
+    }
+}
+
+}  // namespace
+
+bool compareRivers(const ReportOptions& options, const std::string& buildInfo,
+                   std::vector<RiverRow>& rows, std::string& error) {
+    const auto say = [&](const std::string& s) {
+        if (options.progress) options.progress(s);
+    };
+    // The build's own ingestion (ingest.h) with the options it recorded, cut into the build's
+    // blocks (3ddp locks the outer edge): each block's order is computed as the build computes
+    // it, so the memory and time are those of a block, not of the whole DEM.
+    const nlohmann::json info = nlohmann::json::parse(buildInfo, nullptr, false);
+    IngestOptions in = ingestOptionsFromInfo(info);
+    if (!options.demPath.empty()) in.demPath = options.demPath;
+    if (!options.riversPath.empty()) in.riversPath = options.riversPath;
+    // A terrain-only build (no RIVERS): nothing to compare.
+    if (options.riversPath.empty() && info.is_object() && info.contains("rivers") &&
+        info.at("rivers") == "") {
+        rows.clear();
+        return true;
+    }
+    if (in.demPath.empty() || in.riversPath.empty()) {
+        error = options.path +
+                ": its build info names no DEM / rivers; give --dem and --rivers (or --no-rivers)";
+        return false;
+    }
+    // The file's own order (a file without the key predates the greedy order: 3ddp) and block
+    // size (a file without it: one block, as such files' reports were made).
+    Rankings k;
+    k.greedy = infoValue<std::string>(info, "order", "3ddp") == "greedy";
+    const int blockSize = std::clamp(infoValue<int>(info, "block_size", kWholeDem), 1, kWholeDem);
+    Ingested data;
+    BlockSource source;
+    if (!ingest(in, data, error) ||
+        !splitIntoBlocks(data, in, blockSize, !k.greedy, source, error)) {
+        // Where the inputs came from: the options, or the file's build info (then the option
+        // that overrides it).
+        const bool dem = !options.demPath.empty(), rivers = !options.riversPath.empty();
+        const std::string named = "named by the build info of " + options.path;
+        if (dem && rivers)
+            error += " (the inputs given by --dem and --rivers)";
+        else if (dem)
+            error += " (the DEM given by --dem; the rivers " + named + ", override with --rivers)";
+        else if (rivers)
+            error += " (the rivers given by --rivers; the DEM " + named + ", override with --dem)";
+        else
+            error += " (the inputs " + named + "; override with --dem / --rivers)";
+        return false;
+    }
+
+    const std::string tablePath = infoValue<std::string>(info, "bai_table", "");
+    if (!tablePath.empty() && !BaiTable::load(tablePath, k.withBai.baiTable, error)) return false;
+    // "threshold": the greedy order's C by threshold (bai.h BaiKeys); else a row.
+    k.byThreshold = info.is_object() && info.contains("bai_row") && info["bai_row"].is_string();
+    k.withBai.baiRow =
+        k.byThreshold ? kDefaultBaiRow : infoValue<double>(info, "bai_row", kDefaultBaiRow);
+    k.plain = k.withBai;
+    k.plain.useBai = false;
+    if (k.greedy && !k.byThreshold) {
+        k.row = k.withBai.baiTable.findRow(k.withBai.baiRow);
+        if (k.row < 0) {
+            error = options.path + ": the BAI table has no row for its build's threshold";
+            return false;
+        }
+    }
+
+    const std::vector<double> bounds = k.withBai.baiTable.classLowerBounds.empty()
+                                           ? std::vector<double>{0, 500, 1000}
+                                           : k.withBai.baiTable.classLowerBounds;
+    const int classes = int(bounds.size());
+    std::vector<RiverRow> empty;
+    for (int c = 0; c < classes; ++c) {
+        for (double f : options.budgets) {
+            RiverRow r;
+            r.landformClass = c;
+            r.classLow = bounds[std::size_t(c)];
+            r.classHigh = c + 1 < classes ? bounds[std::size_t(c) + 1]
+                                          : std::numeric_limits<double>::infinity();
+            r.budget = f;
+            empty.push_back(r);
+        }
+    }
+
+    // Blocks with river pieces, each ranked both ways on a worker; the sums are added in block
+    // order, so the rows do not depend on the thread count.
+    std::vector<std::size_t> blocks;
+    for (std::size_t b = 0; b < source.blockCount(); ++b) {
+        if (source.hasDomain(b)) blocks.push_back(b);
+    }
+    say("rivers, BAI vs no BAI: ranking " + (blockSize >= kWholeDem
+                                                 ? std::string("the whole DEM as one block")
+                                                 : std::to_string(blocks.size()) + " blocks of " +
+                                                       std::to_string(blockSize) + " cells"));
+    std::vector<std::vector<RiverRow>> perBlock(blocks.size());
+    std::vector<std::string> errors(blocks.size());
+    std::mutex mutex;
+    std::size_t done = 0;
+    engine::WorkerPool pool(options.threads);
+    pool.run(blocks.size(), [&](std::size_t i) {
+        const PointSet set = source.points(blocks[i]);
+        if (!set.rivers.empty()) {
+            std::vector<std::size_t> posBai, posPlain;
+            if (rankBoth(set, k, posBai, posPlain, errors[i])) {
+                perBlock[i] = empty;
+                addPieces(set, posBai, posPlain, bounds, options.budgets, perBlock[i]);
+            }
+        }
+        std::lock_guard lock(mutex);
+        ++done;
+        if (options.progressCount) options.progressCount(done, blocks.size());
+    });
+    rows = empty;
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+        if (!errors[i].empty()) {
+            const BlockRect& r = source.rect(blocks[i]);
+            error = options.path + ": river comparison, block (" + std::to_string(r.col) + "," +
+                    std::to_string(r.row) + "): " + errors[i];
+            return false;
+        }
+        if (!perBlock[i].empty()) addRows(perBlock[i], rows);
     }
     for (RiverRow& r : rows) {
         if (r.rivers > 0) {
