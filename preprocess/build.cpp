@@ -129,34 +129,11 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
     summary.filledNodataCells = data.nodata.filledCells;
     // The block hierarchy: the greedy order without the paper metric (build.h BuildOptions::tree).
     const bool tree = o.tree && o.order == DeletionOrderKind::Greedy && !blockOptions.paperError;
-    if (o.memoryCheck) {
-        // The DEM points the blocks sample (nodata cells that stay nodata hold none).
-        const auto sampled = [&](int n) {
-            return std::uint64_t((std::int64_t(n) + o.stride - 1) / o.stride);
-        };
-        const std::uint64_t cells = sampled(dem.width) * sampled(dem.height);
-        const std::uint64_t empty =
-            (data.nodata.nodataCells - std::min(data.nodata.nodataCells, data.nodata.filledCells)) /
-            (std::uint64_t(o.stride) * std::uint64_t(o.stride));
-        const std::uint64_t points = cells - std::min(cells, empty);
-        const double need = buildMemoryEstimate(points, tree);
-        std::string what = "--memory-limit";
-        const double have =
-            o.memoryLimitBytes > 0 ? o.memoryLimitBytes : double(availableMemory(&what));
-        if (have > 0 && need > have) {
-            char text[320];
-            std::snprintf(text, sizeof text,
-                          "about %.1f M points need about %.2f GB of memory to build (%.0f bytes "
-                          "per point measured, README \"Large DEMs\"), more than %s allows "
-                          "(%.2f GB): --stride 2 builds a quarter of the points; "
-                          "--no-memory-check tries anyway",
-                          double(points) / 1e6, need / 1e9,
-                          tree ? kTreeBuildBytesPerPoint : kFlatBuildBytesPerPoint, what.c_str(),
-                          have / 1e9);
-            error = "DEM '" + o.demPath + "': " + text;
-            return false;
-        }
-    }
+    if (o.memoryCheck &&
+        !checkMemory(o.demPath, sampledDemPoints(data, o.stride),
+                     tree ? kTreeBuildBytesPerPoint : kFlatBuildBytesPerPoint, o.memoryLimitBytes,
+                     "build", "--stride 2 builds a quarter of the points", error))
+        return false;
     summary.crossings = source.stats().crossings;
     summary.droppedDemPoints = source.stats().droppedDemPoints;
     summary.droppedCellVertices = source.stats().droppedCellVertices;
@@ -546,9 +523,32 @@ std::uint64_t meminfo(const std::string& text, const std::string& key) {
 
 }  // namespace
 
-double buildMemoryEstimate(std::uint64_t points, bool tree) {
-    return kBuildBaseBytes +
-           double(points) * (tree ? kTreeBuildBytesPerPoint : kFlatBuildBytesPerPoint);
+std::uint64_t sampledDemPoints(const Ingested& data, int stride) {
+    const auto sampled = [&](int n) {
+        return std::uint64_t((std::int64_t(n) + stride - 1) / stride);
+    };
+    const std::uint64_t cells = sampled(data.dem.width) * sampled(data.dem.height);
+    const std::uint64_t empty =
+        (data.nodata.nodataCells - std::min(data.nodata.nodataCells, data.nodata.filledCells)) /
+        (std::uint64_t(stride) * std::uint64_t(stride));
+    return cells - std::min(cells, empty);
+}
+
+bool checkMemory(const std::string& demPath, std::uint64_t points, double bytesPerPoint,
+                 double limitBytes, const char* doing, const char* smaller, std::string& error) {
+    const double need = kBuildBaseBytes + double(points) * bytesPerPoint;
+    std::string what = "--memory-limit";
+    const double have = limitBytes > 0 ? limitBytes : double(availableMemory(&what));
+    if (have <= 0 || need <= have) return true;
+    char text[400];
+    std::snprintf(text, sizeof text,
+                  "about %.1f M points need about %.2f GB of memory to %s (%.0f bytes per point "
+                  "measured, README \"Large DEMs\"), more than %s allows (%.2f GB): %s; "
+                  "--no-memory-check tries anyway",
+                  double(points) / 1e6, need / 1e9, doing, bytesPerPoint, what.c_str(), have / 1e9,
+                  smaller);
+    error = "DEM '" + demPath + "': " + text;
+    return false;
 }
 
 std::uint64_t availableMemory(std::string* what) {

@@ -128,7 +128,7 @@ TEST_F(CliOutputs, FailingWriteFailsTheExportAndLeavesNothing) {
 // Under a memory limit (ulimit -v: allocations fail with std::bad_alloc, as with overcommit off)
 // the build of a DEM too large for it fails with exit 1 and a message naming the DEM and the
 // problem, and leaves no output and no temporary, instead of aborting (terminate, core dump) in a
-// worker thread: before the work, from the memory estimate (build.h buildMemoryEstimate against
+// worker thread: before the work, from the memory estimate (build.h checkMemory against
 // availableMemory, which reads the address-space limit), or, with --no-memory-check, when an
 // allocation fails. The limit is found first: the smallest multiple of 10 MB under which the
 // binary starts at all (`build --help`), plus 40 MB, far below what a 1M-point DEM needs (about
@@ -185,6 +185,23 @@ TEST_F(CliOutputs, BuildMemoryLimitRefusesBeforeTheWork) {
     EXPECT_TRUE(fs::exists(out));
     r = runCli(build + " --memory-limit 0");
     EXPECT_EQ(r.code, 2) << r.err;
+    fs::remove(out);
+}
+
+// `order` ranks the whole DEM as one point set: the same check, at its own bytes per point,
+// before the point set is made; nothing written when refused.
+TEST_F(CliOutputs, OrderMemoryLimitRefusesBeforeTheWork) {
+    const std::string out = dir->file("limited.csv");
+    const std::string order = "order -q " + q(dem) + " " + q(rivers) + " -o " + q(out);
+    auto r = runCli(order + " --memory-limit 1");
+    EXPECT_EQ(r.code, 1) << r.out << r.err;
+    EXPECT_NE(r.err.find(dem), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("to rank as one block (130 bytes per point"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("more than --memory-limit allows (0.00 GB)"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+    r = runCli(order + " --memory-limit 1 --no-memory-check");
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_TRUE(fs::exists(out));
     fs::remove(out);
 }
 

@@ -24,7 +24,7 @@ struct BuildCli {
     std::string order = "greedy";
     bool noBai = false;
     bool quiet = false;
-    double memoryLimitMb = 0;  // 0: what the process can get
+    MemoryFlags memory;
 };
 
 std::string megabytes(std::uint64_t bytes) {
@@ -38,7 +38,8 @@ int run(BuildCli& c) {
     c.o.order = c.order == "3ddp" ? DeletionOrderKind::ThreeDdp : DeletionOrderKind::Greedy;
     c.o.defaultMetric = c.metric == "paper" ? format::kMetricPaper : format::kMetricMax;
     c.o.rawBlocks = c.encoding == "raw";
-    c.o.memoryLimitBytes = c.memoryLimitMb * 1e6;
+    c.o.memoryLimitBytes = c.memory.limitBytes();
+    c.o.memoryCheck = c.memory.check;
     c.o.outPath = c.output.path;
     c.o.force = c.output.overwrite;
     if (!c.quiet) {
@@ -164,14 +165,7 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
                         ": the parent takes over once the node spans fewer pixels at P = 1); "
                         "larger: coarser nodes drawn sooner")
         ->check(numberIn(1.0, 1e6));
-    sub->add_option("--memory-limit", c->memoryLimitMb,
-                    "refuse, before the long work, a build whose memory estimate (README \"Large "
-                    "DEMs\") exceeds this many MB (default: the memory this process can get: "
-                    "available memory and swap, a cgroup's or ulimit's limit)")
-        ->check(numberIn(1.0, 1e12));
-    sub->add_flag("--memory-check,!--no-memory-check", c->o.memoryCheck,
-                  "refuse a build whose memory estimate exceeds what is available (default); "
-                  "--no-memory-check: build anyway");
+    addMemoryOptions(*sub, c->memory, "build");
     sub->add_option("--encoding", c->encoding,
                     "block encoding: compact (default; about 7 bytes per point) or raw (plain "
                     "arrays, about 35-40 times larger, for tools that read the layout directly)")

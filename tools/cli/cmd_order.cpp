@@ -20,6 +20,7 @@
 
 #include "atomicfile.h"
 #include "bai.h"
+#include "build.h"
 #include "commands.h"
 #include "importance.h"
 #include "ingest.h"
@@ -41,6 +42,7 @@ struct OrderOptions {
     bool noBai = false;
     double baiRow = kDefaultBaiRow;
     std::string baiTable;
+    MemoryFlags memory;
     OutputFlags out;
     JsonFlags json;
     bool quiet = false;
@@ -184,6 +186,11 @@ int runOrder(const OrderOptions& o) {
     // ranks when the DEM is one block.
     t = Clock::now();
     bar.stage("point set");
+    if (o.memory.check &&
+        !checkMemory(o.in.demPath, sampledDemPoints(data, in.stride), kOrderBytesPerPoint,
+                     o.memory.limitBytes(), "rank as one block",
+                     "--stride 2 ranks a quarter of the points", error))
+        return fail(error);
     BlockSource source;
     if (!splitIntoBlocks(data, in, kWholeDem, true, source, error)) return fail(error);
     const PointSet set = source.points(0);
@@ -330,6 +337,7 @@ void addOrderCommand(CLI::App& app, int& exitCode) {
         "order", "Importance order of a DEM + river network (improved 3D_DP with BAI)");
     addIngestOptions(*sub, opts->in);
     sub->add_flag("--no-bai", opts->noBai, "Plain 3D_DP without the bending adjustment index");
+    addMemoryOptions(*sub, opts->memory, "ranking");
     CLI::Option* table =
         sub->add_option("--bai-table", opts->baiTable, "BAI constants table file (Table 1 format)");
     // Without a table file the row must be one of the paper's: checked while parsing.

@@ -33,4 +33,17 @@ void addIngestOptions(CLI::App& sub, IngestOptions& o) {
         ->check(nonNegative());
 }
 
+void addMemoryOptions(CLI::App& sub, MemoryFlags& flags, const std::string& what) {
+    sub.add_option("--memory-limit", flags.limitMb,
+                   "refuse, before the long work, a " + what +
+                       " whose memory estimate (README \"Large DEMs\") exceeds this many MB "
+                       "(default: the memory this process can get: available memory and swap, a "
+                       "cgroup's or ulimit's limit)")
+        ->check(numberIn(1.0, 1e12));
+    sub.add_flag("--memory-check,!--no-memory-check", flags.check,
+                 "refuse a " + what +
+                     " whose memory estimate exceeds what is available (default); "
+                     "--no-memory-check: try anyway");
+}
+
 }  // namespace unilod::cli

@@ -17,4 +17,14 @@ void addIngestOptions(CLI::App& sub, IngestOptions& options);
 // addIngestOptions; `report` adds them alone (for its --dem / --rivers).
 void addSrsOptions(CLI::App& sub, IngestOptions& options);
 
+// --memory-limit MB and --memory-check / --no-memory-check of the commands that check their
+// memory estimate before the long work (build, order; preprocess/build.h checkMemory).
+// `what`: the work refused ("build", "ranking").
+struct MemoryFlags {
+    double limitMb = 0;  // 0: what the process can get
+    bool check = true;
+    double limitBytes() const { return limitMb * 1e6; }
+};
+void addMemoryOptions(CLI::App& sub, MemoryFlags& flags, const std::string& what);
+
 }  // namespace unilod::cli
