@@ -414,6 +414,24 @@ TEST_F(ReportTest, RiverComparisonRanksTheBuildsBlocks) {
     const std::uint64_t big = pieces(out + "/rivers.csv"), many = pieces(csv[0]);
     EXPECT_GE(big, 142u);
     EXPECT_GT(many, big + 40) << big;
+
+    // The model's blocks must fit the exact grid on the DEM given: 64 cells of 20 km do not.
+    std::string asc = "ncols 100\nnrows 100\nxllcorner 0\nyllcorner 0\ncellsize 20000\n";
+    for (int j = 0; j < 100; ++j) {
+        for (int i = 0; i < 100; ++i)
+            asc += std::to_string((i * 7 + j * 13) % 97) + (i + 1 < 100 ? " " : "\n");
+    }
+    const std::string coarse = dir->file("coarse.asc"), line = dir->file("line.geojson");
+    dir->write("coarse.asc", asc);
+    dir->write("line.geojson",
+               R"({"type":"FeatureCollection","features":[{"type":"Feature","properties":{},)"
+               R"("geometry":{"type":"LineString","coordinates":[[1e4,1e4],[9e5,7e5]]}}]})");
+    const std::string folder = dir->file("coarse_report");
+    r = runCli("report -q " + q(small) + " -o " + q(folder) + " --dem " + q(coarse) + " --rivers " +
+               q(line) + " --bench-frames 0");
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find("the model's block size does not fit it"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(folder));
 }
 
 TEST_F(ReportTest, FailuresLeaveNothing) {

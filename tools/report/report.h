@@ -24,15 +24,15 @@
 //   without (--no-bai). For a greedy build that is each block's greedy deletion order, with
 //   and without the BAI weights on river keys; for a 3ddp build (or a file without an `order`
 //   in its build info) improved 3D_DP with BAI and plain 3D_DP. A file without a `block_size`
-//   in its build info is taken as one block. The unit compared is a river piece of a block (a
-//   river crossing a block border is cut there at a locked crossing vertex, as in the model).
-//   For a budget f, each piece keeps its locked points (ends, crossings,
-//   junctions) and the round(f · n) highest-ranked of its n unlocked points (rank = position in
-//   the deletion order: deleted later = more important); the simplified polyline joins the kept
-//   points in their original order. Its symmetric 2D Hausdorff distance to the original polyline
-//   is measured (hausdorff2D). Pieces without unlocked points are not counted. Landform class:
-//   the mean altitude of the piece's vertices (z sampled from the DEM), classes by Table 1's
-//   lower bounds 0 / 500 / 1000 m.
+//   in its build info gets the build's default block size. The unit compared is a river piece of a
+//   block (a river crossing a block border is cut there at a locked crossing vertex, as in the
+//   model). For a budget f, each piece keeps its locked points (ends, crossings, junctions) and the
+//   round(f · n) highest-ranked of its n unlocked points (rank = position in the deletion order:
+//   deleted later = more important); the simplified polyline joins the kept points in their
+//   original order. Its symmetric 2D Hausdorff distance to the original polyline is measured
+//   (hausdorff2D). Pieces without unlocked points are not counted. Landform class: the mean
+//   altitude of the piece's vertices (z sampled from the DEM), classes by Table 1's lower bounds 0
+//   / 500 / 1000 m.
 // - Grid diagrams: the stats viewpoint (stats.h statsView: above the centre of the data, D above
 //   its maximum z, S = distance to the block centre, h_lim = 2·P·S·tan(α/2)/H, P the first
 //   pixel tolerance); the cut of that view through the block hierarchy (engine/lod/cut.h

@@ -181,14 +181,27 @@ bool compareRivers(const ReportOptions& options, const std::string& buildInfo,
         return false;
     }
     // The file's own order (a file without the key predates the greedy order: 3ddp) and block
-    // size (a file without it: one block, as such files' reports were made).
+    // size (without it, the build's default), checked against the exact grid as the build does.
     Rankings k;
     k.greedy = infoValue<std::string>(info, "order", "3ddp") == "greedy";
-    const int blockSize = std::clamp(infoValue<int>(info, "block_size", kWholeDem), 1, kWholeDem);
+    int blockSize = std::clamp(infoValue<int>(info, "block_size", 0), 0, kWholeDem);
     Ingested data;
     BlockSource source;
-    if (!ingest(in, data, error) ||
-        !splitIntoBlocks(data, in, blockSize, !k.greedy, source, error)) {
+    const auto split = [&] {
+        const DemGrid& dem = data.dem;
+        if (!checkCellsFitExactGrid(dem, in.stride, error)) {
+            error = "DEM '" + in.demPath + "': " + error;
+            return false;
+        }
+        if (blockSize == 0) blockSize = automaticBlockSize(dem, in.stride);
+        if (!checkBlockFitsExactGrid(dem, in.stride, blockSize, error)) {
+            error =
+                "DEM '" + in.demPath + "': the model's block size does not fit it (" + error + ")";
+            return false;
+        }
+        return splitIntoBlocks(data, in, blockSize, !k.greedy, source, error);
+    };
+    if (!ingest(in, data, error) || !split()) {
         // Where the inputs came from: the options, or the file's build info (then the option
         // that overrides it).
         const bool dem = !options.demPath.empty(), rivers = !options.riversPath.empty();
@@ -243,10 +256,8 @@ bool compareRivers(const ReportOptions& options, const std::string& buildInfo,
     for (std::size_t b = 0; b < source.blockCount(); ++b) {
         if (source.hasDomain(b)) blocks.push_back(b);
     }
-    say("rivers, BAI vs no BAI: ranking " + (blockSize >= kWholeDem
-                                                 ? std::string("the whole DEM as one block")
-                                                 : std::to_string(blocks.size()) + " blocks of " +
-                                                       std::to_string(blockSize) + " cells"));
+    say("rivers, BAI vs no BAI: ranking " + std::to_string(blocks.size()) + " blocks of " +
+        std::to_string(blockSize) + " cells");
     std::vector<std::vector<RiverRow>> perBlock(blocks.size());
     std::vector<std::string> errors(blocks.size());
     std::mutex mutex;
