@@ -51,8 +51,13 @@ struct ArgList {
 
 // A dataset holding only band `band` of `src` (a virtual VRT copy, no pixels are read), so that
 // GDALWarp of GDAL 3.6 (which has no -srcband) warps just that band.
-GDALDatasetUniquePtr extractBand(GDALDataset* src, int band) {
-    ArgList list{{"-of", "VRT", "-b", std::to_string(band)}};
+// Band `band` of `src` alone (a VRT), with the dataset's mask: its per-dataset mask as GDAL
+// copies it, or band `alphaBand` (not 0) as the mask, so that the warper leaves those cells
+// nodata.
+GDALDatasetUniquePtr extractBand(GDALDataset* src, int band, int alphaBand) {
+    std::vector<std::string> args{"-of", "VRT", "-b", std::to_string(band)};
+    if (alphaBand > 0) args.insert(args.end(), {"-mask", std::to_string(alphaBand)});
+    ArgList list{args};
     std::vector<char*> argv = list.pointers();
     GDALTranslateOptions* opts = GDALTranslateOptionsNew(argv.data(), nullptr);
     if (opts == nullptr) return nullptr;
@@ -318,13 +323,24 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
                 (bands == 1 ? "" : "s") + ")";
         return false;
     }
+    // An alpha band is the mask of the others (gdalwarp -dstalpha): not an altitude band, and
+    // with one other band that one is the altitude.
+    int alphaBand = 0, dataBands = 0, onlyDataBand = 0;
+    for (int b = 1; b <= bands; ++b) {
+        if (ds->GetRasterBand(b)->GetColorInterpretation() == GCI_AlphaBand) {
+            if (alphaBand == 0) alphaBand = b;
+        } else {
+            ++dataBands;
+            onlyDataBand = b;
+        }
+    }
     if (band == 0) {
-        if (bands > 1) {
+        if (dataBands != 1) {
             error = "DEM '" + path + "': the file has " + std::to_string(bands) +
                     " bands; choose the altitude band (--band N)";
             return false;
         }
-        band = 1;
+        band = onlyDataBand;
     }
 
     double gt[6] = {0, 1, 0, 0, 0, 1};
@@ -607,7 +623,7 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
     int readBand = band;
     if (warp) {
         if (bands > 1) {
-            single = extractBand(ds.get(), band);
+            single = extractBand(ds.get(), band, band != alphaBand ? alphaBand : 0);
             if (!single) {
                 error = "DEM '" + path + "': cannot select band " + std::to_string(band) +
                         gdalErrorSuffix();
@@ -651,12 +667,28 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
     dem.z.assign(static_cast<std::size_t>(w) * h, kNaN);
     if (srcSrs != nullptr) dem.wkt = toWkt(target);
 
+    // The band's mask beyond its nodata value: an alpha band (read as bytes: 0 stays 0, any
+    // other value of an Int16 or UInt16 alpha is clamped above 0; GDAL takes only a Byte or
+    // UInt16 alpha as the mask), a per-dataset mask (internal or .msk) or a band mask; a cell it
+    // marks 0 is nodata. (A warped band has only its nodata: the warper applied the source's
+    // mask, extractBand handing it the alpha band.)
+    GDALRasterBand* mask = nullptr;
+    if (!warp && alphaBand > 0 && band != alphaBand) {
+        mask = ds->GetRasterBand(alphaBand);
+    } else if (const int flags = rb->GetMaskFlags();
+               (flags & GMF_ALL_VALID) == 0 && flags != GMF_NODATA) {
+        mask = rb->GetMaskBand();
+    }
+    std::vector<std::uint8_t> maskRow(mask != nullptr ? static_cast<std::size_t>(w) : 0);
+
     // Row by row in double, so that the nodata comparison is exact for every band type.
     std::vector<double> row(static_cast<std::size_t>(w));
     std::size_t valid = 0;
     for (int r = 0; r < h; ++r) {
         if (rb->RasterIO(GF_Read, 0, r, w, 1, row.data(), w, 1, GDT_Float64, 0, 0, nullptr) !=
-            CE_None) {
+                CE_None ||
+            (mask != nullptr && mask->RasterIO(GF_Read, 0, r, w, 1, maskRow.data(), w, 1, GDT_Byte,
+                                               0, 0, nullptr) != CE_None)) {
             error =
                 "DEM '" + path + "': read error at row " + std::to_string(r) + gdalErrorSuffix();
             dem = DemGrid{};
@@ -666,6 +698,7 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
         for (int c = 0; c < w; ++c) {
             const double v = row[c];
             if (!std::isfinite(v) || (hasNoData && v == noData)) continue;
+            if (mask != nullptr && maskRow[static_cast<std::size_t>(c)] == 0) continue;
             const double z = (v * scale + offset) * zMetres;
             if (!std::isfinite(z)) continue;
             out[c] = static_cast<float>(z);

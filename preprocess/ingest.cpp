@@ -174,7 +174,7 @@ bool ingest(const IngestOptions& o, Ingested& data, std::string& error) {
     // (invented altitudes) and holes kept inside the domain are worth a warning.
     if (data.nodata.filledCells > 0 || data.nodata.keptHoles > 0) {
         warn("DEM '" + o.demPath + "': " + std::to_string(data.nodata.nodataCells) +
-             " nodata cells (nodata value, NaN or infinite); " +
+             " nodata cells (nodata value, mask, NaN or infinite); " +
              std::to_string(data.nodata.holes - data.nodata.keptHoles) +
              " interior holes of at most " + std::to_string(kDefaultMaxFillCells) + " cells (" +
              std::to_string(data.nodata.filledCells) +

@@ -273,6 +273,65 @@ TEST(Dem, GeographicMultiBandWarpsTheChosenBand) {
     EXPECT_GT(valid, 0u);
 }
 
+// A clipped DEM often marks the cells outside the clip with a mask instead of a nodata value:
+// an alpha band (gdalwarp -cutline -dstalpha: of the DEM's type, 0 outside, the type's maximum
+// inside) or a per-dataset mask (gdal_translate -mask, GDAL_TIFF_INTERNAL_MASK). Those cells
+// hold 0, which is a valid altitude: they are nodata, in a projected DEM (read as it is) and in
+// a geographic one (warped), and the alpha band is no altitude band to choose.
+TEST(Dem, MaskedCellsAreNodata) {
+    TempDir dir("mask");
+    std::vector<double> z(12, 300.0), alpha(12, 32767.0);
+    for (int i : {0, 1, 4, 11}) {
+        z[std::size_t(i)] = 0.0;
+        alpha[std::size_t(i)] = 0.0;
+    }
+    const double geo[6] = {-84.2, 0.001, 0, 36.5, 0, -0.001};
+    for (int epsg : {32616, 4326}) {
+        const double* gt = epsg == 4326 ? geo : kGt;
+        const std::string alphaPath = dir.file("alpha" + std::to_string(epsg) + ".tif");
+        writeTiff(alphaPath, 4, 3, {z, alpha}, GDT_Int16, gt, epsg);
+        {
+            GDALDatasetUniquePtr ds(
+                GDALDataset::Open(alphaPath.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+            ASSERT_TRUE(ds);
+            ASSERT_EQ(ds->GetRasterBand(2)->SetColorInterpretation(GCI_AlphaBand), CE_None);
+        }
+        const std::string maskPath = dir.file("mask" + std::to_string(epsg) + ".tif");
+        writeTiff(maskPath, 4, 3, {z}, GDT_Int16, gt, epsg);
+        {
+            CPLSetConfigOption("GDAL_TIFF_INTERNAL_MASK", "YES");
+            GDALDatasetUniquePtr ds(
+                GDALDataset::Open(maskPath.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+            ASSERT_TRUE(ds);
+            ASSERT_EQ(ds->CreateMaskBand(GMF_PER_DATASET), CE_None);
+            std::vector<std::uint8_t> m(12);
+            for (std::size_t i = 0; i < 12; ++i)
+                m[i] = alpha[i] > 0 ? 255 : 0;
+            ASSERT_EQ(ds->GetRasterBand(1)->GetMaskBand()->RasterIO(GF_Write, 0, 0, 4, 3, m.data(),
+                                                                    4, 3, GDT_Byte, 0, 0, nullptr),
+                      CE_None);
+            CPLSetConfigOption("GDAL_TIFF_INTERNAL_MASK", nullptr);
+        }
+        for (const std::string& path : {alphaPath, maskPath}) {
+            DemGrid dem;
+            std::string error;
+            ASSERT_TRUE(loadDem(path, {}, dem, error)) << path << ": " << error;
+            std::size_t valid = 0;
+            for (float v : dem.z) {
+                if (std::isnan(v)) continue;
+                ++valid;
+                EXPECT_NEAR(v, 300.0f, 1e-3f) << path << ": a masked cell kept its 0";
+            }
+            if (epsg == 32616) {
+                EXPECT_EQ(valid, 8u) << path;
+                EXPECT_TRUE(std::isnan(dem.at(0, 0)) && std::isnan(dem.at(3, 2))) << path;
+            } else {
+                EXPECT_GT(valid, 0u) << path;
+            }
+        }
+    }
+}
+
 TEST(Dem, Errors) {
     TempDir dir("errors");
     DemGrid dem;

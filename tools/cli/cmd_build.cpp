@@ -75,7 +75,7 @@ int run(BuildCli& c) {
         std::printf("  DEM conversion   %s\n", conversion.c_str());
     if (s.nodataCells > 0)
         std::printf(
-            "  DEM nodata       %zu cells (nodata value, NaN or infinite): %zu filled in "
+            "  DEM nodata       %zu cells (nodata value, mask, NaN or infinite): %zu filled in "
             "small interior holes, the rest outside the domain\n",
             s.nodataCells, s.filledNodataCells);
     if (c.o.riversPath.empty()) {
