@@ -25,6 +25,36 @@ bool checkElevations(const DemGrid& dem, const std::string& path, std::string& e
                 std::to_string(int(kMaxPlausibleZ)) + "] m (a wrong nodata value or units?)";
         return false;
     }
+    // Nodata sentinels inside the plausible range (ASCII grids without a NODATA_value line,
+    // rasters whose nodata was never declared): such a cell next to real terrain is thousands
+    // of metres off its neighbour, which no terrain is from one cell to the next.
+    std::size_t count = 0, first = 0;
+    const std::size_t w = std::size_t(dem.width), h = std::size_t(dem.height);
+    for (std::size_t i = 0; i < dem.z.size(); ++i) {
+        const float z = dem.z[i];
+        if (z != kUndeclaredNodata[0] && z != kUndeclaredNodata[1]) continue;
+        const std::size_t c = i % w, r = i / w;
+        bool jump = false;
+        for (const auto& [dc, dr] : {std::pair{-1, 0}, {1, 0}, {0, -1}, {0, 1}}) {
+            if ((c == 0 && dc < 0) || (c + 1 == w && dc > 0) || (r == 0 && dr < 0) ||
+                (r + 1 == h && dr > 0))
+                continue;
+            const float n = dem.z[(r + std::size_t(dr)) * w + c + std::size_t(dc)];
+            jump = jump || (!std::isnan(n) && std::fabs(double(n) - z) > kNodataJump);
+        }
+        if (jump && count++ == 0) first = i;
+    }
+    if (count > 0) {
+        char value[32];
+        std::snprintf(value, sizeof value, "%g", double(dem.z[first]));
+        error = "DEM '" + path + "': " + std::to_string(count) + " cells hold " + value +
+                " next to cells more than " + std::to_string(int(kNodataJump)) +
+                " m higher or lower (the first at cell (" + std::to_string(first % w) + ", " +
+                std::to_string(first / w) + ")), as a nodata value the file does not declare " +
+                "would; declare it: gdal_translate -a_nodata " + value + " '" + path +
+                "' fixed.tif";
+        return false;
+    }
     return true;
 }
 

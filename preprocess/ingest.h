@@ -26,6 +26,11 @@ namespace unilod {
 // Elevations outside this range are refused as absurd (a broken nodata value, wrong units...):
 // the lowest and highest points on Earth with a wide margin.
 inline constexpr double kMinPlausibleZ = -12000.0, kMaxPlausibleZ = 10000.0;
+// Nodata values people use that lie inside that range; a cell holding one that is more than
+// kNodataJump from a neighbour is refused as an undeclared nodata value (the steepest real
+// terrain, a kilometre cell of a mountain face or an ocean trench, stays well under it).
+inline constexpr float kUndeclaredNodata[2] = {-9999.0f, 9999.0f};
+inline constexpr double kNodataJump = 3000.0;
 
 struct IngestOptions {
     std::string demPath, riversPath;

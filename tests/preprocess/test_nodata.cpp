@@ -613,6 +613,41 @@ TEST(Nodata, NoTriangulableDataIsRefused) {
     EXPECT_NE(r.err.find("no valid data to triangulate"), std::string::npos) << r.err;
 }
 
+// A nodata value the file does not declare (an ASCII grid without NODATA_value, a GeoTIFF whose
+// nodata tag was lost) inside the plausible range, -9999 the most common: it built as a pit
+// 10 km deep. Refused, naming the value and the fix; a deep trench at -9999 whose neighbours are
+// a few hundred metres off builds.
+TEST(Nodata, UndeclaredNodataSentinelIsRefused) {
+    for (float sentinel : kUndeclaredNodata) {
+        DemGrid d = plane(20, 20);
+        for (int r = 0; r < 6; ++r)
+            for (int c = 0; c < 6; ++c)
+                d.z[std::size_t(r) * std::size_t(d.width) + std::size_t(c)] = sentinel;
+        IngestOptions o;
+        o.demPath = writeTiff(d, "nodata_undeclared.tif");
+        Ingested data;
+        std::string err;
+        EXPECT_FALSE(ingest(o, data, err));
+        char value[32];
+        std::snprintf(value, sizeof value, "%g", double(sentinel));
+        EXPECT_NE(
+            err.find(std::string("11 cells hold ") + value + " next to cells more than 3000 m"),
+            std::string::npos)
+            << err;
+        EXPECT_NE(err.find(std::string("gdal_translate -a_nodata ") + value), std::string::npos)
+            << err;
+    }
+    DemGrid trench = plane(20, 20);
+    for (std::size_t i = 0; i < trench.z.size(); ++i)
+        trench.z[i] = -9000.0f - float(i % 7) * 100.0f;
+    trench.z[45] = -9999.0f;
+    IngestOptions o;
+    o.demPath = writeTiff(trench, "nodata_trench.tif");
+    Ingested data;
+    std::string err;
+    EXPECT_TRUE(ingest(o, data, err)) << err;
+}
+
 // A river across a nodata lake keeps both banks (issue 17's domain, 2026-11-29): its segments
 // are cut where they leave the valid DEM and where they come near the domain's outline, not
 // dropped whole. One 2-vertex line crosses a 10 x 10-cell hole; before, the whole line was lost
