@@ -289,6 +289,34 @@ bool checkUndeclaredUnits(const std::string& path, const DemGrid& dem,
     return true;
 }
 
+// The file inside a GDAL subdataset name, DRIVER:path:name or DRIVER:"path":name (what a
+// netCDF, HDF5 or multi-table GeoPackage lists as SUBDATASET_n_NAME); empty when `name` is not
+// one or no such file exists.
+std::string subdatasetFile(const std::string& name) {
+    const std::size_t colon = name.find(':');
+    if (colon == 0 || colon == std::string::npos) return {};
+    for (std::size_t i = 0; i < colon; ++i) {
+        const char ch = name[i];
+        if (!std::isupper(static_cast<unsigned char>(ch)) &&
+            !std::isdigit(static_cast<unsigned char>(ch)) && ch != '_')
+            return {};
+    }
+    const std::string rest = name.substr(colon + 1);
+    VSIStatBufL st;
+    if (!rest.empty() && rest[0] == '"') {
+        const std::size_t end = rest.find('"', 1);
+        if (end == std::string::npos) return {};
+        const std::string file = rest.substr(1, end - 1);
+        return VSIStatL(file.c_str(), &st) == 0 ? file : std::string();
+    }
+    for (std::size_t end = rest.rfind(':'); end != std::string::npos && end > 0;
+         end = rest.rfind(':', end - 1)) {
+        const std::string file = rest.substr(0, end);
+        if (VSIStatL(file.c_str(), &st) == 0) return file;
+    }
+    return VSIStatL(rest.c_str(), &st) == 0 ? rest : std::string();
+}
+
 }  // namespace
 
 bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& dem,
@@ -296,13 +324,18 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
     QuietGdalErrors quiet;
     dem = DemGrid{};
 
+    // A path, or a subdataset of a container file (checked as that file).
+    std::string file = path;
     VSIStatBufL st;
     if (VSIStatL(path.c_str(), &st) != 0) {
-        error = "DEM '" + path + "': no such file";
-        return false;
+        file = subdatasetFile(path);
+        if (file.empty()) {
+            error = "DEM '" + path + "': no such file";
+            return false;
+        }
     }
     // A FIFO or a device would block GDAL's open; folders are GDAL's to judge (AIG grids).
-    if (std::string why; !format::checkInputFile(path, true, why)) {
+    if (std::string why; !format::checkInputFile(file, true, why)) {
         error = "DEM '" + path + "': " + why;
         return false;
     }
@@ -313,7 +346,22 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
     }
     const int bands = ds->GetRasterCount();
     if (bands == 0) {
+        // A container (netCDF, HDF5, GeoPackage with several tables): name what it holds.
+        std::vector<std::string> names;
+        for (int i = 1;; ++i) {
+            const char* name = ds->GetMetadataItem(
+                ("SUBDATASET_" + std::to_string(i) + "_NAME").c_str(), "SUBDATASETS");
+            if (name == nullptr) break;
+            names.emplace_back(name);
+        }
         error = "DEM '" + path + "': the file has no raster bands";
+        if (!names.empty()) {
+            error = "DEM '" + path + "': the file holds " + std::to_string(names.size()) +
+                    " rasters (subdatasets); give one as the DEM:";
+            for (std::size_t i = 0; i < names.size() && i < 8; ++i)
+                error += (i == 0 ? " '" : ", '") + names[i] + "'";
+            if (names.size() > 8) error += ", ...";
+        }
         return false;
     }
     int band = options.band;

@@ -332,6 +332,39 @@ TEST(Dem, MaskedCellsAreNodata) {
     }
 }
 
+// A container of several rasters (a GeoPackage with two tables; netCDF and HDF5 alike) has no
+// bands itself: the error names its subdatasets, and a subdataset name is a DEM like a path.
+TEST(Dem, SubdatasetsAreNamedAndReadable) {
+    TempDir dir("subdatasets");
+    const std::string tif = dir.file("src.tif"), gpkg = dir.file("two.gpkg");
+    std::vector<double> z(12, 120.0);
+    z[5] = 150.0;
+    writeTiff(tif, 4, 3, {z}, GDT_Float32, kGt, 32616);
+    GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GPKG");
+    ASSERT_NE(driver, nullptr);
+    {
+        GDALDatasetUniquePtr src(GDALDataset::Open(tif.c_str(), GDAL_OF_RASTER));
+        ASSERT_TRUE(src);
+        const char* first[] = {"RASTER_TABLE=elev", nullptr};
+        GDALDatasetUniquePtr(driver->CreateCopy(gpkg.c_str(), src.get(), false,
+                                                const_cast<char**>(first), nullptr, nullptr));
+        const char* second[] = {"RASTER_TABLE=other", "APPEND_SUBDATASET=YES", nullptr};
+        GDALDatasetUniquePtr(driver->CreateCopy(gpkg.c_str(), src.get(), false,
+                                                const_cast<char**>(second), nullptr, nullptr));
+    }
+    DemGrid dem;
+    std::string error;
+    EXPECT_FALSE(loadDem(gpkg, {}, dem, error));
+    EXPECT_NE(error.find("holds 2 rasters (subdatasets)"), std::string::npos) << error;
+    EXPECT_NE(error.find("'GPKG:" + gpkg + ":elev', 'GPKG:" + gpkg + ":other'"), std::string::npos)
+        << error;
+    ASSERT_TRUE(loadDem("GPKG:" + gpkg + ":elev", {}, dem, error)) << error;
+    EXPECT_EQ(dem.width, 4);
+    EXPECT_FLOAT_EQ(dem.at(1, 1), 150.0f);
+    EXPECT_FALSE(loadDem("GPKG:" + dir.file("none.gpkg") + ":elev", {}, dem, error));
+    EXPECT_NE(error.find("no such file"), std::string::npos) << error;
+}
+
 TEST(Dem, Errors) {
     TempDir dir("errors");
     DemGrid dem;
