@@ -138,6 +138,24 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
             OGRLayer* l = ds->GetLayer(i);
             if (isMixedType(l->GetGeomType()) && hasLineFeature(l)) layer = l;
         }
+        // Other layers that hold lines are not read: say so, so that a second network (canals
+        // beside rivers in one GeoPackage) is not lost without a word.
+        std::vector<std::string> others;
+        for (OGRLayer* l : ds->GetLayers()) {
+            const OGRwkbGeometryType t = l->GetGeomType();
+            if (l != layer && (isLineType(t) || isMixedType(t)) && hasLineFeature(l))
+                others.emplace_back(l->GetName());
+        }
+        if (layer != nullptr && !others.empty() && options.warn) {
+            std::string list;
+            for (std::size_t i = 0; i < others.size() && i < 8; ++i)
+                list += (i == 0 ? "'" : ", '") + others[i] + "'";
+            if (others.size() > 8) list += ", ...";
+            options.warn(what + ": read its line layer '" + layer->GetName() + "'; " +
+                         std::to_string(others.size()) + " other layer" +
+                         (others.size() == 1 ? "" : "s") + " with lines not read (" + list +
+                         "): --layer NAME picks one");
+        }
         if (layer == nullptr) {
             // No feature anywhere (an empty FeatureCollection declares no geometry type): an
             // empty river network, which the caller may accept as a terrain-only model. A layer

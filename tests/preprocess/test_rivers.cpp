@@ -193,6 +193,51 @@ TEST(Rivers, AnEmptyLineLayerBeforeAFullOneIsPassedOver) {
     EXPECT_TRUE(lines.empty());
 }
 
+// Two layers with lines (rivers and canals in one GeoPackage): the first is read and the other
+// named in a warning (it was dropped without a word); --layer reads the other, with no warning.
+TEST(Rivers, OtherLineLayersAreNamed) {
+    TempDir dir("twolayers");
+    const std::string gpkg = dir.file("two.gpkg");
+    GDALAllRegister();
+    GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GPKG");
+    ASSERT_NE(driver, nullptr);
+    OGRSpatialReference srs;
+    srs.importFromEPSG(32616);
+    for (const char* name : {"rivers", "canals"}) {
+        GDALDatasetUniquePtr ds(
+            std::string(name) == "rivers"
+                ? driver->Create(gpkg.c_str(), 0, 0, 0, GDT_Unknown, nullptr)
+                : GDALDataset::Open(gpkg.c_str(), GDAL_OF_VECTOR | GDAL_OF_UPDATE));
+        ASSERT_TRUE(ds);
+        OGRLayer* layer = ds->CreateLayer(name, &srs, wkbLineString, nullptr);
+        ASSERT_NE(layer, nullptr);
+        OGRFeature feature(layer->GetLayerDefn());
+        OGRLineString line;
+        line.addPoint(740000, 4050000);
+        line.addPoint(741000, std::string(name) == "rivers" ? 4051000 : 4049000);
+        feature.SetGeometry(&line);
+        ASSERT_EQ(layer->CreateFeature(&feature), OGRERR_NONE);
+    }
+    std::vector<std::string> warnings;
+    RiverLoadOptions o;
+    o.warn = [&warnings](const std::string& w) { warnings.push_back(w); };
+    RiverLines lines;
+    std::string error;
+    ASSERT_TRUE(loadRivers(gpkg, o, bundledDem().wkt, lines, error)) << error;
+    ASSERT_EQ(lines.size(), 1u);
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("read its line layer 'rivers'; 1 other layer with lines not read "
+                               "('canals'): --layer NAME picks one"),
+              std::string::npos)
+        << warnings[0];
+    warnings.clear();
+    o.layer = "canals";
+    ASSERT_TRUE(loadRivers(gpkg, o, bundledDem().wkt, lines, error)) << error;
+    ASSERT_EQ(lines.size(), 1u);
+    EXPECT_GT(lines[0][0].y, lines[0][1].y);
+    EXPECT_TRUE(warnings.empty());
+}
+
 TEST(Rivers, MultiLineStringsAnd3dLines) {
     TempDir dir("multi");
     const std::string path = dir.write("multi.geojson", utm16Collection(R"(
