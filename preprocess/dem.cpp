@@ -289,34 +289,6 @@ bool checkUndeclaredUnits(const std::string& path, const DemGrid& dem,
     return true;
 }
 
-// The file inside a GDAL subdataset name, DRIVER:path:name or DRIVER:"path":name (what a
-// netCDF, HDF5 or multi-table GeoPackage lists as SUBDATASET_n_NAME); empty when `name` is not
-// one or no such file exists.
-std::string subdatasetFile(const std::string& name) {
-    const std::size_t colon = name.find(':');
-    if (colon == 0 || colon == std::string::npos) return {};
-    for (std::size_t i = 0; i < colon; ++i) {
-        const char ch = name[i];
-        if (!std::isupper(static_cast<unsigned char>(ch)) &&
-            !std::isdigit(static_cast<unsigned char>(ch)) && ch != '_')
-            return {};
-    }
-    const std::string rest = name.substr(colon + 1);
-    VSIStatBufL st;
-    if (!rest.empty() && rest[0] == '"') {
-        const std::size_t end = rest.find('"', 1);
-        if (end == std::string::npos) return {};
-        const std::string file = rest.substr(1, end - 1);
-        return VSIStatL(file.c_str(), &st) == 0 ? file : std::string();
-    }
-    for (std::size_t end = rest.rfind(':'); end != std::string::npos && end > 0;
-         end = rest.rfind(':', end - 1)) {
-        const std::string file = rest.substr(0, end);
-        if (VSIStatL(file.c_str(), &st) == 0) return file;
-    }
-    return VSIStatL(rest.c_str(), &st) == 0 ? rest : std::string();
-}
-
 }  // namespace
 
 bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& dem,
@@ -328,7 +300,7 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
     std::string file = path;
     VSIStatBufL st;
     if (VSIStatL(path.c_str(), &st) != 0) {
-        file = subdatasetFile(path);
+        file = format::fileInside(path);
         if (file.empty()) {
             error = "DEM '" + path + "': no such file";
             return false;

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -160,6 +161,14 @@ bool sameFile(const struct stat& a, const struct stat& b) {
     return a.st_dev == b.st_dev && a.st_ino == b.st_ino;
 }
 
+// The input `name` (or the file inside it, fileInside) is the file `out` describes.
+bool inputIs(const std::string& name, const struct stat& out) {
+    struct stat in {};
+    if (::stat(name.c_str(), &in) == 0) return sameFile(in, out);
+    const std::string inside = fileInside(name);
+    return !inside.empty() && ::stat(inside.c_str(), &in) == 0 && sameFile(in, out);
+}
+
 // Makes the directory entries of `folder` (a rename) durable; some file systems refuse fsync
 // on folders, so this is best effort.
 void syncFolder(const std::string& folder) {
@@ -193,8 +202,7 @@ bool checkOutputPath(const std::string& path, const OutputOptions& options, bool
     struct stat out {};
     if (::stat(path.c_str(), &out) == 0) {
         for (const std::string& input : options.inputs) {
-            struct stat in {};
-            if (::stat(input.c_str(), &in) == 0 && sameFile(in, out)) {
+            if (inputIs(input, out)) {
                 return fail(input == path ? "is also an input of this command: refusing to "
                                             "overwrite it"
                                           : "is the same file as the input '" + input +
@@ -386,8 +394,7 @@ bool AtomicFile::commit(std::string& error) {
     struct stat out {};
     if (::stat(path_.c_str(), &out) == 0) {
         for (const std::string& input : options_.inputs) {
-            struct stat in {};
-            if (::stat(input.c_str(), &in) == 0 && sameFile(in, out)) {
+            if (inputIs(input, out)) {
                 return fail(
                     "is the same file as the input '" + input + "': refusing to overwrite it",
                     error);
@@ -480,6 +487,32 @@ bool writeFileAtomically(const std::string& path, std::string_view data,
                          const OutputOptions& options, std::string& error) {
     AtomicFile file;
     return file.open(path, options, error) && file.write(data, error) && file.commit(error);
+}
+
+std::string fileInside(const std::string& name) {
+    std::size_t start = 0;
+    if (name.rfind("/vsi", 0) == 0) {
+        // /vsizip/, /vsitar/, /vsigzip/, ... and the chained /vsizip/{...} form is not handled.
+        start = name.find('/', 1);
+        if (start == std::string::npos) return {};
+        ++start;
+    } else {
+        const std::size_t colon = name.find(':');
+        if (colon == 0 || colon == std::string::npos) return {};
+        for (std::size_t i = 0; i < colon; ++i) {
+            const unsigned char ch = static_cast<unsigned char>(name[i]);
+            if (!std::isupper(ch) && !std::isdigit(ch) && ch != '_') return {};
+        }
+        start = colon + 1;
+        if (start < name.size() && name[start] == '"') ++start;
+    }
+    for (std::size_t end = name.size(); end > start; --end) {
+        if (end < name.size() && name[end] != ':' && name[end] != '"' && name[end] != '/') continue;
+        const std::string file = name.substr(start, end - start);
+        struct stat st {};
+        if (::stat(file.c_str(), &st) == 0 && S_ISREG(st.st_mode)) return file;
+    }
+    return {};
 }
 
 }  // namespace unilod::format

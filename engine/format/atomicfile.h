@@ -136,4 +136,12 @@ bool writeFileAtomically(const std::string& path, std::string_view data,
 // file"), so that each reader words the message its own way. True when PATH does not exist.
 bool checkInputFile(const std::string& path, bool folderAllowed, std::string& why);
 
+// The file a GDAL dataset name reads when the name itself is no file: a subdataset
+// (DRIVER:path:name, DRIVER:"path":name; netCDF, HDF5, GeoPackage tables) or a member of an
+// archive (/vsizip/archive.zip/member, /vsitar/, /vsigzip/): the longest part of the name after
+// its driver or /vsi prefix, ending at a ':', '"' or '/', that is an existing regular file.
+// Empty when there is none. The output checks compare an output with this file of each input,
+// so an output cannot replace the container an input is read from.
+std::string fileInside(const std::string& name);
+
 }  // namespace unilod::format

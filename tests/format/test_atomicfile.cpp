@@ -156,6 +156,30 @@ TEST(AtomicFile, OutputNeverAnInput) {
     EXPECT_EQ(names(dir), (std::set<std::string>{"alias.ulod", "model.ulod", "out.glb"}));
 }
 
+// A GDAL dataset name reads a file it contains: a subdataset (DRIVER:path:name, quoted or not)
+// or an archive member (/vsizip/archive.zip/member). The output may not replace that file.
+TEST(AtomicFile, OutputNeverTheFileInsideAnInputName) {
+    TempDir dir("inside");
+    const std::string gpkg = dir.write("dem.gpkg", "tables");
+    const std::string zip = dir.write("dem.zip", "archive");
+    EXPECT_EQ(fileInside("GPKG:" + gpkg + ":elev"), gpkg);
+    EXPECT_EQ(fileInside("NETCDF:\"" + gpkg + "\":z"), gpkg);
+    EXPECT_EQ(fileInside("/vsizip/" + zip + "/tiles/dem.tif"), zip);
+    EXPECT_EQ(fileInside("GPKG:" + dir.file("none.gpkg") + ":elev"), "");
+    EXPECT_EQ(fileInside("lower:" + gpkg + ":elev"), "");  // not a driver prefix
+    EXPECT_EQ(fileInside(gpkg), "");                       // a plain path: nothing inside
+    std::string error;
+    for (const auto& [input, output] :
+         {std::pair{"GPKG:" + gpkg + ":elev", gpkg}, {"/vsizip/" + zip + "/dem.tif", zip}}) {
+        const OutputOptions options{.replace = true, .inputs = {input}};
+        EXPECT_FALSE(writeFileAtomically(output, "model", options, error)) << input;
+        EXPECT_NE(error.find("is the same file as the input '" + input + "'"), std::string::npos)
+            << error;
+    }
+    EXPECT_EQ(slurp(gpkg), "tables");
+    EXPECT_EQ(slurp(zip), "archive");
+}
+
 TEST(AtomicFile, StaleTemporariesOfDeadWritersRemoved) {
     TempDir dir("stale");
     const std::string path = dir.file("out.bin");

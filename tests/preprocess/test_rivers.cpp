@@ -146,35 +146,43 @@ TEST(Rivers, WhereClauseAndLayerName) {
     EXPECT_NE(error.find("lakes"), std::string::npos) << error;
 }
 
+namespace {
+
+// Adds a layer `name` in EPSG:32616 to the GeoPackage `gpkg` (made when `create`), with one
+// 2-vertex line (x0, y0) -> (x1, y1), or none when `line` is false. Closed before returning, so
+// that layers are listed in the order they were added.
+void addLineLayer(const std::string& gpkg, bool create, const char* name, bool line = true,
+                  double y1 = 4051000) {
+    GDALAllRegister();
+    GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GPKG");
+    ASSERT_NE(driver, nullptr);
+    OGRSpatialReference srs;
+    srs.importFromEPSG(32616);
+    GDALDatasetUniquePtr ds(create
+                                ? driver->Create(gpkg.c_str(), 0, 0, 0, GDT_Unknown, nullptr)
+                                : GDALDataset::Open(gpkg.c_str(), GDAL_OF_VECTOR | GDAL_OF_UPDATE));
+    ASSERT_TRUE(ds);
+    OGRLayer* layer = ds->CreateLayer(name, &srs, wkbLineString, nullptr);
+    ASSERT_NE(layer, nullptr);
+    if (!line) return;
+    OGRFeature feature(layer->GetLayerDefn());
+    OGRLineString geometry;
+    geometry.addPoint(740000, 4050000);
+    geometry.addPoint(741000, y1);
+    feature.SetGeometry(&geometry);
+    ASSERT_EQ(layer->CreateFeature(&feature), OGRERR_NONE);
+}
+
+}  // namespace
+
 // Without --layer the first declared line layer that holds a line is taken: an empty one before
 // it (a GPX file's `routes` before its `tracks`, an empty GeoPackage layer) was taken and the
 // rivers were lost with only a "terrain-only model" warning.
 TEST(Rivers, AnEmptyLineLayerBeforeAFullOneIsPassedOver) {
     TempDir dir("emptyfirst");
     const std::string gpkg = dir.file("two.gpkg");
-    GDALAllRegister();
-    GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GPKG");
-    ASSERT_NE(driver, nullptr);
-    OGRSpatialReference srs;
-    srs.importFromEPSG(32616);
-    {
-        // The empty layer is written (closed) first, so that it is listed first.
-        GDALDatasetUniquePtr ds(driver->Create(gpkg.c_str(), 0, 0, 0, GDT_Unknown, nullptr));
-        ASSERT_TRUE(ds);
-        ASSERT_NE(ds->CreateLayer("a_empty", &srs, wkbLineString, nullptr), nullptr);
-    }
-    {
-        GDALDatasetUniquePtr ds(GDALDataset::Open(gpkg.c_str(), GDAL_OF_VECTOR | GDAL_OF_UPDATE));
-        ASSERT_TRUE(ds);
-        OGRLayer* full = ds->CreateLayer("b_full", &srs, wkbLineString, nullptr);
-        ASSERT_NE(full, nullptr);
-        OGRFeature feature(full->GetLayerDefn());
-        OGRLineString line;
-        line.addPoint(740000, 4050000);
-        line.addPoint(741000, 4051000);
-        feature.SetGeometry(&line);
-        ASSERT_EQ(full->CreateFeature(&feature), OGRERR_NONE);
-    }
+    addLineLayer(gpkg, true, "a_empty", false);
+    addLineLayer(gpkg, false, "b_full");
     {
         GDALDatasetUniquePtr ds(GDALDataset::Open(gpkg.c_str(), GDAL_OF_VECTOR));
         ASSERT_TRUE(ds);
@@ -198,26 +206,8 @@ TEST(Rivers, AnEmptyLineLayerBeforeAFullOneIsPassedOver) {
 TEST(Rivers, OtherLineLayersAreNamed) {
     TempDir dir("twolayers");
     const std::string gpkg = dir.file("two.gpkg");
-    GDALAllRegister();
-    GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GPKG");
-    ASSERT_NE(driver, nullptr);
-    OGRSpatialReference srs;
-    srs.importFromEPSG(32616);
-    for (const char* name : {"rivers", "canals"}) {
-        GDALDatasetUniquePtr ds(
-            std::string(name) == "rivers"
-                ? driver->Create(gpkg.c_str(), 0, 0, 0, GDT_Unknown, nullptr)
-                : GDALDataset::Open(gpkg.c_str(), GDAL_OF_VECTOR | GDAL_OF_UPDATE));
-        ASSERT_TRUE(ds);
-        OGRLayer* layer = ds->CreateLayer(name, &srs, wkbLineString, nullptr);
-        ASSERT_NE(layer, nullptr);
-        OGRFeature feature(layer->GetLayerDefn());
-        OGRLineString line;
-        line.addPoint(740000, 4050000);
-        line.addPoint(741000, std::string(name) == "rivers" ? 4051000 : 4049000);
-        feature.SetGeometry(&line);
-        ASSERT_EQ(layer->CreateFeature(&feature), OGRERR_NONE);
-    }
+    addLineLayer(gpkg, true, "rivers");
+    addLineLayer(gpkg, false, "canals", true, 4049000);
     std::vector<std::string> warnings;
     RiverLoadOptions o;
     o.warn = [&warnings](const std::string& w) { warnings.push_back(w); };
