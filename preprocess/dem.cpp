@@ -329,10 +329,7 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
         error = "DEM '" + path + "': the file has no raster bands";
         if (!names.empty()) {
             error = "DEM '" + path + "': the file holds " + std::to_string(names.size()) +
-                    " rasters (subdatasets); give one as the DEM:";
-            for (std::size_t i = 0; i < names.size() && i < 8; ++i)
-                error += (i == 0 ? " '" : ", '") + names[i] + "'";
-            if (names.size() > 8) error += ", ...";
+                    " rasters (subdatasets); give one as the DEM: " + quotedNames(names);
         }
         return false;
     }

@@ -8,6 +8,7 @@
 #include <gdal.h>
 
 #include <string>
+#include <vector>
 
 namespace unilod {
 
@@ -29,6 +30,16 @@ inline std::string gdalErrorSuffix() {
     const char* msg = CPLGetLastErrorMsg();
     if (msg == nullptr || msg[0] == '\0') return "";
     return std::string(": ") + msg;
+}
+
+// Names for a message, each quoted: "'a', 'b', 'c'", the first `most` and ", ..." for more
+// (the subdatasets of a container, the line layers of a vector file).
+inline std::string quotedNames(const std::vector<std::string>& names, std::size_t most = 8) {
+    std::string list;
+    for (std::size_t i = 0; i < names.size() && i < most; ++i)
+        list += (i == 0 ? "'" : ", '") + names[i] + "'";
+    if (names.size() > most) list += ", ...";
+    return list;
 }
 
 }  // namespace unilod

@@ -147,14 +147,10 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
                 others.emplace_back(l->GetName());
         }
         if (layer != nullptr && !others.empty() && options.warn) {
-            std::string list;
-            for (std::size_t i = 0; i < others.size() && i < 8; ++i)
-                list += (i == 0 ? "'" : ", '") + others[i] + "'";
-            if (others.size() > 8) list += ", ...";
             options.warn(what + ": read its line layer '" + layer->GetName() + "'; " +
                          std::to_string(others.size()) + " other layer" +
-                         (others.size() == 1 ? "" : "s") + " with lines not read (" + list +
-                         "): --layer NAME picks one");
+                         (others.size() == 1 ? "" : "s") + " with lines not read (" +
+                         quotedNames(others) + "): --layer NAME picks one");
         }
         if (layer == nullptr) {
             // No feature anywhere (an empty FeatureCollection declares no geometry type): an
