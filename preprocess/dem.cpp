@@ -313,7 +313,8 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
     }
     GDALDatasetUniquePtr ds(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER));
     if (!ds) {
-        error = "DEM '" + path + "': not a raster GDAL can read" + gdalErrorSuffix();
+        error = "DEM '" + path + "': not a raster GDAL can read" + gdalErrorSuffix() +
+                archiveHint(path);
         return false;
     }
     const int bands = ds->GetRasterCount();

@@ -5,8 +5,11 @@
 #pragma once
 
 #include <cpl_error.h>
+#include <cpl_string.h>
+#include <cpl_vsi.h>
 #include <gdal.h>
 
+#include <cctype>
 #include <string>
 #include <vector>
 
@@ -40,6 +43,53 @@ inline std::string quotedNames(const std::vector<std::string>& names, std::size_
         list += (i == 0 ? "'" : ", '") + names[i] + "'";
     if (names.size() > most) list += ", ...";
     return list;
+}
+
+// For a path GDAL could not open that is an archive (.zip, .tar, .tgz, .tar.gz): how to name
+// what is inside it, "; it is an archive: give ... '/vsizip/a.zip/member' (its files: ...)";
+// "" for any other path. GDAL reads archive members through /vsizip/ and /vsitar/ names only.
+inline std::string archiveHint(const std::string& path) {
+    const auto endsWith = [&](const char* tail) {
+        const std::string t = tail;
+        if (path.size() < t.size()) return false;
+        std::string end = path.substr(path.size() - t.size());
+        for (char& ch : end)
+            ch = char(std::tolower(static_cast<unsigned char>(ch)));
+        return end == t;
+    };
+    std::string prefix;
+    if (endsWith(".zip")) {
+        prefix = "/vsizip/";
+    } else if (endsWith(".tar") || endsWith(".tgz") || endsWith(".tar.gz")) {
+        prefix = "/vsitar/";
+    } else {
+        return "";
+    }
+    const std::string archive = prefix + path;
+    std::vector<std::string> members;
+    if (char** list = VSIReadDirRecursive(archive.c_str())) {
+        for (char** item = list; *item != nullptr; ++item) {
+            const std::string name = *item;
+            if (!name.empty() && name.back() != '/') members.push_back(archive + "/" + name);
+        }
+        CSLDestroy(list);
+    }
+    if (members.empty()) return "; it is an archive GDAL cannot list";
+    // The example: the first file that is not a sidecar of another (a shapefile's .dbf...).
+    std::string example = members.front();
+    for (const std::string& m : members) {
+        const std::size_t dot = m.rfind('.');
+        std::string ext = dot == std::string::npos ? "" : m.substr(dot);
+        for (char& ch : ext)
+            ch = char(std::tolower(static_cast<unsigned char>(ch)));
+        if (ext != ".dbf" && ext != ".shx" && ext != ".prj" && ext != ".cpg" && ext != ".xml" &&
+            ext != ".ovr" && ext != ".tfw" && ext != ".qix" && ext != ".sbn" && ext != ".sbx") {
+            example = m;
+            break;
+        }
+    }
+    return "; it is an archive: give the file inside it by a name such as '" + example +
+           "' (its files: " + quotedNames(members) + ")";
 }
 
 }  // namespace unilod

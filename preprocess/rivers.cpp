@@ -105,7 +105,8 @@ bool loadRivers(const std::string& path, const RiverLoadOptions& options,
     }
     GDALDatasetUniquePtr ds(GDALDataset::Open(path.c_str(), GDAL_OF_VECTOR));
     if (!ds) {
-        error = what + ": not a vector file GDAL/OGR can read" + gdalErrorSuffix();
+        error =
+            what + ": not a vector file GDAL/OGR can read" + gdalErrorSuffix() + archiveHint(path);
         return false;
     }
 

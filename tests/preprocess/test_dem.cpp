@@ -10,6 +10,7 @@
 #include <fstream>
 #include <optional>
 
+#include <cpl_vsi.h>
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
 
@@ -363,6 +364,32 @@ TEST(Dem, SubdatasetsAreNamedAndReadable) {
     EXPECT_FLOAT_EQ(dem.at(1, 1), 150.0f);
     EXPECT_FALSE(loadDem("GPKG:" + dir.file("none.gpkg") + ":elev", {}, dem, error));
     EXPECT_NE(error.find("no such file"), std::string::npos) << error;
+}
+
+// A DEM in a zip archive: GDAL reads it by a /vsizip/ name only; the archive's own path gets
+// an error naming its files as such names, and that name reads.
+TEST(Dem, ArchivesNameTheirFiles) {
+    TempDir dir("archive");
+    const std::string tif = dir.file("dem.tif"), zip = dir.file("dem.zip");
+    std::vector<double> z(12, 80.0);
+    writeTiff(tif, 4, 3, {z}, GDT_Float32, kGt, 32616);
+    {
+        std::ifstream in(tif, std::ios::binary);
+        const std::string bytes((std::istreambuf_iterator<char>(in)), {});
+        VSILFILE* f = VSIFOpenL(("/vsizip/" + zip + "/dem.tif").c_str(), "wb");
+        ASSERT_NE(f, nullptr);
+        ASSERT_EQ(VSIFWriteL(bytes.data(), 1, bytes.size(), f), bytes.size());
+        ASSERT_EQ(VSIFCloseL(f), 0);
+    }
+    DemGrid dem;
+    std::string error;
+    EXPECT_FALSE(loadDem(zip, {}, dem, error));
+    EXPECT_NE(error.find("it is an archive: give the file inside it by a name such as '/vsizip/" +
+                         zip + "/dem.tif'"),
+              std::string::npos)
+        << error;
+    ASSERT_TRUE(loadDem("/vsizip/" + zip + "/dem.tif", {}, dem, error)) << error;
+    EXPECT_FLOAT_EQ(dem.at(2, 1), 80.0f);
 }
 
 TEST(Dem, Errors) {
