@@ -49,13 +49,13 @@ inline std::string quotedNames(const std::vector<std::string>& names, std::size_
 // what is inside it, "; it is an archive: give ... '/vsizip/a.zip/member' (its files: ...)";
 // "" for any other path. GDAL reads archive members through /vsizip/ and /vsitar/ names only.
 inline std::string archiveHint(const std::string& path) {
-    const auto endsWith = [&](const char* tail) {
-        const std::string t = tail;
-        if (path.size() < t.size()) return false;
-        std::string end = path.substr(path.size() - t.size());
-        for (char& ch : end)
+    const auto lower = [](std::string text) {
+        for (char& ch : text)
             ch = char(std::tolower(static_cast<unsigned char>(ch)));
-        return end == t;
+        return text;
+    };
+    const auto endsWith = [&](const std::string& tail) {
+        return path.size() >= tail.size() && lower(path.substr(path.size() - tail.size())) == tail;
     };
     std::string prefix;
     if (endsWith(".zip")) {
@@ -79,9 +79,7 @@ inline std::string archiveHint(const std::string& path) {
     std::string example = members.front();
     for (const std::string& m : members) {
         const std::size_t dot = m.rfind('.');
-        std::string ext = dot == std::string::npos ? "" : m.substr(dot);
-        for (char& ch : ext)
-            ch = char(std::tolower(static_cast<unsigned char>(ch)));
+        const std::string ext = lower(dot == std::string::npos ? "" : m.substr(dot));
         if (ext != ".dbf" && ext != ".shx" && ext != ".prj" && ext != ".cpg" && ext != ".xml" &&
             ext != ".ovr" && ext != ".tfw" && ext != ".qix" && ext != ".sbn" && ext != ".sbx") {
             example = m;
