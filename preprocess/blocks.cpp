@@ -475,6 +475,61 @@ bool BlockSource::hasDomain(std::size_t b) const {
     return false;
 }
 
+std::vector<BlockLoad> BlockSource::loads() const {
+    const int s = options_.stride;
+    std::vector<BlockLoad> out(rects_.size());
+    for (std::size_t b = 0; b < rects_.size(); ++b) {
+        const BlockRect& r = rects_[b];
+        out[b].demPoints = std::uint64_t((r.cellCol1 - r.cellCol0) / s + 1) *
+                           std::uint64_t((r.cellRow1 - r.cellRow0) / s + 1);
+    }
+    // Which river vertices stay locked up the tree: piece ends, and vertices at the same (x, y)
+    // in more than one place (junctions, appendRiverPieces' shared point ids).
+    std::vector<std::size_t> first(pieces_.size() + 1, 0);
+    for (std::size_t p = 0; p < pieces_.size(); ++p)
+        first[p + 1] = first[p] + pieces_[p].size();
+    // 1: locked; 2: a later occurrence of a junction's (x, y), one point with the first.
+    std::vector<std::uint8_t> locked(first.back(), 0);
+    {
+        struct At {
+            double x, y;
+            std::size_t index;
+        };
+        std::vector<At> all;
+        all.reserve(first.back());
+        for (std::size_t p = 0; p < pieces_.size(); ++p)
+            for (std::size_t v = 0; v < pieces_[p].size(); ++v)
+                all.push_back({pieces_[p][v].x, pieces_[p][v].y, first[p] + v});
+        std::sort(all.begin(), all.end(), [](const At& a, const At& b) {
+            return a.x != b.x ? a.x < b.x : (a.y != b.y ? a.y < b.y : a.index < b.index);
+        });
+        for (std::size_t i = 0; i < all.size();) {
+            std::size_t j = i + 1;
+            while (j < all.size() && all[j].x == all[i].x && all[j].y == all[i].y)
+                ++j;
+            if (j - i > 1)
+                for (std::size_t k = i; k < j; ++k)
+                    locked[all[k].index] = k == i ? 1 : 2;
+            i = j;
+        }
+    }
+    for (std::size_t p = 0; p < pieces_.size(); ++p) {
+        if (first[p + 1] == first[p]) continue;
+        for (const std::size_t end : {first[p], first[p + 1] - 1})
+            if (locked[end] == 0) locked[end] = 1;
+    }
+    for (std::size_t b = 0; b < rects_.size(); ++b) {
+        for (const Run& run : runs_[b]) {
+            for (std::uint32_t v = run.first; v <= run.last; ++v) {
+                const std::uint8_t l = locked[first[run.piece] + v];
+                out[b].riverPoints += l != 2;
+                out[b].lockedRiverPoints += l == 1;
+            }
+        }
+    }
+    return out;
+}
+
 namespace {
 
 // Squared distance between the 2D segments p0-p1 and q0-q1 (0 when they meet).

@@ -63,6 +63,14 @@ struct BlockSourceStats {
     std::size_t droppedCellVertices = 0;  // river vertices added there (addVerticesAtDroppedCells)
 };
 
+// What a block holds before it is built, for the build's memory estimate (build.h
+// estimateBuildMemory): the DEM lattice points of its rectangle (nodata included: an upper
+// bound), its river vertices, and of those the ones a tree node above it keeps locked (piece ends
+// and junctions: a vertex at the same (x, y) in more than one place).
+struct BlockLoad {
+    std::uint64_t demPoints = 0, riverPoints = 0, lockedRiverPoints = 0;
+};
+
 // Produces the point set of each block on demand (thread-safe once initialised).
 class BlockSource {
 public:
@@ -84,6 +92,9 @@ public:
     // Whether block i holds any of the domain (a lattice square with at least 3 valid corners):
     // a block without is left out of the model.
     bool hasDomain(std::size_t i) const;
+
+    // Every block's BlockLoad (row-major), without making its point set.
+    std::vector<BlockLoad> loads() const;
 
 private:
     // The domain on the sampled lattice (node (i, j) = cell (i * stride, j * stride)).

@@ -129,11 +129,6 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
     summary.filledNodataCells = data.nodata.filledCells;
     // The block hierarchy: the greedy order without the paper metric (build.h BuildOptions::tree).
     const bool tree = o.tree && o.order == DeletionOrderKind::Greedy && !blockOptions.paperError;
-    if (o.memoryCheck &&
-        !checkMemory(o.demPath, sampledDemPoints(data, o.stride),
-                     tree ? kTreeBuildBytesPerPoint : kFlatBuildBytesPerPoint, o.memoryLimitBytes,
-                     "build", "--stride 2 builds a quarter of the points", error))
-        return false;
     summary.crossings = source.stats().crossings;
     summary.droppedDemPoints = source.stats().droppedDemPoints;
     summary.droppedCellVertices = source.stats().droppedCellVertices;
@@ -248,22 +243,6 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
         levels = L;
     }
     const std::size_t n = items.size();
-    format::Writer writer;
-    if (!writer.open(o.outPath, header, n, outputOptions(o), error)) return false;
-    writer.storeRaw(o.rawBlocks);
-    const unsigned threads =
-        o.threads > 0 ? unsigned(o.threads) : std::max(1u, std::thread::hardware_concurrency());
-    const std::size_t window = 4 * std::size_t(threads);
-    std::vector<format::Block> results(n);
-    std::vector<BlockBuildStats> stats(n);
-    std::vector<CoarseState> coarse(n);
-    std::vector<std::array<double, 6>> boxes(n);
-    std::vector<std::string> errors(n);
-    std::vector<char> ready(n, 0);
-    std::mutex mutex;
-    std::condition_variable changed;
-    std::size_t next = 0, written = 0;
-    bool failed = false;
     // The first and last block column and row of an item's rectangle of blocks.
     struct BlockRange {
         std::uint32_t c0, r0, c1, r1;
@@ -296,6 +275,51 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
         b.lockY1 = r1 + 1 != source.blocksY();
         return b;
     };
+    const unsigned threads =
+        o.threads > 0 ? unsigned(o.threads) : std::max(1u, std::thread::hardware_concurrency());
+    {
+        // The memory estimate (build.h), before the long work.
+        const std::vector<BlockLoad> loads = source.loads();
+        std::vector<ItemLoad> itemLoads(n);
+        for (std::size_t i = 0; i < n; ++i) {
+            const Item& it = items[i];
+            ItemLoad& l = itemLoads[i];
+            l.leafFirst = it.leafFirst;
+            l.leafCount = it.leafCount;
+            if (it.level == 0) {
+                l.demPoints = loads[it.source].demPoints;
+                l.riverPoints = loads[it.source].riverPoints;
+                continue;
+            }
+            l.node = true;
+            for (std::size_t k = it.leafFirst; k < it.leafFirst + it.leafCount; ++k)
+                l.riverPoints += loads[items[k].source].lockedRiverPoints;
+            const auto [lo, hi] = cornerRects(it);
+            const NodeBorder b = nodeBorder(it);
+            l.demPoints =
+                std::uint64_t(b.lockX0 + b.lockX1) * ((hi.cellRow1 - lo.cellRow0) / o.stride) +
+                std::uint64_t(b.lockY0 + b.lockY1) * ((hi.cellCol1 - lo.cellCol0) / o.stride);
+        }
+        const MemoryEstimate estimate =
+            estimateBuildMemory(sampledDemPoints(data, o.stride), itemLoads, threads, tree);
+        summary.memoryEstimate = estimate.bytes;
+        if (o.memoryCheck && !checkMemory(o.demPath, estimate, o.memoryLimitBytes, "build", error))
+            return false;
+    }
+    format::Writer writer;
+    if (!writer.open(o.outPath, header, n, outputOptions(o), error)) return false;
+    writer.storeRaw(o.rawBlocks);
+    const std::size_t window = 4 * std::size_t(threads);
+    std::vector<format::Block> results(n);
+    std::vector<BlockBuildStats> stats(n);
+    std::vector<CoarseState> coarse(n);
+    std::vector<std::array<double, 6>> boxes(n);
+    std::vector<std::string> errors(n);
+    std::vector<char> ready(n, 0);
+    std::mutex mutex;
+    std::condition_variable changed;
+    std::size_t next = 0, written = 0;
+    bool failed = false;
     auto work = [&] {
         for (;;) {
             std::size_t i;
@@ -366,9 +390,17 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
                         itemOptions.handoverKeyTriangles = keyTriangles(originalCount);
 #ifdef __GLIBC__
                     // A node high in the tree measures its error against millions of original
-                    // points (16 B each, in large buffers of their own): first hand the pages the
-                    // finished blocks freed back to the system, so that peak RSS is not the sum.
-                    if (originalCount >= (std::size_t(1) << 22)) malloc_trim(0);
+                    // points (16 B each, in large buffers of their own), and one of a dense river
+                    // network starts from hundreds of thousands of locked vertices: first hand
+                    // the pages the finished items freed (in every thread's arena) back to the
+                    // system, so that peak RSS is not the sum (estimateBuildMemory counts the
+                    // items built at the same time only).
+                    std::size_t startPoints = 0;
+                    for (const CoarseState* c : children)
+                        startPoints += c->points.size();
+                    if (originalCount >= (std::size_t(1) << 22) ||
+                        startPoints >= (std::size_t(1) << 18))
+                        malloc_trim(0);
 #endif
                     ok = buildNode(children, nodeBorder(it), it.col, it.row, itemOptions, originals,
                                    originalCount, results[i], stats[i], coarse[i], errors[i]);
@@ -503,6 +535,8 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
     summary.treeLevels = levels;
     summary.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    struct rusage usage {};
+    if (getrusage(RUSAGE_SELF, &usage) == 0) summary.peakMemory = double(usage.ru_maxrss) * 1024.0;
     return true;
 }
 
@@ -534,20 +568,95 @@ std::uint64_t sampledDemPoints(const Ingested& data, int stride) {
     return cells - std::min(cells, empty);
 }
 
-bool checkMemory(const std::string& demPath, std::uint64_t points, double bytesPerPoint,
-                 double limitBytes, const char* doing, const char* smaller, std::string& error) {
-    const double need = kBuildBaseBytes + double(points) * bytesPerPoint;
+MemoryEstimate pointMemory(std::uint64_t demPoints, std::uint64_t riverPoints,
+                           double bytesPerPoint) {
+    MemoryEstimate e;
+    e.demPoints = demPoints;
+    e.riverPoints = riverPoints;
+    e.bytes = kBuildBaseBytes + double(demPoints + riverPoints) * bytesPerPoint;
+    char text[80];
+    std::snprintf(text, sizeof text, "%.0f bytes per point measured", bytesPerPoint);
+    e.basis = text;
+    e.smaller = "--stride 2 ranks a quarter of the DEM points";
+    return e;
+}
+
+MemoryEstimate estimateBuildMemory(std::uint64_t demPoints, const std::vector<ItemLoad>& items,
+                                   unsigned threads, bool tree) {
+    MemoryEstimate e;
+    e.demPoints = demPoints;
+    for (const ItemLoad& l : items)
+        if (!l.node) e.riverPoints += l.riverPoints;
+    const double perPoint = tree ? kTreeBuildBytesPerPoint : kFlatBuildBytesPerPoint;
+    const double whole = double(demPoints + e.riverPoints) * perPoint;
+    auto bytesOf = [](const ItemLoad& l) {
+        return l.node ? double(l.demPoints + l.riverPoints) * kInFlightBytesPerNodePoint
+                      : double(l.demPoints) * kInFlightBytesPerDemPoint +
+                            double(l.riverPoints) * kInFlightBytesPerRiverPoint;
+    };
+    // The heaviest items first; an item under (or above) one already taken is never built at
+    // the same time (its leaf range nests in the other's).
+    std::vector<std::size_t> order(items.size());
+    for (std::size_t i = 0; i < order.size(); ++i)
+        order[i] = i;
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+        return bytesOf(items[a]) > bytesOf(items[b]);
+    });
+    std::vector<std::size_t> taken;
+    double inFlight = 0;
+    std::uint64_t largest = 0;
+    for (const std::size_t i : order) {
+        if (taken.size() >= std::max(1u, threads)) break;
+        const ItemLoad& l = items[i];
+        const bool nested = std::any_of(taken.begin(), taken.end(), [&](std::size_t t) {
+            const ItemLoad& k = items[t];
+            return l.leafFirst < k.leafFirst + k.leafCount &&
+                   k.leafFirst < l.leafFirst + l.leafCount;
+        });
+        if (nested) continue;
+        taken.push_back(i);
+        inFlight += bytesOf(l);
+        largest = std::max(largest, l.demPoints + l.riverPoints);
+    }
+    e.bytes = kBuildBaseBytes + whole + inFlight;
+    char text[200];
+    std::snprintf(text, sizeof text,
+                  "%.0f bytes per point, plus %.2f GB for the %zu block%s or node%s built at a "
+                  "time, up to %.2f M points each",
+                  perPoint, inFlight / 1e9, taken.size(), taken.size() == 1 ? "" : "s",
+                  taken.size() == 1 ? "" : "s", double(largest) / 1e6);
+    e.basis = text;
+    if (e.riverPoints > demPoints)
+        e.smaller = "the rivers hold more points than the DEM: a sparser river network needs less";
+    else if (inFlight > whole && threads > 1)
+        e.smaller = "--threads 1 builds one block at a time";
+    else
+        e.smaller = "--stride 2 builds a quarter of the DEM points";
+    return e;
+}
+
+bool checkMemory(const std::string& demPath, const MemoryEstimate& estimate, double limitBytes,
+                 const char* doing, std::string& error) {
+    const double needBytes = estimate.bytes;
     std::string what = "--memory-limit";
     const double have = limitBytes > 0 ? limitBytes : double(availableMemory(&what));
-    if (have <= 0 || need <= have) return true;
-    char text[400];
-    std::snprintf(text, sizeof text,
-                  "about %.1f M points need about %.2f GB of memory to %s (%.0f bytes per point "
-                  "measured, README \"Large DEMs\"), more than %s allows (%.2f GB): %s; "
-                  "--no-memory-check tries anyway",
-                  double(points) / 1e6, need / 1e9, doing, bytesPerPoint, what.c_str(), have / 1e9,
-                  smaller);
-    error = "DEM '" + demPath + "': " + text;
+    if (have <= 0 || needBytes <= have) return true;
+    char points[160];
+    if (estimate.riverPoints > 0)
+        std::snprintf(points, sizeof points, "about %.1f M points (%.1f M DEM, %.1f M river)",
+                      double(estimate.demPoints + estimate.riverPoints) / 1e6,
+                      double(estimate.demPoints) / 1e6, double(estimate.riverPoints) / 1e6);
+    else
+        std::snprintf(points, sizeof points, "about %.1f M points",
+                      double(estimate.demPoints) / 1e6);
+    char need[40], allows[40];
+    std::snprintf(need, sizeof need, "%.2f GB", needBytes / 1e9);
+    std::snprintf(allows, sizeof allows, "%.2f GB", have / 1e9);
+    const std::string text = std::string(" need about ") + need + " of memory to " + doing + " (" +
+                             estimate.basis + ", README \"Large DEMs\"), more than " + what +
+                             " allows (" + allows + "): ";
+    error = "DEM '" + demPath + "': " + points + text + estimate.smaller +
+            "; --no-memory-check tries anyway";
     return false;
 }
 

@@ -12,6 +12,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "blockbuild.h"
 #include "blocks.h"
@@ -65,17 +66,50 @@ struct BuildOptions : IngestOptions {
     std::function<void(std::size_t, std::size_t)> progress;
 };
 
-// Peak memory of a default build, measured (README "Large DEMs"): with the block hierarchy, whose
-// root measures its error against every original point, 30 bytes per DEM point at 64M points
-// (1.94 GB) and 36 at 16M (620 MB), counting 64 MB of base; 23 without it (the flat grid,
-// --no-tree or --order 3ddp). The estimate takes the smaller measured values, so it refuses only
-// builds that would fail.
-inline constexpr double kTreeBuildBytesPerPoint = 30;
-inline constexpr double kFlatBuildBytesPerPoint = 23;
+// Peak memory of a build, estimated before its long work (estimateBuildMemory; README "Large
+// DEMs", fitted to peaks measured in MEASURED.md): a base, bytes per point of the whole model (the
+// raster, the point data and, with the block hierarchy, the root's error against every original
+// point), and the items built at the same time: the `threads` heaviest blocks and tree nodes of
+// which none lies under another (a node waits for its children), at bytes per point of the item.
+// A block's points are its DEM lattice points and river vertices; a node's the river vertices
+// it keeps locked (piece ends, junctions) and its locked sides' lattice points, a lower bound of
+// what it starts from. A river network denser than the DEM weighs through its blocks and nodes:
+// 50 000 crossing lines over the demo DEM make a root of 444 000 locked vertices.
 inline constexpr double kBuildBaseBytes = 64e6;  // libraries, GDAL's cache, thread stacks
+inline constexpr double kTreeBuildBytesPerPoint = 30;
+inline constexpr double kFlatBuildBytesPerPoint = 18;
+inline constexpr double kInFlightBytesPerDemPoint = 950;
+inline constexpr double kInFlightBytesPerRiverPoint = 1200;
+inline constexpr double kInFlightBytesPerNodePoint = 1600;
 // `unilod order` ranks the whole DEM as one point set (improved 3D_DP): 137 bytes per point over
 // the base at 16M points (2.26 GB, 2026-11-30); the estimate takes a little less.
 inline constexpr double kOrderBytesPerPoint = 130;
+
+// A memory estimate (checkMemory): the points it counts and the bytes, base included.
+struct MemoryEstimate {
+    std::uint64_t demPoints = 0, riverPoints = 0;
+    double bytes = 0;
+    std::string basis;    // how it was reached, for the message ("130 bytes per point")
+    std::string smaller;  // how to ask for less ("--stride 2 builds a quarter of the points")
+};
+
+// A block or tree node of a build for estimateBuildMemory: its points (a block: DEM lattice points
+// and river vertices; a node: its locked sides' lattice points and its locked river vertices)
+// and the range of leaves (file order) under it.
+struct ItemLoad {
+    bool node = false;
+    std::uint64_t demPoints = 0, riverPoints = 0;
+    std::size_t leafFirst = 0, leafCount = 1;
+};
+
+// The estimate of `build` (see the constants above): `points` DEM points in the model, the
+// blocks' and nodes' loads, `threads` workers, with or without the block hierarchy.
+MemoryEstimate estimateBuildMemory(std::uint64_t demPoints, const std::vector<ItemLoad>& items,
+                                   unsigned threads, bool tree);
+
+// The estimate of `order`: kBuildBaseBytes + points * bytesPerPoint.
+MemoryEstimate pointMemory(std::uint64_t demPoints, std::uint64_t riverPoints,
+                           double bytesPerPoint);
 
 // Bytes this process can still get (Linux): the smallest of the memory available to new
 // allocations (/proc/meminfo MemAvailable + SwapFree), the cgroup's limit less its use (v2
@@ -88,12 +122,12 @@ std::uint64_t availableMemory(std::string* what = nullptr);
 // none): what the memory estimates count.
 std::uint64_t sampledDemPoints(const Ingested& data, int stride);
 
-// The memory check of `build` and `order`, before their long work: true when
-// kBuildBaseBytes + points * bytesPerPoint fits `limitBytes` (0: availableMemory(); none readable:
-// no check), else false with `error` naming the DEM, the estimate, the bound, `smaller` (how to
-// ask for less) and --no-memory-check. `doing`: "build", "rank ...".
-bool checkMemory(const std::string& demPath, std::uint64_t points, double bytesPerPoint,
-                 double limitBytes, const char* doing, const char* smaller, std::string& error);
+// The memory check of `build` and `order`, before their long work: true when the estimate fits
+// `limitBytes` (0: availableMemory(); none readable: no check), else false with `error` naming
+// the DEM, the estimate, the bound, how to ask for less and --no-memory-check. `doing`:
+// "build", "rank ...".
+bool checkMemory(const std::string& demPath, const MemoryEstimate& estimate, double limitBytes,
+                 const char* doing, std::string& error);
 
 struct BuildSummary {
     int demWidth = 0, demHeight = 0;
@@ -112,6 +146,8 @@ struct BuildSummary {
     std::size_t nodataCells = 0, filledNodataCells = 0;  // nodata.h: holes and bays filled
     std::uint64_t outputBytes = 0;
     double seconds = 0;
+    double memoryEstimate = 0;  // bytes (estimateBuildMemory)
+    double peakMemory = 0;      // bytes: the process's peak resident memory (0: unknown)
     std::string cleaning;  // what river cleaning changed
 };
 

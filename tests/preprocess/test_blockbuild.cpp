@@ -11,6 +11,7 @@
 
 #include "blockbuild.h"
 #include "blocks.h"
+#include "build.h"
 #include "synthetic.h"
 #include "ulod.h"
 
@@ -90,6 +91,74 @@ TEST(Blocks, SharedBordersAndCrossings) {
             EXPECT_TRUE(s.points[line.back()].locked);
         }
     }
+}
+
+// The loads the build's memory estimate reads (BlockSource::loads, build.h estimateBuildMemory)
+// count what each block's point set holds: its river points (a junction's vertex once), the river
+// points a tree node above keeps locked (the locked ones off the block's border lines: ends and
+// junctions), and at least its DEM points.
+TEST(Blocks, LoadsCountWhatThePointSetsHold) {
+    Fixture f(40000, 64);
+    const std::vector<BlockLoad> loads = f.source.loads();
+    ASSERT_EQ(loads.size(), f.source.blockCount());
+    const DemGrid& dem = f.data.dem;
+    std::uint64_t rivers = 0, locked = 0;
+    for (std::size_t i = 0; i < f.source.blockCount(); ++i) {
+        const PointSet set = f.source.points(i);
+        const BlockRect& r = f.source.rect(i);
+        const double x0 = dem.centreX(r.cellCol0), x1 = dem.centreX(r.cellCol1);
+        const double y0 = dem.centreY(r.cellRow0), y1 = dem.centreY(r.cellRow1);
+        std::uint64_t river = 0, riverLocked = 0, demPoints = set.dropped.size();
+        for (const Point& p : set.points) {
+            if (p.kind == PointKind::Dem) {
+                ++demPoints;
+                continue;
+            }
+            ++river;
+            const bool onBorder = p.x == x0 || p.x == x1 || p.y == y0 || p.y == y1;
+            if (p.locked && !onBorder) ++riverLocked;
+        }
+        EXPECT_EQ(loads[i].riverPoints, river) << "block " << i;
+        EXPECT_EQ(loads[i].lockedRiverPoints, riverLocked) << "block " << i;
+        EXPECT_GE(loads[i].demPoints, demPoints) << "block " << i;
+        rivers += river;
+        locked += riverLocked;
+    }
+    EXPECT_GT(rivers, 1000u);
+    EXPECT_GT(locked, 20u);
+}
+
+// The build's memory estimate counts the river points and the items built at the same time:
+// the heaviest ones, none under another (a node waits for its children), up to one per thread.
+TEST(BuildMemory, CountsRiversAndItemsBuiltTogether) {
+    std::vector<ItemLoad> items(5);
+    for (std::size_t i = 0; i < 4; ++i) {
+        items[i].demPoints = 65536;
+        items[i].leafFirst = i;
+    }
+    items[1].riverPoints = 300000;
+    items[4].node = true;
+    items[4].riverPoints = 400000;  // the root's locked river points
+    items[4].leafCount = 4;
+    const std::uint64_t dem = 4 * 65536;
+    const double whole = kBuildBaseBytes + double(dem + 300000) * kTreeBuildBytesPerPoint;
+    const double leaf0 = 65536 * kInFlightBytesPerDemPoint;
+    const double leaf1 = leaf0 + 300000 * kInFlightBytesPerRiverPoint;
+    const double root = 400000 * kInFlightBytesPerNodePoint;
+    ASSERT_GT(root, leaf1);
+    MemoryEstimate e = estimateBuildMemory(dem, items, 2, true);
+    EXPECT_EQ(e.demPoints, dem);
+    EXPECT_EQ(e.riverPoints, 300000u);        // the node's locked points are the leaves'
+    EXPECT_DOUBLE_EQ(e.bytes, whole + root);  // the root is built alone
+    EXPECT_NE(e.smaller.find("sparser river network"), std::string::npos) << e.smaller;
+    // Without the root (a flat build): the two heaviest blocks.
+    items.pop_back();
+    e = estimateBuildMemory(dem, items, 2, false);
+    EXPECT_DOUBLE_EQ(
+        e.bytes, kBuildBaseBytes + double(dem + 300000) * kFlatBuildBytesPerPoint + leaf1 + leaf0);
+    e = estimateBuildMemory(dem, items, 1, false);
+    EXPECT_DOUBLE_EQ(e.bytes,
+                     kBuildBaseBytes + double(dem + 300000) * kFlatBuildBytesPerPoint + leaf1);
 }
 
 TEST(LodIndex, LevelsMatchRecordsAndBounds) {

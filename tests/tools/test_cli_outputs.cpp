@@ -13,6 +13,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -186,6 +187,55 @@ TEST_F(CliOutputs, BuildMemoryLimitRefusesBeforeTheWork) {
     r = runCli(build + " --memory-limit 0");
     EXPECT_EQ(r.code, 2) << r.err;
     fs::remove(out);
+}
+
+// A river network denser than the DEM weighs in the estimate (build.h estimateBuildMemory):
+// 10 000 crossing lines over the demo DEM (about 115 000 river points beside 139 000 DEM points,
+// 0.28 GB peak resident) are refused under a 200 MB limit that the demo's own rivers fit (about
+// 0.17 GB), with the advice of one thread (two blocks of 0.12 M points in flight at a time); an
+// estimate of the DEM points alone (68 MB) let it through.
+TEST_F(CliOutputs, BuildMemoryEstimateCountsTheRivers) {
+    const std::string demo = std::string(UNILOD_ASSETS_DIR) + "/jacksboro_dem.tif";
+    const std::string dense = dir->file("dense.geojson");
+    {
+        std::ofstream f(dense);
+        f << "{\"type\":\"FeatureCollection\",\"features\":[";
+        std::uint64_t state = 12345;
+        auto next = [&state] {
+            state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+            return double(state >> 11) / double(1ULL << 53);
+        };
+        f.precision(10);
+        for (int i = 0; i < 10000; ++i) {
+            double x = -84.41 + 0.33 * next(), y = 36.45 + 0.28 * next();
+            f << (i ? "," : "")
+              << "{\"type\":\"Feature\",\"properties\":{},\"geometry\":{\"type\":"
+                 "\"LineString\",\"coordinates\":[["
+              << x << "," << y << "]";
+            for (int k = 0; k < 3; ++k) {
+                const double a = 6.283185307179586 * next();
+                x += 0.002 * std::cos(a);
+                y += 0.002 * std::sin(a);
+                f << ",[" << x << "," << y << "]";
+            }
+            f << "]}}";
+        }
+        f << "]}";
+    }
+    const std::string out = dir->file("dense.ulod");
+    const std::string limit = " -o " + q(out) + " --threads 2 --memory-limit 200";
+    auto r = runCli("build -q " + q(demo) + " " + q(dense) + limit);
+    EXPECT_EQ(r.code, 1) << r.out << r.err;
+    EXPECT_NE(r.err.find("M river)"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("more than --memory-limit allows"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("--threads 1 builds one block at a time"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+    r = runCli("build -q " + q(demo) + " " +
+               q(std::string(UNILOD_ASSETS_DIR) + "/jacksboro_rivers_grass.geojson") + limit);
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.out.find("GB peak resident (estimated"), std::string::npos) << r.out;
+    fs::remove(out);
+    fs::remove(dense);
 }
 
 // `order` ranks the whole DEM as one point set: the same check, at its own bytes per point,

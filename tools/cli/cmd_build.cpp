@@ -121,6 +121,11 @@ int run(BuildCli& c) {
     std::printf("  output           %s (%s)\n", c.o.outPath.c_str(),
                 megabytes(s.outputBytes).c_str());
     std::printf("  seconds          %.2f\n", s.seconds);
+    if (s.peakMemory > 0)
+        std::printf(
+            "  memory           %.2f GB peak resident (estimated %.2f GB before the work, "
+            "README \"Large DEMs\")\n",
+            s.peakMemory / 1e9, s.memoryEstimate / 1e9);
     return 0;
 }
 

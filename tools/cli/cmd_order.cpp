@@ -186,10 +186,13 @@ int runOrder(const OrderOptions& o) {
     // ranks when the DEM is one block.
     t = Clock::now();
     bar.stage("point set");
-    if (o.memory.check &&
-        !checkMemory(o.in.demPath, sampledDemPoints(data, in.stride), kOrderBytesPerPoint,
-                     o.memory.limitBytes(), "rank as one block",
-                     "--stride 2 ranks a quarter of the points", error))
+    std::uint64_t riverVertices = 0;
+    for (const RiverLine& line : data.rivers)
+        riverVertices += line.size();
+    if (o.memory.check && !checkMemory(o.in.demPath,
+                                       pointMemory(sampledDemPoints(data, in.stride), riverVertices,
+                                                   kOrderBytesPerPoint),
+                                       o.memory.limitBytes(), "rank as one block", error))
         return fail(error);
     BlockSource source;
     if (!splitIntoBlocks(data, in, kWholeDem, true, source, error)) return fail(error);
