@@ -480,8 +480,9 @@ std::vector<BlockLoad> BlockSource::loads() const {
     std::vector<BlockLoad> out(rects_.size());
     for (std::size_t b = 0; b < rects_.size(); ++b) {
         const BlockRect& r = rects_[b];
-        out[b].demPoints = std::uint64_t((r.cellCol1 - r.cellCol0) / s + 1) *
-                           std::uint64_t((r.cellRow1 - r.cellRow0) / s + 1);
+        for (int j = r.cellRow0 / s; j <= r.cellRow1 / s; ++j)
+            for (int i = r.cellCol0 / s; i <= r.cellCol1 / s; ++i)
+                out[b].demPoints += nodeValid(i, j);
     }
     // Which river vertices stay locked up the tree: piece ends, and vertices at the same (x, y)
     // in more than one place (junctions, appendRiverPieces' shared point ids).

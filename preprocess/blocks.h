@@ -64,9 +64,10 @@ struct BlockSourceStats {
 };
 
 // What a block holds before it is built, for the build's memory estimate (build.h
-// estimateBuildMemory): the DEM lattice points of its rectangle (nodata included: an upper
-// bound), its river vertices, and of those the ones a tree node above it keeps locked (piece ends
-// and junctions: a vertex at the same (x, y) in more than one place).
+// estimateBuildMemory): the DEM lattice points of its rectangle with data (an upper bound of its
+// DEM points: an isolated cell makes none), its river vertices, and of those the ones a tree node
+// above it keeps locked (piece ends and junctions: a vertex at the same (x, y) in more than one
+// place).
 struct BlockLoad {
     std::uint64_t demPoints = 0, riverPoints = 0, lockedRiverPoints = 0;
 };

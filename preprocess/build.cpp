@@ -301,7 +301,8 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
                 std::uint64_t(b.lockY0 + b.lockY1) * ((hi.cellCol1 - lo.cellCol0) / o.stride);
         }
         const MemoryEstimate estimate =
-            estimateBuildMemory(sampledDemPoints(data, o.stride), itemLoads, threads, tree);
+            estimateBuildMemory(std::uint64_t(dem.width) * std::uint64_t(dem.height),
+                                sampledDemPoints(data, o.stride), itemLoads, threads, tree);
         summary.memoryEstimate = estimate.bytes;
         if (o.memoryCheck && !checkMemory(o.demPath, estimate, o.memoryLimitBytes, "build", error))
             return false;
@@ -581,14 +582,16 @@ MemoryEstimate pointMemory(std::uint64_t demPoints, std::uint64_t riverPoints,
     return e;
 }
 
-MemoryEstimate estimateBuildMemory(std::uint64_t demPoints, const std::vector<ItemLoad>& items,
-                                   unsigned threads, bool tree) {
+MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t demPoints,
+                                   const std::vector<ItemLoad>& items, unsigned threads,
+                                   bool tree) {
     MemoryEstimate e;
     e.demPoints = demPoints;
     for (const ItemLoad& l : items)
         if (!l.node) e.riverPoints += l.riverPoints;
     const double perPoint = tree ? kTreeBuildBytesPerPoint : kFlatBuildBytesPerPoint;
-    const double whole = double(demPoints + e.riverPoints) * perPoint;
+    const double whole =
+        double(cells) * kBuildBytesPerCell + double(demPoints + e.riverPoints) * perPoint;
     auto bytesOf = [](const ItemLoad& l) {
         return l.node ? double(l.demPoints + l.riverPoints) * kInFlightBytesPerNodePoint
                       : double(l.demPoints) * kInFlightBytesPerDemPoint +
@@ -618,16 +621,33 @@ MemoryEstimate estimateBuildMemory(std::uint64_t demPoints, const std::vector<It
         inFlight += bytesOf(l);
         largest = std::max(largest, l.demPoints + l.riverPoints);
     }
+    // The results waiting for the writer: the window (build: 4 items per thread) of average
+    // blocks.
+    std::size_t blocks = 0;
+    std::uint64_t blockPoints = 0;
+    for (const ItemLoad& l : items)
+        if (!l.node) ++blocks, blockPoints += l.demPoints + l.riverPoints;
+    const double waiting =
+        blocks == 0
+            ? 0.0
+            : double(std::min<std::size_t>(4 * std::size_t(std::max(1u, threads)), blocks)) *
+                  double(blockPoints) / double(blocks) * kResultBytesPerPoint;
+    inFlight += waiting;
     e.bytes = kBuildBaseBytes + whole + inFlight;
     char text[200];
     std::snprintf(text, sizeof text,
-                  "%.0f bytes per point, plus %.2f GB for the %zu block%s or node%s built at a "
-                  "time, up to %.2f M points each",
-                  perPoint, inFlight / 1e9, taken.size(), taken.size() == 1 ? "" : "s",
-                  taken.size() == 1 ? "" : "s", double(largest) / 1e6);
+                  "%.0f bytes per raster cell and %.0f per point, plus %.2f GB for the %zu "
+                  "block%s or node%s built at a time, up to %.2f M points each",
+                  kBuildBytesPerCell, perPoint, inFlight / 1e9, taken.size(),
+                  taken.size() == 1 ? "" : "s", taken.size() == 1 ? "" : "s",
+                  double(largest) / 1e6);
     e.basis = text;
     if (e.riverPoints > demPoints)
         e.smaller = "the rivers hold more points than the DEM: a sparser river network needs less";
+    else if (demPoints < cells / 4 && double(cells) * kBuildBytesPerCell > whole / 2)
+        e.smaller =
+            "the raster is mostly nodata: the raster clipped to its data (gdal_translate "
+            "-projwin) needs less";
     else if (inFlight > whole && threads > 1)
         e.smaller = "--threads 1 builds one block at a time";
     else

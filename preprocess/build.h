@@ -67,20 +67,25 @@ struct BuildOptions : IngestOptions {
 };
 
 // Peak memory of a build, estimated before its long work (estimateBuildMemory; README "Large
-// DEMs", fitted to peaks measured in MEASURED.md): a base, bytes per point of the whole model (the
-// raster, the point data and, with the block hierarchy, the root's error against every original
-// point), and the items built at the same time: the `threads` heaviest blocks and tree nodes of
-// which none lies under another (a node waits for its children), at bytes per point of the item.
-// A block's points are its DEM lattice points and river vertices; a node's the river vertices
-// it keeps locked (piece ends, junctions) and its locked sides' lattice points, a lower bound of
-// what it starts from. A river network denser than the DEM weighs through its blocks and nodes:
-// 50 000 crossing lines over the demo DEM make a root of 444 000 locked vertices.
+// DEMs", fitted to peaks measured in MEASURED.md): a base, bytes per cell of the raster (held
+// whole, nodata and cells the stride skips included, and GDAL's block cache of it), bytes per
+// point of the whole model (the point data and, with the block hierarchy, the root's error
+// against every original point), and the items built at the same time: the `threads` heaviest
+// blocks and tree nodes of which none lies under another (a node waits for its children), at bytes
+// per point of the item. A block's points are its DEM lattice points and river vertices; a node's
+// the river vertices it keeps locked (piece ends, junctions) and its locked sides' lattice points,
+// a lower bound of what it starts from. A river network denser than the DEM weighs through its
+// blocks and nodes: 50 000 crossing lines over the demo DEM make a root of 444 000 locked vertices.
 inline constexpr double kBuildBaseBytes = 64e6;  // libraries, GDAL's cache, thread stacks
-inline constexpr double kTreeBuildBytesPerPoint = 30;
-inline constexpr double kFlatBuildBytesPerPoint = 18;
+inline constexpr double kBuildBytesPerCell = 8;
+inline constexpr double kTreeBuildBytesPerPoint = 22;
+inline constexpr double kFlatBuildBytesPerPoint = 10;
 inline constexpr double kInFlightBytesPerDemPoint = 950;
 inline constexpr double kInFlightBytesPerRiverPoint = 1200;
 inline constexpr double kInFlightBytesPerNodePoint = 1600;
+// Finished blocks wait for the writer in file order (at most 4 per thread ahead of it): their
+// results, at bytes per point of an average block.
+inline constexpr double kResultBytesPerPoint = 40;
 // `unilod order` ranks the whole DEM as one point set (improved 3D_DP): 137 bytes per point over
 // the base at 16M points (2.26 GB, 2026-11-30); the estimate takes a little less.
 inline constexpr double kOrderBytesPerPoint = 130;
@@ -102,10 +107,11 @@ struct ItemLoad {
     std::size_t leafFirst = 0, leafCount = 1;
 };
 
-// The estimate of `build` (see the constants above): `points` DEM points in the model, the
-// blocks' and nodes' loads, `threads` workers, with or without the block hierarchy.
-MemoryEstimate estimateBuildMemory(std::uint64_t demPoints, const std::vector<ItemLoad>& items,
-                                   unsigned threads, bool tree);
+// The estimate of `build` (see the constants above): a raster of `cells` cells, `demPoints` DEM
+// points in the model, the blocks' and nodes' loads, `threads` workers, with or without the block
+// hierarchy.
+MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t demPoints,
+                                   const std::vector<ItemLoad>& items, unsigned threads, bool tree);
 
 // The estimate of `order`: kBuildBaseBytes + points * bytesPerPoint.
 MemoryEstimate pointMemory(std::uint64_t demPoints, std::uint64_t riverPoints,

@@ -141,24 +141,29 @@ TEST(BuildMemory, CountsRiversAndItemsBuiltTogether) {
     items[4].riverPoints = 400000;  // the root's locked river points
     items[4].leafCount = 4;
     const std::uint64_t dem = 4 * 65536;
-    const double whole = kBuildBaseBytes + double(dem + 300000) * kTreeBuildBytesPerPoint;
+    const double raster = kBuildBaseBytes + double(dem) * kBuildBytesPerCell;
+    const double whole = raster + double(dem + 300000) * kTreeBuildBytesPerPoint;
     const double leaf0 = 65536 * kInFlightBytesPerDemPoint;
     const double leaf1 = leaf0 + 300000 * kInFlightBytesPerRiverPoint;
     const double root = 400000 * kInFlightBytesPerNodePoint;
     ASSERT_GT(root, leaf1);
-    MemoryEstimate e = estimateBuildMemory(dem, items, 2, true);
+    // The finished blocks waiting for the writer (4 a thread, at most all 4): average blocks.
+    const double waiting = 4 * double(dem + 300000) / 4 * kResultBytesPerPoint;
+    MemoryEstimate e = estimateBuildMemory(dem, dem, items, 2, true);
     EXPECT_EQ(e.demPoints, dem);
     EXPECT_EQ(e.riverPoints, 300000u);        // the node's locked points are the leaves'
-    EXPECT_DOUBLE_EQ(e.bytes, whole + root);  // the root is built alone
+    EXPECT_DOUBLE_EQ(e.bytes, whole + root + waiting);  // the root is built alone
     EXPECT_NE(e.smaller.find("sparser river network"), std::string::npos) << e.smaller;
     // Without the root (a flat build): the two heaviest blocks.
     items.pop_back();
-    e = estimateBuildMemory(dem, items, 2, false);
-    EXPECT_DOUBLE_EQ(
-        e.bytes, kBuildBaseBytes + double(dem + 300000) * kFlatBuildBytesPerPoint + leaf1 + leaf0);
-    e = estimateBuildMemory(dem, items, 1, false);
-    EXPECT_DOUBLE_EQ(e.bytes,
-                     kBuildBaseBytes + double(dem + 300000) * kFlatBuildBytesPerPoint + leaf1);
+    e = estimateBuildMemory(dem, dem, items, 2, false);
+    const double flat = raster + double(dem + 300000) * kFlatBuildBytesPerPoint;
+    EXPECT_DOUBLE_EQ(e.bytes, flat + leaf1 + leaf0 + waiting);
+    e = estimateBuildMemory(dem, dem, items, 1, false);
+    EXPECT_DOUBLE_EQ(e.bytes, flat + leaf1 + waiting);
+    // A raster mostly nodata weighs by its cells (held whole).
+    e = estimateBuildMemory(16 * dem, dem, items, 1, false);
+    EXPECT_DOUBLE_EQ(e.bytes, flat + 15.0 * double(dem) * kBuildBytesPerCell + leaf1 + waiting);
 }
 
 TEST(LodIndex, LevelsMatchRecordsAndBounds) {
