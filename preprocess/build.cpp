@@ -310,7 +310,7 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
     format::Writer writer;
     if (!writer.open(o.outPath, header, n, outputOptions(o), error)) return false;
     writer.storeRaw(o.rawBlocks);
-    const std::size_t window = 4 * std::size_t(threads);
+    const std::size_t window = kWriterWindowPerThread * std::size_t(threads);
     std::vector<format::Block> results(n);
     std::vector<BlockBuildStats> stats(n);
     std::vector<CoarseState> coarse(n);
@@ -621,17 +621,16 @@ MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t demPoints,
         inFlight += bytesOf(l);
         largest = std::max(largest, l.demPoints + l.riverPoints);
     }
-    // The results waiting for the writer: the window (build: 4 items per thread) of average
-    // blocks.
+    // The results waiting for the writer: its window of average blocks.
     std::size_t blocks = 0;
     std::uint64_t blockPoints = 0;
     for (const ItemLoad& l : items)
         if (!l.node) ++blocks, blockPoints += l.demPoints + l.riverPoints;
     const double waiting =
-        blocks == 0
-            ? 0.0
-            : double(std::min<std::size_t>(4 * std::size_t(std::max(1u, threads)), blocks)) *
-                  double(blockPoints) / double(blocks) * kResultBytesPerPoint;
+        blocks == 0 ? 0.0
+                    : double(std::min<std::size_t>(
+                          kWriterWindowPerThread * std::size_t(std::max(1u, threads)), blocks)) *
+                          double(blockPoints) / double(blocks) * kResultBytesPerPoint;
     inFlight += waiting;
     e.bytes = kBuildBaseBytes + whole + inFlight;
     char text[200];

@@ -83,8 +83,9 @@ inline constexpr double kFlatBuildBytesPerPoint = 10;
 inline constexpr double kInFlightBytesPerDemPoint = 950;
 inline constexpr double kInFlightBytesPerRiverPoint = 1200;
 inline constexpr double kInFlightBytesPerNodePoint = 1600;
-// Finished blocks wait for the writer in file order (at most 4 per thread ahead of it): their
-// results, at bytes per point of an average block.
+// Workers run at most this many items per thread ahead of the writer (build.cpp); the finished
+// ones wait for it in file order: their results, at bytes per point of an average block.
+inline constexpr std::size_t kWriterWindowPerThread = 4;
 inline constexpr double kResultBytesPerPoint = 40;
 // `unilod order` ranks the whole DEM as one point set (improved 3D_DP): 137 bytes per point over
 // the base at 16M points (2.26 GB, 2026-11-30); the estimate takes a little less.
