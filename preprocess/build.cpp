@@ -275,7 +275,7 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
         b.lockY1 = r1 + 1 != source.blocksY();
         return b;
     };
-    const unsigned threads =
+    unsigned threads =
         o.threads > 0 ? unsigned(o.threads) : std::max(1u, std::thread::hardware_concurrency());
     {
         // The memory estimate (build.h), before the long work.
@@ -300,10 +300,41 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
                 std::uint64_t(b.lockX0 + b.lockX1) * ((hi.cellRow1 - lo.cellRow0) / o.stride) +
                 std::uint64_t(b.lockY0 + b.lockY1) * ((hi.cellCol1 - lo.cellCol0) / o.stride);
         }
-        const MemoryEstimate estimate =
-            estimateBuildMemory(std::uint64_t(dem.width) * std::uint64_t(dem.height),
-                                sampledDemPoints(data, o.stride), itemLoads, threads, tree);
+        const std::uint64_t cells = std::uint64_t(dem.width) * std::uint64_t(dem.height);
+        const std::uint64_t demPoints = sampledDemPoints(data, o.stride);
+        MemoryEstimate estimate = estimateBuildMemory(cells, demPoints, itemLoads, threads, tree);
+        if (o.memoryCheck && o.threads == 0 && threads > 1) {
+            // The thread count is ours to choose: fewer threads hold fewer blocks at a time.
+            // The most that fit (halving, then one more at a time), else all and the refusal.
+            std::string what;
+            const double have = memoryBound(o.memoryLimitBytes, what);
+            unsigned fit = threads;
+            while (have > 0 && fit > 1 &&
+                   estimateBuildMemory(cells, demPoints, itemLoads, fit, tree).bytes > have)
+                fit = std::max(1u, fit / 2);
+            while (fit < threads &&
+                   estimateBuildMemory(cells, demPoints, itemLoads, fit + 1, tree).bytes <= have)
+                ++fit;
+            const MemoryEstimate fewer =
+                estimateBuildMemory(cells, demPoints, itemLoads, fit, tree);
+            if (fit < threads && fewer.bytes <= have) {
+                if (o.warn) {
+                    char text[200];
+                    std::snprintf(text, sizeof text,
+                                  "%u of %u threads: with all of them the build would need about "
+                                  "%.2f GB, more than %s allows (%.2f GB); with %u about %.2f GB",
+                                  fit, threads, estimate.bytes / 1e9, what.c_str(), have / 1e9, fit,
+                                  fewer.bytes / 1e9);
+                    o.warn(text);
+                }
+                threads = fit;
+                estimate = fewer;
+            } else if (fewer.bytes > have) {
+                estimate = fewer;  // refused below with the least it can need (one thread)
+            }
+        }
         summary.memoryEstimate = estimate.bytes;
+        summary.threads = threads;
         if (o.memoryCheck && !checkMemory(o.demPath, estimate, o.memoryLimitBytes, "build", error))
             return false;
     }
@@ -654,11 +685,16 @@ MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t demPoints,
     return e;
 }
 
+double memoryBound(double limitBytes, std::string& what) {
+    what = "--memory-limit";
+    return limitBytes > 0 ? limitBytes : double(availableMemory(&what));
+}
+
 bool checkMemory(const std::string& demPath, const MemoryEstimate& estimate, double limitBytes,
                  const char* doing, std::string& error) {
     const double needBytes = estimate.bytes;
-    std::string what = "--memory-limit";
-    const double have = limitBytes > 0 ? limitBytes : double(availableMemory(&what));
+    std::string what;
+    const double have = memoryBound(limitBytes, what);
     if (have <= 0 || needBytes <= have) return true;
     char points[160];
     if (estimate.riverPoints > 0)

@@ -30,7 +30,7 @@ struct BuildOptions : IngestOptions {
     // DEM cells per block side, clamped to the DEM per direction (ingest.h splitIntoBlocks);
     // 0: automaticBlockSize (kDefaultBlockSize, or less where the exact grid needs it).
     int blockSize = 0;
-    int threads = 0;  // 0: all cores
+    int threads = 0;  // 0: all cores (fewer where memory allows only fewer: BuildSummary::threads)
     DeletionOrderKind order = DeletionOrderKind::Greedy;  // --order greedy|3ddp
     bool useBai = true;
     std::string baiTablePath;  // empty: the paper's Table 1
@@ -129,6 +129,10 @@ std::uint64_t availableMemory(std::string* what = nullptr);
 // none): what the memory estimates count.
 std::uint64_t sampledDemPoints(const Ingested& data, int stride);
 
+// What the memory checks compare with: `limitBytes` when > 0 (`what` = "--memory-limit"), else
+// availableMemory(&what); 0 when none can be read.
+double memoryBound(double limitBytes, std::string& what);
+
 // The memory check of `build` and `order`, before their long work: true when the estimate fits
 // `limitBytes` (0: availableMemory(); none readable: no check), else false with `error` naming
 // the DEM, the estimate, the bound, how to ask for less and --no-memory-check. `doing`:
@@ -154,6 +158,9 @@ struct BuildSummary {
     std::uint64_t outputBytes = 0;
     double seconds = 0;
     double memoryEstimate = 0;  // bytes (estimateBuildMemory)
+    // Worker threads used: BuildOptions::threads, or with 0 all cores, fewer where the memory
+    // estimate with all of them exceeds the bound and with fewer does not (a warning says so).
+    unsigned threads = 0;
     double peakMemory = 0;      // bytes: the process's peak resident memory (0: unknown)
     std::string cleaning;  // what river cleaning changed
 };

@@ -18,6 +18,7 @@
 #include <fstream>
 #include <set>
 #include <string>
+#include <thread>
 
 #include "testutil.h"
 #include "tools/cliutil.h"
@@ -236,6 +237,36 @@ TEST_F(CliOutputs, BuildMemoryEstimateCountsTheRivers) {
     EXPECT_NE(r.out.find("GB peak resident (estimated"), std::string::npos) << r.out;
     fs::remove(out);
     fs::remove(dense);
+}
+
+// Without --threads the build chooses its thread count: where the estimate with all cores
+// exceeds the bound and with fewer does not, it builds with fewer and says so; a thread count
+// given is kept (and refused). The bound is set between the demo build's estimates for one and
+// two threads, read from the refusals under a 1 MB limit.
+TEST_F(CliOutputs, BuildUsesFewerThreadsWhereMemoryAllowsOnlyFewer) {
+    if (std::thread::hardware_concurrency() < 2) GTEST_SKIP() << "one core: nothing to reduce";
+    const std::string build =
+        "build -q " + q(std::string(UNILOD_ASSETS_DIR) + "/jacksboro_dem.tif") + " " +
+        q(std::string(UNILOD_ASSETS_DIR) + "/jacksboro_rivers_grass.geojson") + " -o " +
+        q(dir->file("fewer.ulod")) + " --overwrite";
+    auto estimate = [&](const std::string& threads) {
+        const auto r = runCli(build + " --memory-limit 1 --threads " + threads);
+        EXPECT_EQ(r.code, 1) << r.err;
+        const std::size_t at = r.err.find("need about ");
+        return at == std::string::npos ? 0.0 : std::stod(r.err.substr(at + 11)) * 1000.0;
+    };
+    const double one = estimate("1"), two = estimate("2");
+    ASSERT_GT(one, 0.0);
+    ASSERT_GT(two, one + 15.0) << "the second block in flight should weigh";
+    const std::string limit = " --memory-limit " + std::to_string(int((one + two) / 2));
+    auto r = runCli(build + limit);
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("warning: 1 of "), std::string::npos) << r.err;
+    EXPECT_NE(r.out.find("(1 thread)"), std::string::npos) << r.out;
+    r = runCli(build + limit + " --threads 2");
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find("--threads 1 builds one block at a time"), std::string::npos) << r.err;
+    fs::remove(dir->file("fewer.ulod"));
 }
 
 // `order` ranks the whole DEM as one point set: the same check, at its own bytes per point,

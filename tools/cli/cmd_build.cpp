@@ -120,7 +120,8 @@ int run(BuildCli& c) {
                 recordsPaperMetric(c.o) ? "max, paper" : "max", c.metric.c_str());
     std::printf("  output           %s (%s)\n", c.o.outPath.c_str(),
                 megabytes(s.outputBytes).c_str());
-    std::printf("  seconds          %.2f\n", s.seconds);
+    std::printf("  seconds          %.2f (%u thread%s)\n", s.seconds, s.threads,
+                s.threads == 1 ? "" : "s");
     if (s.peakMemory > 0)
         std::printf(
             "  memory           %.2f GB peak resident (estimated %.2f GB before the work, "
