@@ -166,21 +166,39 @@ json measureFiles(const std::string& compact, const std::string& raw) {
             e["stored_bytes"] = e["stored_bytes"].get<std::uint64_t>() + s.stored;
         }
     }
-    // Decode on one core (this thread): the codec alone, then the reader's whole path.
-    auto t = std::chrono::steady_clock::now();
-    for (std::size_t k = 0; k < payloads.size(); ++k) {
-        unilod::format::Block b;
-        if (!unilod::format::decodeCompact(payloads[k].data(), payloads[k].size(), counts[k],
-                                           c.header().zQuantum, b, error))
-            fail(error);
-    }
-    const double decodeSeconds = secondsSince(t);
-    t = std::chrono::steady_clock::now();
-    for (std::size_t i = 0; i < c.blocks().size(); ++i) {
-        unilod::format::Block b;
-        if (!c.readBlock(i, b, error)) fail(error);
-    }
-    const double readSeconds = secondsSince(t);
+    // Decode on one core (this thread): the codec alone, then the reader's whole path. One pass
+    // over the bundled model takes about 0.13 s, within which this machine's speed swings by a
+    // quarter: each is timed over kPasses passes and the median pass is reported.
+    constexpr int kPasses = 5;
+    auto medianPass = [&](auto&& pass, std::vector<double>& seconds) {
+        for (int k = 0; k < kPasses; ++k) {
+            const auto t = std::chrono::steady_clock::now();
+            pass();
+            seconds.push_back(secondsSince(t));
+        }
+        std::vector<double> sorted = seconds;
+        std::sort(sorted.begin(), sorted.end());
+        return sorted[kPasses / 2];
+    };
+    std::vector<double> decodePasses, readPasses;
+    const double decodeSeconds = medianPass(
+        [&] {
+            for (std::size_t k = 0; k < payloads.size(); ++k) {
+                unilod::format::Block b;
+                if (!unilod::format::decodeCompact(payloads[k].data(), payloads[k].size(),
+                                                   counts[k], c.header().zQuantum, b, error))
+                    fail(error);
+            }
+        },
+        decodePasses);
+    const double readSeconds = medianPass(
+        [&] {
+            for (std::size_t i = 0; i < c.blocks().size(); ++i) {
+                unilod::format::Block b;
+                if (!c.readBlock(i, b, error)) fail(error);
+            }
+        },
+        readPasses);
     // What the engine's loader does next with each entry it streams: the refinement tables
     // (engine/lod/refine.h Refinement::init), one core.
     double refineSeconds = 0;
@@ -188,7 +206,7 @@ json measureFiles(const std::string& compact, const std::string& raw) {
     for (std::size_t i = 0; i < c.blocks().size(); ++i) {
         unilod::format::Block b;
         if (!c.readBlock(i, b, error)) fail(error);
-        t = std::chrono::steady_clock::now();
+        const auto t = std::chrono::steady_clock::now();
         unilod::engine::Refinement tables;
         std::string why;
         refinable += tables.init(b, why);
@@ -205,8 +223,10 @@ json measureFiles(const std::string& compact, const std::string& raw) {
             {"meshoptimizer_bytes", meshopt},
             {"decoded_megabytes", mb},
             {"decode_seconds_one_core", decodeSeconds},
+            {"decode_seconds_one_core_passes", decodePasses},
             {"decode_mb_per_s_one_core", mb / decodeSeconds},
             {"read_block_seconds_one_core", readSeconds},
+            {"read_block_seconds_one_core_passes", readPasses},
             {"read_block_mb_per_s_one_core", mb / readSeconds},
             {"refinable_blocks", refinable},
             {"refinement_tables_seconds_one_core", refineSeconds}};

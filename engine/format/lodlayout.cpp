@@ -168,26 +168,54 @@ void layOut(std::vector<Life<T>>& lives, const std::vector<std::uint32_t>& level
     auto levelOf = [&](std::uint32_t k) {
         return k < levelAt.size() ? levelAt[k] : std::uint32_t(n);
     };
-    auto forParts = [&](std::size_t from, std::size_t to, auto&& f) {
-        for (std::size_t p = from / 2; p < pairs && 2 * p < to; ++p) {
+    // The parts of the pairs a life at levels [from, to) touches: its first and last pair may
+    // hold it in one level only (part 0: fine, 2: coarse), every pair between holds it in both
+    // (part 1). Calls ends(part) for the first and the last pair and middle(p0, p1) for the
+    // pairs p0 .. p1 - 1 between them.
+    auto forParts = [&](std::size_t from, std::size_t to, auto&& ends, auto&& middle) {
+        if (from >= to) return;
+        const std::size_t pf = from / 2, pl = (to - 1) / 2;
+        auto part = [&](std::size_t p) {
             const std::size_t fine = 2 * p, coarse = fine + 1;
-            const bool inF = fine >= from && fine < to;
-            const bool inC = coarse < n && coarse >= from && coarse < to;
-            if (inF || inC) f(3 * p + (inF && inC ? 1 : (inF ? 0 : 2)));
-        }
+            const bool inF = fine >= from, inC = coarse < to;  // fine < to and coarse >= from
+            return 3 * p + (inF && inC ? 1 : (inF ? 0 : 2));
+        };
+        ends(part(pf));
+        if (pl == pf) return;
+        if (pl > pf + 1) middle(pf + 1, pl);
+        ends(part(pl));
     };
+    // Middle pairs are counted as a difference array over the pairs (one entry per life, not
+    // one per pair it spans), summed into the parts' sizes after the pass.
+    std::vector<std::int64_t> both(pairs + 1, 0);
     for (std::size_t i = 0; i < lives.size(); ++i) {
         const std::uint32_t from = levelOf(lives[i].birth), to = levelOf(lives[i].death);
         range[2 * i] = from;
         range[2 * i + 1] = to;
-        forParts(from, to, [&](std::size_t part) { ++size[part + 1]; });
+        forParts(
+            from, to, [&](std::size_t part) { ++size[part + 1]; },
+            [&](std::size_t p0, std::size_t p1) {
+                ++both[p0];
+                --both[p1];
+            });
+    }
+    std::int64_t spanning = 0;
+    for (std::size_t p = 0; p < pairs; ++p) {
+        spanning += both[p];
+        size[3 * p + 2] += std::uint64_t(spanning);
     }
     for (std::size_t k = 1; k < size.size(); ++k)
         size[k] += size[k - 1];  // now the start of each part
     indices.resize(size.back());
-    for (std::size_t i = 0; i < lives.size(); ++i)
-        forParts(range[2 * i], range[2 * i + 1],
-                 [&](std::size_t part) { indices[size[part]++] = lives[i].item; });
+    for (std::size_t i = 0; i < lives.size(); ++i) {
+        const T item = lives[i].item;
+        forParts(
+            range[2 * i], range[2 * i + 1], [&](std::size_t part) { indices[size[part]++] = item; },
+            [&](std::size_t p0, std::size_t p1) {
+                for (std::size_t p = p0; p < p1; ++p)
+                    indices[size[3 * p + 1]++] = item;
+            });
+    }
     // size[part] is now the end of each part, i.e. the start of the next one.
     for (std::size_t p = 0; p < pairs; ++p) {
         const std::size_t j = 2 * p;
