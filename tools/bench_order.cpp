@@ -19,7 +19,8 @@
 //
 // `--build-time N`: a synthetic DEM of about N points (its river network scales with the grid,
 // about 4 000 rivers at 16M points; tools/benchbuild.h as bench_build), built with the default
-// options; wall seconds and peak RSS.
+// options; wall seconds and peak RSS, beside the same run's reference: the bundled data built
+// three times before and three times after (`build_over_reference`, against their median).
 //
 // `--tree N`: issue 18's block hierarchy on a default build of a synthetic DEM of about N points
 // (treeBenchmark below): uniform cut vs a greedy TIN of the whole DEM, file vs leaf level, draws
@@ -915,18 +916,51 @@ int main(int argc, char** argv) {
     if (buildTime > 0) {
         json inputs;
         const unilod::BuildOptions o = syntheticBuild(buildTime, "", inputs);
+        // The same run's reference: the bundled data built with the same options, three times
+        // before and three times after (this machine's speed moves by up to 2.7x between days
+        // and by 10 % within an hour, so the absolute time alone says little about the code).
+        unilod::BuildOptions ref;
+        ref.demPath = std::string(UNILOD_ASSETS_DIR) + "/jacksboro_dem.tif";
+        ref.riversPath = std::string(UNILOD_ASSETS_DIR) + "/jacksboro_rivers_grass.geojson";
+        ref.outPath = work + "/reference_jacksboro.ulod";
+        ref.threads = threads;
+        ref.force = true;
+        std::vector<double> referenceSeconds;
+        auto reference = [&] {
+            for (int k = 0; k < 3; ++k)
+                referenceSeconds.push_back(unilod::bench::runInChild([&] {
+                                               return unilod::bench::measureBuild("reference", ref);
+                                           })["seconds"]
+                                               .get<double>());
+        };
+        std::fprintf(stderr, "bench_order: reference builds of the bundled data...\n");
+        reference();
         std::fprintf(stderr, "bench_order: building...\n");
         const auto start = std::chrono::steady_clock::now();
         json build = unilod::bench::runInChild(
             [&] { return unilod::bench::measureBuild("synthetic_" + std::to_string(buildTime), o); });
         build["wall_seconds"] =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        std::fprintf(stderr, "bench_order: reference builds of the bundled data...\n");
+        reference();
+        std::vector<double> sorted = referenceSeconds;
+        std::sort(sorted.begin(), sorted.end());
+        const double median = (sorted[2] + sorted[3]) / 2;
         if (keep.empty()) fs::remove_all(work);
-        const json result = {{"benchmark", "order_build_time"},
-                             {"hardware_threads", std::thread::hardware_concurrency()},
-                             {"target_points", buildTime},
-                             {"inputs", inputs},
-                             {"build", build}};
+        const json result = {
+            {"benchmark", "order_build_time"},
+            {"hardware_threads", std::thread::hardware_concurrency()},
+            {"target_points", buildTime},
+            {"target_seconds", 180},
+            {"inputs", inputs},
+            {"build", build},
+            {"reference",
+             {{"case",
+               "the bundled data, default options, the same threads (3 builds before, 3 "
+               "after)"},
+              {"seconds", referenceSeconds},
+              {"median_seconds", median},
+              {"build_over_reference", build["seconds"].get<double>() / median}}}};
         std::printf("%s\n", unilod::jsonText(result, 2).c_str());
         return 0;
     }
