@@ -1,14 +1,16 @@
-// The .ulod size and decode benchmark (issue 19): builds one model twice in the same run, with
+// The .ulod size and decode benchmark (issue 19): builds one model in the same run with
 // compact blocks (the default) and raw blocks (plain arrays, the version-2 layout: the baseline),
+// alternating (`--rounds`, default 2: raw, compact, compact, raw),
 // and prints JSON: bytes per DEM point and per model point for both, where the compact bytes go
 // (per stream), build time compact vs raw, and the decode speed of the compact blocks on one core
 // (decoded output = the raw arrays, per second; every block decoded, then once more through
-// Reader::readBlock with its checks), and the time the engine's loader then spends on each
-// entry's refinement tables (engine/lod/refine.h).
+// Reader::readBlock with its checks; each the median of 5 passes), and the time the engine's loader
+// then spends on each entry's refinement tables (engine/lod/refine.h).
 //
 //   bench_format                 the bundled Jacksboro DEM with the GRASS rivers
 //   bench_format --points N      a synthetic DEM with rivers of about N points (tools/synthetic.h)
 //   --keep DIR                   keep inputs and models in DIR (reused when present)
+//   --rounds N                   N pairs of raw and compact builds
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdio>
@@ -238,10 +240,14 @@ int main(int argc, char** argv) {
     CLI::App app{"bench_format: .ulod bytes per point and decode speed, compact vs raw blocks"};
     std::size_t points = 0;
     std::string keep;
-    unsigned threads = 0;
+    unsigned threads = 0, rounds = 2;
     app.add_option("--points", points, "synthetic DEM of about N points (0: the bundled data)");
     app.add_option("--keep", keep, "keep inputs and models in this folder (reused when present)");
     app.add_option("--threads", threads, "build threads (0: all cores)");
+    app.add_option("--rounds", rounds,
+                   "build rounds: raw and compact builds alternate, raw-compact then compact-raw "
+                   "(default 2)")
+        ->check(CLI::Range(1u, 100u));
     CLI11_PARSE(app, argc, argv);
 
     const std::string work = keep.empty() ? (fs::temp_directory_path() /
@@ -273,11 +279,36 @@ int main(int argc, char** argv) {
     o.outPath = work + "/" + name + "_compact.ulod";
     rawOptions.outPath = work + "/" + name + "_raw.ulod";
     rawOptions.rawBlocks = true;
-    std::fprintf(stderr, "bench_format: building %s (raw blocks, then compact)...\n", name.c_str());
-    const json rawBuild =
-        unilod::bench::runInChild([&] { return unilod::bench::measureBuild(name, rawOptions); });
-    const json compactBuild =
-        unilod::bench::runInChild([&] { return unilod::bench::measureBuild(name, o); });
+    // The builds alternate raw, compact, compact, raw, ... (`--rounds` pairs): this machine's
+    // speed drifts by 10-25 % within minutes (a 16M compact build took 150 s and 193 s ten
+    // minutes apart), so a ratio of one build each measured the drift as much as the encoding.
+    // The ratio is of the summed times.
+    std::fprintf(stderr, "bench_format: building %s (%u rounds of raw and compact blocks)...\n",
+                 name.c_str(), rounds);
+    json rawBuild, compactBuild;
+    double rawSeconds = 0, compactSeconds = 0;
+    json rawTimes = json::array(), compactTimes = json::array();
+    auto buildRaw = [&] {
+        rawBuild = unilod::bench::runInChild(
+            [&] { return unilod::bench::measureBuild(name, rawOptions); });
+        rawSeconds += rawBuild["seconds"].get<double>();
+        rawTimes.push_back(rawBuild["seconds"]);
+    };
+    auto buildCompact = [&] {
+        compactBuild =
+            unilod::bench::runInChild([&] { return unilod::bench::measureBuild(name, o); });
+        compactSeconds += compactBuild["seconds"].get<double>();
+        compactTimes.push_back(compactBuild["seconds"]);
+    };
+    for (unsigned r = 0; r < rounds; ++r) {
+        if (r % 2 == 0) {
+            buildRaw();
+            buildCompact();
+        } else {
+            buildCompact();
+            buildRaw();
+        }
+    }
     std::fprintf(stderr, "bench_format: sizes and decode...\n");
     json files = unilod::bench::runInChild([&] { return measureFiles(o.outPath, rawOptions.outPath); });
 
@@ -321,9 +352,8 @@ int main(int argc, char** argv) {
           {"target_engine_streamed_bytes_per_dem_point", 8}}},
         {"raw_baseline", {{"bytes_per_dem_point", rawBytes / demPoints}}},
         {"raw_over_compact", rawBytes / compactBytes},
-        {"build_seconds", {{"compact", compactBuild["seconds"]}, {"raw", rawBuild["seconds"]}}},
-        {"build_compact_over_raw",
-         compactBuild["seconds"].get<double>() / rawBuild["seconds"].get<double>()},
+        {"build_seconds", {{"compact", compactTimes}, {"raw", rawTimes}}},
+        {"build_compact_over_raw", compactSeconds / rawSeconds},
         {"target_build_compact_over_raw", 1.10},
         {"build_max_rss_bytes",
          {{"compact", compactBuild["max_rss_bytes"]}, {"raw", rawBuild["max_rss_bytes"]}}},
