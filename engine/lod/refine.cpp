@@ -35,7 +35,8 @@ void grow(double lo[3], double hi[3], double x, double y, double z) {
 }
 
 // The block's vertices (its original points) in a uniform grid of buckets over their grid
-// positions, about one point per bucket.
+// positions, about one point per bucket; each bucket's points with their grid positions, so that
+// a scan reads one array in order.
 class PointBuckets {
 public:
     explicit PointBuckets(const format::Block& b) : b_(b) {
@@ -61,7 +62,7 @@ public:
         points_.resize(b.grid.size());
         std::vector<std::uint32_t> at(first_.begin(), first_.end() - 1);
         for (std::uint32_t v = 0; v < b.grid.size(); ++v)
-            points_[at[cell(b.grid[v].x, b.grid[v].y)]++] = v;
+            points_[at[cell(b.grid[v].x, b.grid[v].y)]++] = {b.grid[v].x, b.grid[v].y, v};
     }
 
     // Whether vertex v lies in the closed triangle t (grid positions, exact).
@@ -72,73 +73,126 @@ public:
                unilod::orient2d(c.x, c.y, a.x, a.y, p.x, p.y) >= 0;
     }
 
-    // Calls f(v) for every vertex v in the closed triangle t (grid positions, exact).
+    // Calls f(v) for every vertex v in the closed triangle t (grid positions, exact: the three
+    // edge functions of t, each exact in int64 for grid coordinates, orient2d's terms expanded).
     template <typename F>
     void inTriangle(const format::Triangle& t, F&& f) const {
         const format::GridXY a = b_.grid[t.a], b = b_.grid[t.b], c = b_.grid[t.c];
         const std::int64_t x0 = std::min({a.x, b.x, c.x}), x1 = std::max({a.x, b.x, c.x});
         const std::int64_t y0 = std::min({a.y, b.y, c.y}), y1 = std::max({a.y, b.y, c.y});
-        for (std::int64_t j = (y0 - lo_[1]) / side_; j <= (y1 - lo_[1]) / side_; ++j)
-            for (std::int64_t i = (x0 - lo_[0]) / side_; i <= (x1 - lo_[0]) / side_; ++i) {
-                const std::size_t k = std::size_t(j * size_[0] + i);
-                for (std::uint32_t n = first_[k]; n < first_[k + 1]; ++n) {
-                    const std::uint32_t v = points_[n];
-                    const format::GridXY p = b_.grid[v];
-                    if (p.x < x0 || p.x > x1 || p.y < y0 || p.y > y1) continue;
-                    if (unilod::orient2d(a.x, a.y, b.x, b.y, p.x, p.y) < 0 ||
-                        unilod::orient2d(b.x, b.y, c.x, c.y, p.x, p.y) < 0 ||
-                        unilod::orient2d(c.x, c.y, a.x, a.y, p.x, p.y) < 0)
-                        continue;
-                    f(v);
-                }
+        // orient2d(p, q, r) = (qx - px)(ry - py) - (qy - py)(rx - px) = A rx + B ry + C with
+        // A = py - qy, B = qx - px, C = px qy - py qx.
+        const auto edge = [](format::GridXY p, format::GridXY q, std::int64_t k[3]) {
+            k[0] = std::int64_t(p.y) - q.y;
+            k[1] = std::int64_t(q.x) - p.x;
+            k[2] = std::int64_t(p.x) * q.y - std::int64_t(p.y) * q.x;
+        };
+        std::int64_t e0[3], e1[3], e2[3];
+        edge(a, b, e0), edge(b, c, e1), edge(c, a, e2);
+        const std::int64_t i0 = (x0 - lo_[0]) / side_, i1 = (x1 - lo_[0]) / side_;
+        for (std::int64_t j = (y0 - lo_[1]) / side_; j <= (y1 - lo_[1]) / side_; ++j) {
+            const std::size_t row = std::size_t(j * size_[0]);
+            for (std::uint32_t n = first_[row + i0]; n < first_[row + i1 + 1]; ++n) {
+                const Entry& p = points_[n];
+                if (p.x < x0 || p.x > x1 || p.y < y0 || p.y > y1) continue;
+                if (e0[0] * p.x + e0[1] * p.y + e0[2] < 0 ||
+                    e1[0] * p.x + e1[1] * p.y + e1[2] < 0 || e2[0] * p.x + e2[1] * p.y + e2[2] < 0)
+                    continue;
+                f(p.v);
             }
+        }
     }
 
 private:
+    struct Entry {
+        std::int32_t x, y;
+        std::uint32_t v;
+    };
     std::size_t cell(std::int64_t x, std::int64_t y) const {
         return std::size_t(((y - lo_[1]) / side_) * size_[0] + (x - lo_[0]) / side_);
     }
     const format::Block& b_;
     std::int64_t lo_[2] = {}, size_[2] = {}, side_ = 1;
-    std::vector<std::uint32_t> first_, points_;
+    std::vector<std::uint32_t> first_;
+    std::vector<Entry> points_;
 };
 
 // A table index per 64-bit key (a triangle's or river edge's identity), open addressing with
 // linear probing: init() looks one up for every record, where std::unordered_map was a fifth of
-// the loader's time. Never more than half full: sized for every key the block's records can
-// insert (full resolution plus every added one); ~0 is no key (vertex indices are below 2^21).
+// the loader's time. Key and value share a slot (one cache miss per lookup, not two), and init()
+// keeps only the alive elements in it (take() removes with backward shifting), so the table is the
+// size of the largest alive set, not of every element the records ever create (a quarter of that
+// on a 256-cell leaf). Never more than half full: sized for `keys` (exact for a validated block,
+// whose trianglesAlive are checked), doubled should an insertion pass that; ~0 is no key (vertex
+// indices are below 2^21).
 class IdMap {
 public:
-    explicit IdMap(std::size_t keys) {
-        std::size_t capacity = 16;
-        while (capacity < 2 * keys)
-            capacity *= 2;
-        keys_.assign(capacity, kEmpty);
-        values_.resize(capacity);
-        shift_ = 64 - unsigned(std::countr_zero(capacity));
-    }
+    explicit IdMap(std::size_t keys) { resize(keys); }
     // Inserts the key or replaces its value.
     void set(std::uint64_t key, std::uint32_t value) {
+        if (2 * (count_ + 1) > slots_.size()) grow();
         std::size_t i = slot(key);
-        while (keys_[i] != kEmpty && keys_[i] != key)
-            i = (i + 1) & (keys_.size() - 1);
-        keys_[i] = key;
-        values_[i] = value;
+        while (slots_[i].key != kEmpty && slots_[i].key != key)
+            i = (i + 1) & mask_;
+        if (slots_[i].key == kEmpty) ++count_;
+        slots_[i] = {key, value};
     }
     // The key's value, or nullptr.
     const std::uint32_t* find(std::uint64_t key) const {
-        for (std::size_t i = slot(key); keys_[i] != kEmpty; i = (i + 1) & (keys_.size() - 1))
-            if (keys_[i] == key) return &values_[i];
+        for (std::size_t i = slot(key); slots_[i].key != kEmpty; i = (i + 1) & mask_)
+            if (slots_[i].key == key) return &slots_[i].value;
         return nullptr;
+    }
+    // Starts loading the key's home slot (a lookup soon after finds it in cache).
+    void prefetch(std::uint64_t key) const { __builtin_prefetch(&slots_[slot(key)]); }
+    // Removes the key and gives its value; false when it is not there.
+    bool take(std::uint64_t key, std::uint32_t& value) {
+        std::size_t i = slot(key);
+        while (slots_[i].key != key) {
+            if (slots_[i].key == kEmpty) return false;
+            i = (i + 1) & mask_;
+        }
+        value = slots_[i].value;
+        // Backward shift: move up every later key of the run whose home is not between the hole
+        // and it (cyclically), so that no lookup meets an empty slot before its key.
+        for (std::size_t j = (i + 1) & mask_; slots_[j].key != kEmpty; j = (j + 1) & mask_) {
+            const std::size_t home = slot(slots_[j].key);
+            if (((j - home) & mask_) >= ((j - i) & mask_)) {
+                slots_[i] = slots_[j];
+                i = j;
+            }
+        }
+        slots_[i].key = kEmpty;
+        --count_;
+        return true;
     }
 
 private:
     static constexpr std::uint64_t kEmpty = ~std::uint64_t(0);
+    struct Slot {
+        std::uint64_t key;
+        std::uint32_t value;
+    };
+    void resize(std::size_t keys) {
+        std::size_t capacity = 16;
+        while (capacity < 2 * keys)
+            capacity *= 2;
+        slots_.assign(capacity, Slot{kEmpty, 0});
+        mask_ = capacity - 1;
+        shift_ = 64 - unsigned(std::countr_zero(capacity));
+        count_ = 0;
+    }
+    void grow() {
+        std::vector<Slot> old = std::move(slots_);
+        resize(old.size());  // twice the keys it held at most: double the capacity
+        for (const Slot& s : old)
+            if (s.key != kEmpty) set(s.key, s.value);
+    }
     std::size_t slot(std::uint64_t key) const {
         return std::size_t((key * 0x9E3779B97F4A7C15ull) >> shift_);  // Fibonacci hashing
     }
-    std::vector<std::uint64_t> keys_;
-    std::vector<std::uint32_t> values_;
+    std::vector<Slot> slots_;
+    std::size_t mask_ = 0, count_ = 0;
     unsigned shift_ = 0;
 };
 
@@ -206,8 +260,15 @@ bool Refinement::init(const format::Block& b, std::string& why) {
     const auto py = [&](std::uint32_t v) { return b.grid[v].y * unit; };
     const auto pz = [&](std::uint32_t v) { return double(b.vertices[v].z); };
 
-    IdMap triangleId(b.levels.front().triangleCount + b.addedTriangles.size());
-    IdMap edgeId(b.levels.front().riverCount + b.addedEdges.size());
+    // The alive elements only (IdMap::take at their removal): at most the largest alive set.
+    std::size_t aliveTriangles = b.levels.front().triangleCount;
+    std::size_t aliveEdges = b.levels.front().riverCount;
+    for (const format::Step& st : b.steps) {
+        aliveTriangles = std::max<std::size_t>(aliveTriangles, st.trianglesAlive);
+        aliveEdges = std::max<std::size_t>(aliveEdges, st.riverEdgesAlive);
+    }
+    IdMap triangleId(aliveTriangles);
+    IdMap edgeId(aliveEdges);
     const format::Level& full = b.levels.front();
     for (std::uint32_t t = full.triangleFirst; t < full.triangleFirst + full.triangleCount; ++t) {
         triangleId.set(triangleKey(b.terrainIndices[t]), std::uint32_t(triangles_.size()));
@@ -253,6 +314,16 @@ bool Refinement::init(const format::Block& b, std::string& why) {
             ++outlineDegree[v];
     }
     for (std::size_t s = 0; s < b.steps.size(); ++s) {
+        // The table lookups of the next step are cache misses (the table is larger than the
+        // cache): their slots are loaded while this step measures its errors.
+        if (s + 1 < b.steps.size()) {
+            for (std::uint32_t r = b.removedTriangleOffset[s + 1];
+                 r < b.removedTriangleOffset[s + 2]; ++r)
+                triangleId.prefetch(triangleKey(b.removedTriangles[r]));
+            for (std::uint32_t a = b.addedTriangleOffset[s + 1]; a < b.addedTriangleOffset[s + 2];
+                 ++a)
+                triangleId.prefetch(triangleKey(b.addedTriangles[a]));
+        }
         Step step;
         for (int k = 0; k < 3; ++k)
             step.boxMin[k] = INFINITY, step.boxMax[k] = -INFINITY;
@@ -260,14 +331,14 @@ bool Refinement::init(const format::Block& b, std::string& why) {
         const std::uint32_t self = std::uint32_t(s + 1);
         for (std::uint32_t r = b.removedTriangleOffset[s]; r < b.removedTriangleOffset[s + 1];
              ++r) {
-            const std::uint32_t* id = triangleId.find(triangleKey(b.removedTriangles[r]));
-            if (!id || triangleDestroyer_[*id] != 0) {
+            std::uint32_t id = 0;
+            if (!triangleId.take(triangleKey(b.removedTriangles[r]), id)) {
                 *this = Refinement{};
                 why = "step " + std::to_string(s) + " removes a triangle that is not alive";
                 return false;
             }
-            triangleDestroyer_[*id] = self;
-            const std::uint32_t creator = triangleCreator_[*id];
+            triangleDestroyer_[id] = self;
+            const std::uint32_t creator = triangleCreator_[id];
             if (creator != 0 && std::find(parents_.begin() + step.parentFirst, parents_.end(),
                                           creator) == parents_.end())
                 parents_.push_back(creator);
@@ -394,14 +465,14 @@ bool Refinement::init(const format::Block& b, std::string& why) {
         // for, and for the removed vertex.
         merged.clear();
         for (std::uint32_t r = b.removedEdgeOffset[s]; r < b.removedEdgeOffset[s + 1]; ++r) {
-            const std::uint32_t* id = edgeId.find(edgeKey(b.removedEdges[r]));
-            if (!id || edgeDestroyer_[*id] != 0) {
+            std::uint32_t id = 0;
+            if (!edgeId.take(edgeKey(b.removedEdges[r]), id)) {
                 *this = Refinement{};
                 why = "step " + std::to_string(s) + " removes a river edge that is not alive";
                 return false;
             }
-            edgeDestroyer_[*id] = self;
-            merged.insert(merged.end(), cover[*id].begin(), cover[*id].end());
+            edgeDestroyer_[id] = self;
+            merged.insert(merged.end(), cover[id].begin(), cover[id].end());
         }
         if (b.removedEdgeOffset[s + 1] > b.removedEdgeOffset[s] && !node)
             merged.push_back(b.steps[s].vertex);
@@ -473,17 +544,32 @@ bool Refinement::init(const format::Block& b, std::string& why) {
     steps_.shrink_to_fit();
     triangles_.shrink_to_fit();
     edges_.shrink_to_fit();
-    // What each stored level draws, as indices into the tables: refine() starts from it.
-    for (const format::Level& l : b.levels) {
-        if (l.step > steps_.size()) continue;
-        levelSteps_.push_back(l.step);
-        auto& t = levelTriangles_.emplace_back();
-        for (std::uint32_t i = 0; i < createdTriangles_[l.step + 1]; ++i)
-            if (triangleDestroyer_[i] > l.step) t.push_back(i);
-        auto& e = levelEdges_.emplace_back();
-        for (std::uint32_t i = 0; i < createdEdges_[l.step + 1]; ++i)
-            if (edgeDestroyer_[i] > l.step) e.push_back(i);
-    }
+    // What each stored level draws, as indices into the tables (ascending): refine() starts from
+    // it. Element i, created by step c and destroyed by step d (index + 1; 0: full resolution),
+    // is alive at the levels whose step k has c <= k < d: a run of the levels (their steps
+    // ascend), found from the first level at or after c, so the work is the output's size.
+    for (const format::Level& l : b.levels)
+        if (l.step <= steps_.size()) levelSteps_.push_back(l.step);
+    levelTriangles_.resize(levelSteps_.size());
+    levelEdges_.resize(levelSteps_.size());
+    const auto assign = [&](const std::vector<std::uint32_t>& created,
+                            const std::vector<std::uint32_t>& destroyer,
+                            std::vector<std::vector<std::uint32_t>>& levels) {
+        std::uint32_t creator = 0;
+        std::size_t first = 0;  // the first level whose step is at least `creator`
+        for (std::uint32_t i = 0; i < destroyer.size(); ++i) {
+            while (i >= created[creator + 1]) {
+                ++creator;
+                while (first < levelSteps_.size() && levelSteps_[first] < creator)
+                    ++first;
+            }
+            for (std::size_t k = first; k < levelSteps_.size() && levelSteps_[k] < destroyer[i];
+                 ++k)
+                levels[k].push_back(i);
+        }
+    };
+    assign(createdTriangles_, triangleDestroyer_, levelTriangles_);
+    assign(createdEdges_, edgeDestroyer_, levelEdges_);
     return true;
 }
 
