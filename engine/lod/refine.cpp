@@ -137,12 +137,6 @@ public:
         if (slots_[i].key == kEmpty) ++count_;
         slots_[i] = {key, value};
     }
-    // The key's value, or nullptr.
-    const std::uint32_t* find(std::uint64_t key) const {
-        for (std::size_t i = slot(key); slots_[i].key != kEmpty; i = (i + 1) & mask_)
-            if (slots_[i].key == key) return &slots_[i].value;
-        return nullptr;
-    }
     // Starts loading the key's home slot (a lookup soon after finds it in cache).
     void prefetch(std::uint64_t key) const { __builtin_prefetch(&slots_[slot(key)]); }
     // Removes the key and gives its value; false when it is not there.
@@ -196,22 +190,32 @@ private:
     unsigned shift_ = 0;
 };
 
-// The outline of a whole triangulation: its directed edges whose reverse is not in it (any
-// order), in linear time.
-void outlineEdges(const format::Triangle* first, const format::Triangle* last,
+// The outline of a whole triangulation over vertices [0, n): its directed edges whose reverse is
+// not in it, in the triangles' order, in linear time: the edges bucketed by their first vertex (a
+// counting sort), the reverse of a -> b looked up among b's few.
+void outlineEdges(const format::Triangle* first, const format::Triangle* last, std::size_t n,
                   std::vector<std::uint64_t>& out) {
-    IdMap edges(std::size_t(last - first) * 3);
     const auto each = [&](auto&& f) {
         for (const format::Triangle* t = first; t != last; ++t) {
-            f((std::uint64_t(t->a) << 32) | t->b);
-            f((std::uint64_t(t->b) << 32) | t->c);
-            f((std::uint64_t(t->c) << 32) | t->a);
+            f(t->a, t->b);
+            f(t->b, t->c);
+            f(t->c, t->a);
         }
     };
-    each([&](std::uint64_t e) { edges.set(e, 0); });
+    std::vector<std::uint32_t> start(n + 1, 0);
+    each([&](std::uint32_t from, std::uint32_t) { ++start[from + 1]; });
+    for (std::size_t v = 0; v < n; ++v)
+        start[v + 1] += start[v];
+    std::vector<std::uint32_t> to(start[n]);
+    {
+        std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+        each([&](std::uint32_t from, std::uint32_t t) { to[fill[from]++] = t; });
+    }
     out.clear();
-    each([&](std::uint64_t e) {
-        if (!edges.find((e << 32) | (e >> 32))) out.push_back(e);
+    each([&](std::uint32_t from, std::uint32_t t) {
+        if (std::find(to.begin() + start[t], to.begin() + start[t + 1], from) ==
+            to.begin() + start[t + 1])
+            out.push_back((std::uint64_t(from) << 32) | t);
     });
 }
 
@@ -305,7 +309,8 @@ bool Refinement::init(const format::Block& b, std::string& why) {
     // it) stands for; full resolution: none.
     std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> outlineCover;
     outlineEdges(b.terrainIndices.data() + full.triangleFirst,
-                 b.terrainIndices.data() + full.triangleFirst + full.triangleCount, removedOuter);
+                 b.terrainIndices.data() + full.triangleFirst + full.triangleCount, n,
+                 removedOuter);
     // How many outline edges each vertex has.
     std::vector<std::uint32_t> outlineDegree(n, 0);
     for (const std::uint64_t e : removedOuter) {
