@@ -128,25 +128,26 @@ private:
 class IdMap {
 public:
     explicit IdMap(std::size_t keys) { resize(keys); }
-    // Inserts the key or replaces its value.
-    void set(std::uint64_t key, std::uint32_t value) {
+    // Inserts the key or replaces its value and tag.
+    void set(std::uint64_t key, std::uint32_t value, std::uint32_t tag = 0) {
         if (2 * (count_ + 1) > slots_.size()) grow();
         std::size_t i = slot(key);
         while (slots_[i].key != kEmpty && slots_[i].key != key)
             i = (i + 1) & mask_;
         if (slots_[i].key == kEmpty) ++count_;
-        slots_[i] = {key, value};
+        slots_[i] = {key, value, tag};
     }
     // Starts loading the key's home slot (a lookup soon after finds it in cache).
     void prefetch(std::uint64_t key) const { __builtin_prefetch(&slots_[slot(key)]); }
-    // Removes the key and gives its value; false when it is not there.
-    bool take(std::uint64_t key, std::uint32_t& value) {
+    // Removes the key and gives its value and tag; false when it is not there.
+    bool take(std::uint64_t key, std::uint32_t& value, std::uint32_t& tag) {
         std::size_t i = slot(key);
         while (slots_[i].key != key) {
             if (slots_[i].key == kEmpty) return false;
             i = (i + 1) & mask_;
         }
         value = slots_[i].value;
+        tag = slots_[i].tag;
         // Backward shift: move up every later key of the run whose home is not between the hole
         // and it (cyclically), so that no lookup meets an empty slot before its key.
         for (std::size_t j = (i + 1) & mask_; slots_[j].key != kEmpty; j = (j + 1) & mask_) {
@@ -165,13 +166,13 @@ private:
     static constexpr std::uint64_t kEmpty = ~std::uint64_t(0);
     struct Slot {
         std::uint64_t key;
-        std::uint32_t value;
+        std::uint32_t value, tag;
     };
     void resize(std::size_t keys) {
         std::size_t capacity = 16;
         while (capacity < 2 * keys)
             capacity *= 2;
-        slots_.assign(capacity, Slot{kEmpty, 0});
+        slots_.assign(capacity, Slot{kEmpty, 0, 0});
         mask_ = capacity - 1;
         shift_ = 64 - unsigned(std::countr_zero(capacity));
         count_ = 0;
@@ -180,7 +181,7 @@ private:
         std::vector<Slot> old = std::move(slots_);
         resize(old.size());  // twice the keys it held at most: double the capacity
         for (const Slot& s : old)
-            if (s.key != kEmpty) set(s.key, s.value);
+            if (s.key != kEmpty) set(s.key, s.value, s.tag);
     }
     std::size_t slot(std::uint64_t key) const {
         return std::size_t((key * 0x9E3779B97F4A7C15ull) >> shift_);  // Fibonacci hashing
@@ -275,9 +276,8 @@ bool Refinement::init(const format::Block& b, std::string& why) {
     IdMap edgeId(aliveEdges);
     const format::Level& full = b.levels.front();
     for (std::uint32_t t = full.triangleFirst; t < full.triangleFirst + full.triangleCount; ++t) {
-        triangleId.set(triangleKey(b.terrainIndices[t]), std::uint32_t(triangles_.size()));
+        triangleId.set(triangleKey(b.terrainIndices[t]), std::uint32_t(triangles_.size()), 0);
         triangles_.push_back(b.terrainIndices[t]);
-        triangleCreator_.push_back(0);
         triangleDestroyer_.push_back(0);
     }
     fullTriangles_ = full.triangleCount;
@@ -287,7 +287,6 @@ bool Refinement::init(const format::Block& b, std::string& why) {
     for (std::uint32_t e = full.riverFirst; e < full.riverFirst + full.riverCount; ++e) {
         edgeId.set(edgeKey(b.riverIndices[e]), std::uint32_t(edges_.size()));
         edges_.push_back(b.riverIndices[e]);
-        edgeCreator_.push_back(0);
         edgeDestroyer_.push_back(0);
         cover.emplace_back();
     }
@@ -336,14 +335,13 @@ bool Refinement::init(const format::Block& b, std::string& why) {
         const std::uint32_t self = std::uint32_t(s + 1);
         for (std::uint32_t r = b.removedTriangleOffset[s]; r < b.removedTriangleOffset[s + 1];
              ++r) {
-            std::uint32_t id = 0;
-            if (!triangleId.take(triangleKey(b.removedTriangles[r]), id)) {
+            std::uint32_t id = 0, creator = 0;
+            if (!triangleId.take(triangleKey(b.removedTriangles[r]), id, creator)) {
                 *this = Refinement{};
                 why = "step " + std::to_string(s) + " removes a triangle that is not alive";
                 return false;
             }
             triangleDestroyer_[id] = self;
-            const std::uint32_t creator = triangleCreator_[id];
             if (creator != 0 && std::find(parents_.begin() + step.parentFirst, parents_.end(),
                                           creator) == parents_.end())
                 parents_.push_back(creator);
@@ -351,9 +349,8 @@ bool Refinement::init(const format::Block& b, std::string& why) {
         double vertical = 0;
         for (std::uint32_t a = b.addedTriangleOffset[s]; a < b.addedTriangleOffset[s + 1]; ++a) {
             const format::Triangle& t = b.addedTriangles[a];
-            triangleId.set(triangleKey(t), std::uint32_t(triangles_.size()));
+            triangleId.set(triangleKey(t), std::uint32_t(triangles_.size()), self);
             triangles_.push_back(t);
-            triangleCreator_.push_back(self);
             triangleDestroyer_.push_back(0);
             // The plane through the triangle: z = z_a + gx (x - x_a) + gy (y - y_a).
             const double ux = px(t.b) - px(t.a), uy = py(t.b) - py(t.a), uz = pz(t.b) - pz(t.a);
@@ -470,8 +467,8 @@ bool Refinement::init(const format::Block& b, std::string& why) {
         // for, and for the removed vertex.
         merged.clear();
         for (std::uint32_t r = b.removedEdgeOffset[s]; r < b.removedEdgeOffset[s + 1]; ++r) {
-            std::uint32_t id = 0;
-            if (!edgeId.take(edgeKey(b.removedEdges[r]), id)) {
+            std::uint32_t id = 0, tag = 0;
+            if (!edgeId.take(edgeKey(b.removedEdges[r]), id, tag)) {
                 *this = Refinement{};
                 why = "step " + std::to_string(s) + " removes a river edge that is not alive";
                 return false;
@@ -486,7 +483,6 @@ bool Refinement::init(const format::Block& b, std::string& why) {
             const format::Edge& e = b.addedEdges[a];
             edgeId.set(edgeKey(e), std::uint32_t(edges_.size()));
             edges_.push_back(e);
-            edgeCreator_.push_back(self);
             edgeDestroyer_.push_back(0);
             const double dx = px(e.b) - px(e.a), dy = py(e.b) - py(e.a), dz = pz(e.b) - pz(e.a);
             const double length2 = dx * dx + dy * dy + dz * dz;
@@ -539,10 +535,8 @@ bool Refinement::init(const format::Block& b, std::string& why) {
         if (d == 0) d = sentinel;
     for (std::uint32_t& d : edgeDestroyer_)
         if (d == 0) d = sentinel;
-    // The creators served the dependencies above (refine() walks the created ranges); the rest
-    // is kept at its size (the engine holds the tables of every resident leaf).
-    triangleCreator_ = {};
-    edgeCreator_ = {};
+    // Kept at their size (the engine holds the tables of every resident leaf); a creator is its
+    // created range (refine() walks those), the id table's tag served the dependencies above.
     for (auto* v : {&parents_, &triangleDestroyer_, &edgeDestroyer_, &createdTriangles_,
                     &createdEdges_})
         v->shrink_to_fit();
@@ -708,9 +702,8 @@ std::size_t Refinement::appendAsLevel(const RefinedMesh& mesh, format::Block& bl
 std::size_t Refinement::memoryBytes() const {
     const auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
     std::size_t sum = bytes(steps_) + bytes(parents_) + bytes(triangles_) +
-                      bytes(triangleCreator_) + bytes(triangleDestroyer_) + bytes(edges_) +
-                      bytes(edgeCreator_) + bytes(edgeDestroyer_) + bytes(createdTriangles_) +
-                      bytes(createdEdges_) + bytes(levelSteps_);
+                      bytes(triangleDestroyer_) + bytes(edges_) + bytes(edgeDestroyer_) +
+                      bytes(createdTriangles_) + bytes(createdEdges_) + bytes(levelSteps_);
     for (const auto& v : levelTriangles_)
         sum += bytes(v);
     for (const auto& v : levelEdges_)

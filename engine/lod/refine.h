@@ -107,12 +107,12 @@ private:
     std::vector<Step> steps_;
     std::vector<std::uint32_t> parents_;  // step index + 1
     // Every triangle and river edge of the records, in the order they were created, with its
-    // creator and destroyer (step index + 1; creator 0: full resolution; destroyer steps + 1:
-    // never destroyed). Those created by step index + 1 = c are [created*_[c], created*_[c + 1]).
+    // destroyer (step index + 1; steps + 1: never destroyed). Those created by step index + 1 = c
+    // (0: full resolution) are [created*_[c], created*_[c + 1]).
     std::vector<format::Triangle> triangles_;
-    std::vector<std::uint32_t> triangleCreator_, triangleDestroyer_;
+    std::vector<std::uint32_t> triangleDestroyer_;
     std::vector<format::Edge> edges_;
-    std::vector<std::uint32_t> edgeCreator_, edgeDestroyer_;
+    std::vector<std::uint32_t> edgeDestroyer_;
     std::vector<std::uint32_t> createdTriangles_, createdEdges_;
     // Per stored level (ascending steps): the triangles and river edges it draws (table indices).
     std::vector<std::uint32_t> levelSteps_;
