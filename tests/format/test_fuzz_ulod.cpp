@@ -1,16 +1,17 @@
 // Deterministic mutation fuzzing of every .ulod reader path (issue 16, part 5): Reader::open,
 // readBlock, readGeometry (all levels, one level, levels only), hence validateBlock and
-// validateLevelGeometry, and `unilod check`'s deeper replay (checkUlod) on whatever the reader
-// accepts. The seeds are a small synthetic model with rivers (2 x 2 blocks) built here twice:
-// with compact blocks (format/blockcodec.h, the default: mutations reach the zstd streams and the
-// record replay) and with raw blocks (the field-aware array edits below apply to those). Each case
-// applies 1 to 3 mutations: bit flips, bytes and words set to interesting values (0, -1, NaN,
-// infinities, huge counts), field-aware edits of the header, the directory and a block's arrays
-// (an index moved to another vertex, a triangle flipped or duplicated, a vertex or grid position
-// nudged across its tolerance), truncation or extension; then, in 3 cases out of 4, every block
-// CRC and the header CRC are recomputed (tests/ulodbytes.h), so that the semantic checks are
-// exercised and not only the checksums. Every case must end without a crash or sanitizer report
-// in a clean error naming the file (and the block), or in a file whose blocks all pass
+// validateLevelGeometry, the engine loader's refinement tables and a refined mesh of every block
+// the reader accepts (engine/lod/refine.h), and `unilod check`'s deeper replay (checkUlod) on
+// whatever the reader accepts. The seeds are a small synthetic model with rivers (2 x 2 blocks)
+// built here twice: with compact blocks (format/blockcodec.h, the default: mutations reach the zstd
+// streams and the record replay) and with raw blocks (the field-aware array edits below apply to
+// those). Each case applies 1 to 3 mutations: bit flips, bytes and words set to interesting values
+// (0, -1, NaN, infinities, huge counts), field-aware edits of the header, the directory and a
+// block's arrays (an index moved to another vertex, a triangle flipped or duplicated, a vertex or
+// grid position nudged across its tolerance), truncation or extension; then, in 3 cases out of 4,
+// every block CRC and the header CRC are recomputed (tests/ulodbytes.h), so that the semantic
+// checks are exercised and not only the checksums. Every case must end without a crash or sanitizer
+// report in a clean error naming the file (and the block), or in a file whose blocks all pass
 // validateBlock again and read the same through readGeometry.
 //
 // Bounded by default (ctest, also under ASan/UBSan). Environment:
@@ -34,6 +35,7 @@
 #include <string>
 
 #include "build.h"
+#include "refine.h"
 #include "synthbuild.h"
 #include "testutil.h"
 #include "ulod.h"
@@ -260,7 +262,7 @@ void mutate(UlodBytes& f, Rng& rng) {
 
 struct Tally {
     std::uint64_t openRejected = 0, blockRejected = 0, semanticRejected = 0, accepted = 0,
-                  checkRejected = 0;
+                  checkRejected = 0, refined = 0, refineRefused = 0;
 };
 
 // Runs every reader path on the file at `path` and checks the outcome's contract.
@@ -307,6 +309,29 @@ void exercise(const std::string& path, Tally& tally) {
                         t.c < g.vertices.size());
         for (const format::Edge& e : g.riverIndices)
             ASSERT_TRUE(e.a < e.b && e.b < g.vertices.size());
+        // What the engine's loader does next with an entry it read (engine/lod/refine.h): its
+        // refinement tables, then a refined mesh as a frame takes one. An entry it cannot refine
+        // says why (and is drawn at its stored levels); one it can gives indices in range.
+        engine::Refinement refinement;
+        std::string why;
+        if (!refinement.init(b, why)) {
+            EXPECT_FALSE(why.empty());
+            ++tally.refineRefused;
+            continue;
+        }
+        ++tally.refined;
+        for (const double hLim : {0.0, 1.0, 1e9}) {
+            engine::ViewSpec view;
+            view.kind = engine::ViewSpec::Kind::Uniform;
+            view.hLim = hLim;
+            engine::RefinedMesh mesh;
+            refinement.refine(view, mesh, b.levels.size() > 1 ? b.levels[1].step : 0);
+            for (const format::Triangle& t : mesh.triangles)
+                ASSERT_TRUE(t.a < b.vertices.size() && t.b < b.vertices.size() &&
+                            t.c < b.vertices.size());
+            for (const format::Edge& e : mesh.riverEdges)
+                ASSERT_TRUE(e.a < e.b && e.b < b.vertices.size());
+        }
     }
     if (!all) {
         ++tally.blockRejected;
@@ -403,16 +428,19 @@ void fuzz(const UlodBytes& seed, std::uint64_t defaultCases) {
     ::close(fd);
     std::printf(
         "%llu cases (%llu resealed): open rejected %llu, a block rejected %llu (%llu of "
-        "them with valid checksums), accepted %llu (then check rejected %llu)\n",
+        "them with valid checksums), accepted %llu (then check rejected %llu); blocks read and "
+        "refined %llu, not refinable %llu\n",
         (unsigned long long)done, (unsigned long long)resealed,
         (unsigned long long)tally.openRejected, (unsigned long long)tally.blockRejected,
         (unsigned long long)tally.semanticRejected, (unsigned long long)tally.accepted,
-        (unsigned long long)tally.checkRejected);
+        (unsigned long long)tally.checkRejected, (unsigned long long)tally.refined,
+        (unsigned long long)tally.refineRefused);
     // The mutations reach every outcome, so the semantic checks (not only the CRCs) ran.
     if (done >= defaultCases) {
         EXPECT_GT(tally.openRejected, 0u);
         EXPECT_GT(tally.semanticRejected, 0u);
         EXPECT_GT(tally.accepted, 0u);
+        EXPECT_GT(tally.refined, 0u);
     }
 }
 
