@@ -223,9 +223,9 @@ bool validateLevelGeometryImpl(const Block& b, std::size_t level, std::string& e
             }
         }
     }
-    // The directed edges a -> b of the triangles, bucketed by a (a counting sort, O(n + t)) and
-    // each bucket sorted (a vertex's degree: a few entries). In a valid triangulation no directed
-    // edge occurs twice.
+    // The directed edges a -> b of the triangles, bucketed by a (a counting sort, O(n + t)), each
+    // bucket checked for a repeat (a vertex's degree: a few entries). In a valid triangulation no
+    // directed edge occurs twice.
     std::vector<std::uint64_t> start(n + 1, 0);
     auto forEachDirected = [&](auto&& f) {
         for (std::uint32_t i = 0; i < l.triangleCount; ++i) {
@@ -243,21 +243,35 @@ bool validateLevelGeometryImpl(const Block& b, std::size_t level, std::string& e
         std::vector<std::uint64_t> fill(start.begin(), start.end() - 1);
         forEachDirected([&](std::uint32_t from, std::uint32_t t) { to[fill[from]++] = t; });
     }
+    // A bucket of up to kSmallBucket entries (a vertex's usual degree) is checked pair by pair
+    // and searched in order, a larger one sorted and searched by halves.
+    constexpr std::uint64_t kSmallBucket = 16;
     for (std::uint64_t v = 0; v < n; ++v) {
         const auto first = to.begin() + std::ptrdiff_t(start[v]);
         const auto last = to.begin() + std::ptrdiff_t(start[v + 1]);
-        std::sort(first, last);
-        const auto twice = std::adjacent_find(first, last);
-        if (twice != last) {
-            error = where + ": edge " + std::to_string(v) + "->" + std::to_string(*twice) +
+        constexpr std::uint64_t kNoTarget = ~std::uint64_t(0);
+        std::uint64_t twice = kNoTarget;  // the smallest target that occurs twice
+        if (std::uint64_t(last - first) <= kSmallBucket) {
+            for (auto i = first; i != last; ++i)
+                for (auto j = i + 1; j != last; ++j)
+                    if (*i == *j) twice = std::min<std::uint64_t>(twice, *i);
+        } else {
+            std::sort(first, last);
+            const auto at = std::adjacent_find(first, last);
+            if (at != last) twice = *at;
+        }
+        if (twice != kNoTarget) {
+            error = where + ": edge " + std::to_string(v) + "->" + std::to_string(twice) +
                     " is used by two triangles in the same direction (a duplicated or flipped "
                     "triangle, or more than two triangles on one edge)";
             return false;
         }
     }
     auto hasEdge = [&](std::uint32_t from, std::uint32_t t) {
-        return std::binary_search(to.begin() + std::ptrdiff_t(start[from]),
-                                  to.begin() + std::ptrdiff_t(start[from + 1]), t);
+        const auto first = to.begin() + std::ptrdiff_t(start[from]);
+        const auto last = to.begin() + std::ptrdiff_t(start[from + 1]);
+        if (std::uint64_t(last - first) <= kSmallBucket) return std::find(first, last, t) != last;
+        return std::binary_search(first, last, t);
     };
     std::vector<std::uint64_t> rivers;
     rivers.reserve(l.riverCount);
