@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "blockarrays.h"
+#include "directededges.h"
 #include "predicates.h"
 #include "ulod.h"
 
@@ -223,62 +224,25 @@ bool validateLevelGeometryImpl(const Block& b, std::size_t level, std::string& e
             }
         }
     }
-    // The directed edges a -> b of the triangles, bucketed by a (a counting sort, O(n + t)), each
-    // bucket checked for a repeat (a vertex's degree: a few entries). In a valid triangulation no
-    // directed edge occurs twice.
-    std::vector<std::uint64_t> start(n + 1, 0);
-    auto forEachDirected = [&](auto&& f) {
-        for (std::uint32_t i = 0; i < l.triangleCount; ++i) {
-            const Triangle& t = b.terrainIndices[l.triangleFirst + i];
-            f(t.a, t.b);
-            f(t.b, t.c);
-            f(t.c, t.a);
-        }
-    };
-    forEachDirected([&](std::uint32_t from, std::uint32_t) { ++start[from + 1]; });
-    for (std::uint64_t v = 0; v < n; ++v)
-        start[v + 1] += start[v];
-    std::vector<std::uint32_t> to(start[n]);
-    {
-        std::vector<std::uint64_t> fill(start.begin(), start.end() - 1);
-        forEachDirected([&](std::uint32_t from, std::uint32_t t) { to[fill[from]++] = t; });
-    }
-    // A bucket of up to kSmallBucket entries (a vertex's usual degree) is checked pair by pair
-    // and searched in order, a larger one sorted and searched by halves.
-    constexpr std::uint64_t kSmallBucket = 16;
+    // In a valid triangulation no directed edge occurs twice (directededges.h: the edges bucketed
+    // by their first vertex).
+    const DirectedEdges edges(b.terrainIndices.data() + l.triangleFirst,
+                              b.terrainIndices.data() + l.triangleFirst + l.triangleCount, n);
     for (std::uint64_t v = 0; v < n; ++v) {
-        const auto first = to.begin() + std::ptrdiff_t(start[v]);
-        const auto last = to.begin() + std::ptrdiff_t(start[v + 1]);
-        constexpr std::uint64_t kNoTarget = ~std::uint64_t(0);
-        std::uint64_t twice = kNoTarget;  // the smallest target that occurs twice
-        if (std::uint64_t(last - first) <= kSmallBucket) {
-            for (auto i = first; i != last; ++i)
-                for (auto j = i + 1; j != last; ++j)
-                    if (*i == *j) twice = std::min<std::uint64_t>(twice, *i);
-        } else {
-            std::sort(first, last);
-            const auto at = std::adjacent_find(first, last);
-            if (at != last) twice = *at;
-        }
-        if (twice != kNoTarget) {
+        const std::uint64_t twice = edges.repeat(std::uint32_t(v));
+        if (twice != DirectedEdges::kNoRepeat) {
             error = where + ": edge " + std::to_string(v) + "->" + std::to_string(twice) +
                     " is used by two triangles in the same direction (a duplicated or flipped "
                     "triangle, or more than two triangles on one edge)";
             return false;
         }
     }
-    auto hasEdge = [&](std::uint32_t from, std::uint32_t t) {
-        const auto first = to.begin() + std::ptrdiff_t(start[from]);
-        const auto last = to.begin() + std::ptrdiff_t(start[from + 1]);
-        if (std::uint64_t(last - first) <= kSmallBucket) return std::find(first, last, t) != last;
-        return std::binary_search(first, last, t);
-    };
     std::vector<std::uint64_t> rivers;
     rivers.reserve(l.riverCount);
     for (std::uint32_t i = 0; i < l.riverCount; ++i) {
         const Edge& e = b.riverIndices[l.riverFirst + i];
         if (!checkEdge(e, n, [&] { return where + " river"; }, error)) return false;
-        if (!hasEdge(e.a, e.b) && !hasEdge(e.b, e.a)) {
+        if (!edges.has(e.a, e.b) && !edges.has(e.b, e.a)) {
             error = where + ": river edge (" + std::to_string(e.a) + "," + std::to_string(e.b) +
                     ") is not an edge of the level's triangles";
             return false;

@@ -7,6 +7,7 @@
 #include <unordered_map>
 #include <utility>
 
+#include "directededges.h"
 #include "lod.h"
 #include "predicates.h"
 
@@ -192,32 +193,14 @@ private:
 };
 
 // The outline of a whole triangulation over vertices [0, n): its directed edges whose reverse is
-// not in it, in the triangles' order, in linear time: the edges bucketed by their first vertex (a
-// counting sort), the reverse of a -> b looked up among b's few.
+// not in it, in the triangles' order, in linear time (format/directededges.h).
 void outlineEdges(const format::Triangle* first, const format::Triangle* last, std::size_t n,
                   std::vector<std::uint64_t>& out) {
-    const auto each = [&](auto&& f) {
-        for (const format::Triangle* t = first; t != last; ++t) {
-            f(t->a, t->b);
-            f(t->b, t->c);
-            f(t->c, t->a);
-        }
-    };
-    std::vector<std::uint32_t> start(n + 1, 0);
-    each([&](std::uint32_t from, std::uint32_t) { ++start[from + 1]; });
-    for (std::size_t v = 0; v < n; ++v)
-        start[v + 1] += start[v];
-    std::vector<std::uint32_t> to(start[n]);
-    {
-        std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
-        each([&](std::uint32_t from, std::uint32_t t) { to[fill[from]++] = t; });
-    }
+    const format::DirectedEdges edges(first, last, n);
     out.clear();
-    each([&](std::uint32_t from, std::uint32_t t) {
-        if (std::find(to.begin() + start[t], to.begin() + start[t + 1], from) ==
-            to.begin() + start[t + 1])
-            out.push_back((std::uint64_t(from) << 32) | t);
-    });
+    for (const format::Triangle* t = first; t != last; ++t)
+        for (const auto& [from, to] : {std::pair{t->a, t->b}, {t->b, t->c}, {t->c, t->a}})
+            if (!edges.has(to, from)) out.push_back((std::uint64_t(from) << 32) | to);
 }
 
 // The outer boundary of a set of triangles: its directed edges whose reverse is not in the set,
