@@ -42,6 +42,7 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
     DeletionOptions del;
     del.maxError = options.maxError;
     del.paperError = options.paperError;
+    del.afterStep = options.afterStep;
     std::vector<ExtraSample> extra;
     if (node != nullptr) {
         if (options.order != DeletionOrderKind::Greedy) {

@@ -39,6 +39,8 @@ struct BlockBuildOptions {
     std::uint32_t handoverTriangles = 0;
     double handoverKey = std::numeric_limits<double>::infinity();
     std::uint32_t handoverKeyTriangles = std::numeric_limits<std::uint32_t>::max();
+    // Called after every deletion step with the step count (the build's progress: build.cpp).
+    std::function<void(std::uint32_t)> afterStep;
 };
 
 struct BlockBuildStats {

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -54,6 +55,17 @@ const std::string outOfMemory =
     "DEMs\")";
 
 }  // namespace
+
+double itemWork(bool node, std::uint64_t points) {
+    return node ? kNodeWorkPerOriginal * double(points) : double(points);
+}
+
+double inProgressWork(bool node, double work, std::uint64_t steps, std::uint64_t expectedSteps) {
+    if (expectedSteps == 0 || steps == 0) return 0;  // not started, or in its setup
+    const double stepShare = std::min(1.0, double(steps) / double(expectedSteps));
+    return work * (node ? kNodeSetupShare + kNodeStepsShare * stepShare
+                        : kBlockSetupShare + kBlockStepsShare * stepShare);
+}
 
 bool recordsPaperMetric(const BuildOptions& o) {
     return o.paperMetric || o.order == DeletionOrderKind::ThreeDdp ||
@@ -277,9 +289,20 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
     };
     unsigned threads =
         o.threads > 0 ? unsigned(o.threads) : std::max(1u, std::thread::hardware_concurrency());
+    // Each item's estimated cost (itemWork), for the progress share.
+    std::vector<double> itemCost(n);
+    double totalWork = 0;
     {
         // The memory estimate (build.h), before the long work.
         const std::vector<BlockLoad> loads = source.loads();
+        for (std::size_t i = 0; i < n; ++i) {
+            std::uint64_t points = 0;
+            for (std::size_t k = items[i].leafFirst; k < items[i].leafFirst + items[i].leafCount;
+                 ++k)
+                points += loads[items[k].source].demPoints + loads[items[k].source].riverPoints;
+            itemCost[i] = itemWork(items[i].level > 0, points);
+            totalWork += itemCost[i];
+        }
         std::vector<ItemLoad> itemLoads(n);
         for (std::size_t i = 0; i < n; ++i) {
             const Item& it = items[i];
@@ -348,6 +371,10 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
     std::vector<std::array<double, 6>> boxes(n);
     std::vector<std::string> errors(n);
     std::vector<char> ready(n, 0);
+    // Progress of the items in flight: deletion steps done and expected (0: not started).
+    std::vector<std::atomic<std::uint64_t>> stepsDone(n), stepsExpected(n);
+    double builtWork = 0;
+    std::size_t built = 0;
     std::mutex mutex;
     std::condition_variable changed;
     std::size_t next = 0, written = 0;
@@ -374,6 +401,10 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
             bool ok = false;
             try {
                 BlockBuildOptions itemOptions = blockOptions;
+                if (o.progress)
+                    itemOptions.afterStep = [&stepsDone, i](std::uint32_t step) {
+                        stepsDone[i].store(step, std::memory_order_relaxed);
+                    };
                 if (it.parent != format::kNoChild) {
                     // Its rectangle in sampled cells and the cells along its locked sides.
                     const auto [lo, hi] = cornerRects(it);
@@ -398,6 +429,8 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
                 };
                 if (it.level == 0) {
                     const PointSet set = source.points(it.source);
+                    stepsExpected[i].store(std::max<std::size_t>(1, set.points.size()),
+                                           std::memory_order_relaxed);
                     if (it.parent != format::kNoChild)
                         itemOptions.handoverKeyTriangles = keyTriangles(set.points.size());
                     ok = buildBlock(set, it.col, it.row, itemOptions, results[i], stats[i],
@@ -420,6 +453,11 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
                         originalCount += stats[l].points + stats[l].droppedPoints;
                     if (it.parent != format::kNoChild)
                         itemOptions.handoverKeyTriangles = keyTriangles(originalCount);
+                    std::size_t startPoints = 0;
+                    for (const CoarseState* c : children)
+                        startPoints += c->points.size();
+                    stepsExpected[i].store(std::max<std::size_t>(1, startPoints),
+                                           std::memory_order_relaxed);
 #ifdef __GLIBC__
                     // A node high in the tree measures its error against millions of original
                     // points (16 B each, in large buffers of their own), and one of a dense river
@@ -427,9 +465,6 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
                     // the pages the finished items freed (in every thread's arena) back to the
                     // system, so that peak RSS is not the sum (estimateBuildMemory counts the
                     // items built at the same time only).
-                    std::size_t startPoints = 0;
-                    for (const CoarseState* c : children)
-                        startPoints += c->points.size();
                     if (originalCount >= (std::size_t(1) << 22) ||
                         startPoints >= (std::size_t(1) << 18))
                         malloc_trim(0);
@@ -469,6 +504,8 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
                         coarse[it.firstChild + c] = CoarseState{};
                 }
                 ready[i] = 1;
+                ++built;
+                builtWork += itemCost[i];
                 if (!ok) failed = true;
             }
             changed.notify_all();
@@ -486,10 +523,32 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
         std::lock_guard lock(mutex);
         failed = true;
     }
+    // The progress share (BuildOptions::progress), with `mutex` held: the built items' work,
+    // plus the in-flight items' (taken, not ready: between `written` and `next`) by their steps.
+    auto progressShare = [&] {
+        if (built == n) return 1.0;
+        double w = builtWork;
+        for (std::size_t k = written; k < next; ++k) {
+            if (ready[k]) continue;
+            w += inProgressWork(items[k].level > 0, itemCost[k],
+                                stepsDone[k].load(std::memory_order_relaxed),
+                                stepsExpected[k].load(std::memory_order_relaxed));
+        }
+        return totalWork > 0 ? std::min(1.0, w / totalWork) : 0.0;
+    };
+    const auto interval = std::chrono::duration<double>(std::max(0.001, o.progressInterval));
     for (std::size_t i = 0; i < n && writeError.empty(); ++i) {
         {
             std::unique_lock lock(mutex);
-            changed.wait(lock, [&] { return ready[i] || failed; });
+            for (;;) {
+                if (changed.wait_for(lock, interval, [&] { return ready[i] || failed; })) break;
+                if (!o.progress) continue;
+                const std::size_t done = built;
+                const double share = progressShare();
+                lock.unlock();
+                o.progress(done, n, share);
+                lock.lock();
+            }
             if (!ready[i] || !errors[i].empty()) break;
         }
         const format::Block& b = results[i];
@@ -530,7 +589,13 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
             written = i + 1;
         }
         changed.notify_all();
-        if (o.progress) o.progress(i + 1, n);
+        if (o.progress) {
+            std::unique_lock lock(mutex);
+            const std::size_t done = built;
+            const double share = progressShare();
+            lock.unlock();
+            o.progress(done, n, share);
+        }
     }
     {
         std::lock_guard lock(mutex);

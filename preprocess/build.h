@@ -60,10 +60,15 @@ struct BuildOptions : IngestOptions {
     bool memoryCheck = true;
     double memoryLimitBytes = 0;
     // Progress: the stages before the blocks ("splitting into blocks"), then the stage of the
-    // blocks with their count, then blocks (and tree nodes) done of total. Both called from the
-    // calling thread.
+    // blocks with their count, then blocks (and tree nodes) built of total and `work`, the
+    // estimated share of the stage's work done (0 to 1; itemWork): items weigh what they cost,
+    // and the items in progress count by their deletion steps, so that a tree's last nodes,
+    // which run alone, move the share while they run. Called at least every
+    // `progressInterval` seconds while items are built, and once per item written. Both called
+    // from the calling thread.
     std::function<void(const std::string& stage, std::size_t total)> stage;
-    std::function<void(std::size_t, std::size_t)> progress;
+    std::function<void(std::size_t done, std::size_t total, double work)> progress;
+    double progressInterval = 0.5;
 };
 
 // Peak memory of a build, estimated before its long work (estimateBuildMemory; README "Large
@@ -168,6 +173,21 @@ struct BuildSummary {
 // Returns false with `error` (naming the file and the problem) on bad input; then no output file
 // exists (an existing one is untouched).
 bool runBuild(const BuildOptions& options, BuildSummary& summary, std::string& error);
+
+// The estimated cost of building an item, in units of a block's point (the progress share of
+// BuildOptions::progress): a block costs its points (DEM and river); a tree node costs
+// kNodeWorkPerOriginal per original point under it, since it locates every one of them in its
+// triangles (measured 2026-12-01, MEASURED.md: a leaf 10-12.5 us a point, a node 0.9-2.3 us an
+// original point on the bundled and a 4M-point model). An item in progress counts, once its
+// first deletion step is done, its setup share (a node's: regenerating and locating its
+// original points, about 30 % of its time on the 4M model) and then its deletion steps done of
+// `expectedSteps` (a block: its points; a node: its starting vertices) over the steps' share;
+// what follows the steps (the LOD index, encoding) completes it when it is built.
+constexpr double kNodeWorkPerOriginal = 0.15;
+constexpr double kBlockSetupShare = 0.1, kBlockStepsShare = 0.8;
+constexpr double kNodeSetupShare = 0.3, kNodeStepsShare = 0.6;
+double itemWork(bool node, std::uint64_t points);
+double inProgressWork(bool node, double work, std::uint64_t steps, std::uint64_t expectedSteps);
 
 // Whether a build with these options records the `paper` metric (BuildOptions::paperMetric).
 bool recordsPaperMetric(const BuildOptions& options);

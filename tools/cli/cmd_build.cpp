@@ -54,8 +54,8 @@ int run(BuildCli& c) {
     c.o.stage = [&progress](const std::string& stage, std::size_t total) {
         progress.stage(stage, total);
     };
-    c.o.progress = [&progress](std::size_t done, std::size_t total) {
-        progress.update(done, total);
+    c.o.progress = [&progress](std::size_t done, std::size_t total, double work) {
+        progress.update(done, total, work);
     };
     c.o.warn = [&progress](const std::string& w) {
         progress.message("unilod build: warning: " + w);

@@ -40,14 +40,15 @@ std::string Progress::formatSeconds(double s) {
 }
 
 std::string Progress::formatLine(const std::string& label, const std::string& stage,
-                                 std::size_t done, std::size_t total, double elapsed,
-                                 double eta) {
+                                 std::size_t done, std::size_t total, double elapsed, double eta,
+                                 double share) {
     std::string line = label + ":";
     if (!stage.empty()) line += " " + stage;
     if (total > 0) {
+        if (share < 0) share = double(done) / double(total);
         char buf[96];
         std::snprintf(buf, sizeof buf, "  %zu/%zu  %3d %%", done, total,
-                      int(100.0 * double(done) / double(total)));
+                      int(100.0 * std::clamp(share, 0.0, 1.0)));
         line += buf;
     }
     line += "  elapsed " + formatSeconds(elapsed) + "  ETA " + formatSeconds(eta);
@@ -61,16 +62,33 @@ void Progress::stage(const std::string& name, std::size_t total) {
     endLine();
     stage_ = name;
     done_ = printedDone_ = 0;
+    share_ = -1;
+    printedShare_ = 0;
     total_ = total;
     stageStart_ = Clock::now();
+    eta_.reset();
+    eta_.add(0, 0);
     print(true);
 }
 
 void Progress::update(std::size_t done, std::size_t total) {
+    update(done, total, -1);
+}
+
+void Progress::update(std::size_t done, std::size_t total, double share) {
     if (finished_) return;
     done_ = done;
     total_ = total;
+    share_ = share < 0 ? -1 : std::min(1.0, share);
+    const double inStage = std::chrono::duration<double>(Clock::now() - stageStart_).count();
+    if (total_ > 0) eta_.add(inStage, currentShare());
     print(total > 0 && done >= total);
+}
+
+double Progress::currentShare() const {
+    if (total_ == 0) return 0;
+    if (share_ >= 0) return share_;
+    return std::min(1.0, double(done_) / double(total_));
 }
 
 void Progress::message(const std::string& line) {
@@ -104,7 +122,7 @@ void Progress::print(bool force) {
         if (tty_) {
             if (sincePrint < kTtyInterval) return;
         } else {
-            const bool tenth = total_ > 0 && (done_ - printedDone_) * 10 >= total_;
+            const bool tenth = total_ > 0 && currentShare() - printedShare_ >= 0.1;
             if (!tenth && sincePrint < kLogInterval) return;
         }
     }
@@ -113,10 +131,11 @@ void Progress::print(bool force) {
     double eta = -1;
     if (finished_ || (total_ > 0 && done_ >= total_)) {
         eta = 0;
-    } else if (total_ > 0 && done_ > 0) {
-        eta = inStage * double(total_ - done_) / double(done_);
+    } else if (total_ > 0) {
+        eta = eta_.eta(inStage, currentShare());
     }
-    const std::string line = formatLine(label_, stage_, done_, total_, elapsed, eta);
+    const std::string line =
+        formatLine(label_, stage_, done_, total_, elapsed, eta, total_ > 0 ? currentShare() : -1);
     if (tty_) {
         // Rewrite in place; spaces clear what a longer previous text left.
         const std::size_t pad = width_ > line.size() ? width_ - line.size() : 0;
@@ -129,6 +148,7 @@ void Progress::print(bool force) {
     std::fflush(out_);
     printed_ = now;
     printedDone_ = done_;
+    printedShare_ = currentShare();
 }
 
 }  // namespace unilod::cli
