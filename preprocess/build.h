@@ -88,6 +88,13 @@ inline constexpr double kFlatBuildBytesPerPoint = 10;
 inline constexpr double kInFlightBytesPerDemPoint = 950;
 inline constexpr double kInFlightBytesPerRiverPoint = 1200;
 inline constexpr double kInFlightBytesPerNodePoint = 1600;
+// Small items: the items in flight take at least this much each (each thread's heap keeps
+// what its items freed; a tree's upper nodes start from more than their locked points), and
+// every block and node holds this much until the build ends (its result slots, its directory
+// entry). Fitted to a 1M-point synthetic with 4- to 64-cell blocks (MEASURED.md, thirtieth
+// session); with the default blocks the items in flight weigh more than the floor.
+inline constexpr double kInFlightFloorBytes = 40e6;  // each item in flight, at least
+inline constexpr double kBytesPerItem = 1500;
 // Workers run at most this many items per thread ahead of the writer (build.cpp); the finished
 // ones wait for it in file order: their results, at bytes per point of an average block.
 inline constexpr std::size_t kWriterWindowPerThread = 4;

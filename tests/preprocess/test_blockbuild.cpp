@@ -149,21 +149,46 @@ TEST(BuildMemory, CountsRiversAndItemsBuiltTogether) {
     ASSERT_GT(root, leaf1);
     // The finished blocks waiting for the writer (4 a thread, at most all 4): average blocks.
     const double waiting = 4 * double(dem + 300000) / 4 * kResultBytesPerPoint;
+    const double slots = 5 * kBytesPerItem;  // every item's result slots
     MemoryEstimate e = estimateBuildMemory(dem, dem, items, 2, true);
     EXPECT_EQ(e.demPoints, dem);
     EXPECT_EQ(e.riverPoints, 300000u);        // the node's locked points are the leaves'
-    EXPECT_DOUBLE_EQ(e.bytes, whole + root + waiting);  // the root is built alone
+    EXPECT_DOUBLE_EQ(e.bytes, whole + root + waiting + slots);  // the root is built alone
     EXPECT_NE(e.smaller.find("sparser river network"), std::string::npos) << e.smaller;
     // Without the root (a flat build): the two heaviest blocks.
     items.pop_back();
     e = estimateBuildMemory(dem, dem, items, 2, false);
     const double flat = raster + double(dem + 300000) * kFlatBuildBytesPerPoint;
-    EXPECT_DOUBLE_EQ(e.bytes, flat + leaf1 + leaf0 + waiting);
+    const double slots4 = 4 * kBytesPerItem;
+    EXPECT_DOUBLE_EQ(e.bytes, flat + leaf1 + leaf0 + waiting + slots4);
     e = estimateBuildMemory(dem, dem, items, 1, false);
-    EXPECT_DOUBLE_EQ(e.bytes, flat + leaf1 + waiting);
+    EXPECT_DOUBLE_EQ(e.bytes, flat + leaf1 + waiting + slots4);
     // A raster mostly nodata weighs by its cells (held whole).
     e = estimateBuildMemory(16 * dem, dem, items, 1, false);
-    EXPECT_DOUBLE_EQ(e.bytes, flat + 15.0 * double(dem) * kBuildBytesPerCell + leaf1 + waiting);
+    EXPECT_DOUBLE_EQ(e.bytes,
+                     flat + 15.0 * double(dem) * kBuildBytesPerCell + leaf1 + waiting + slots4);
+}
+
+// Small items (blocks of a few cells): the items in flight weigh at least the floor per thread,
+// and every item its result slots (a 1M-point synthetic with 4-cell blocks peaked at 0.37 GB
+// where the estimate without them said 0.10: MEASURED.md, thirtieth session).
+TEST(BuildMemory, SmallItemsWeighTheFloorAndTheirCount) {
+    const std::size_t count = 60000;
+    std::vector<ItemLoad> items(count);
+    for (std::size_t i = 0; i < count; ++i) {
+        items[i].demPoints = 16;
+        items[i].leafFirst = i;
+    }
+    const std::uint64_t dem = 16 * count;
+    const double whole =
+        kBuildBaseBytes + double(dem) * kBuildBytesPerCell + double(dem) * kTreeBuildBytesPerPoint;
+    const double waiting = 4 * 3 * 16 * kResultBytesPerPoint;
+    for (unsigned threads : {1u, 3u}) {
+        const MemoryEstimate e = estimateBuildMemory(dem, dem, items, threads, true);
+        EXPECT_DOUBLE_EQ(e.bytes, whole + threads * kInFlightFloorBytes +
+                                      double(count) * kBytesPerItem + waiting / 3 * threads)
+            << threads << " threads";
+    }
 }
 
 TEST(LodIndex, LevelsMatchRecordsAndBounds) {
