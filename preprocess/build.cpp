@@ -55,6 +55,14 @@ const std::string outOfMemory =
     "out of memory (the build needs more memory than this process may use; README \"Large "
     "DEMs\")";
 
+// Hands the memory the allocator keeps free (in every thread's arena) back to the system; a no-op
+// off glibc. Called before a node that starts large and by RetentionGuard.
+void releaseFreeMemory() {
+#ifdef __GLIBC__
+    malloc_trim(0);
+#endif
+}
+
 // The memory the allocator keeps after the items free it, handed back to the system whenever the
 // process outgrows kRetentionShare of the build's estimate: glibc keeps freed memory in each
 // thread's heap (up to twice its mmap threshold, which rises to the largest buffer freed, 32 MB),
@@ -67,14 +75,12 @@ public:
     static constexpr std::chrono::milliseconds kInterval{250};
     explicit RetentionGuard(double limitBytes) : limit_(limitBytes) {}
     void afterItem() {
-#ifdef __GLIBC__
         std::unique_lock lock(mutex_, std::try_to_lock);
         if (!lock.owns_lock() || !(limit_ > 0)) return;
         const auto now = std::chrono::steady_clock::now();
         if (now - last_ < kInterval) return;
         last_ = now;
-        if (residentBytes() > limit_) malloc_trim(0);
-#endif
+        if (residentBytes() > limit_) releaseFreeMemory();
     }
 
 private:
@@ -497,7 +503,6 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
                         startPoints += c->points.size();
                     stepsExpected[i].store(std::max<std::size_t>(1, startPoints),
                                            std::memory_order_relaxed);
-#ifdef __GLIBC__
                     // A node high in the tree measures its error against millions of original
                     // points (16 B each, in large buffers of their own), and one of a dense river
                     // network starts from hundreds of thousands of locked vertices: first hand
@@ -506,8 +511,7 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
                     // items built at the same time only).
                     if (originalCount >= (std::size_t(1) << 22) ||
                         startPoints >= (std::size_t(1) << 18))
-                        malloc_trim(0);
-#endif
+                        releaseFreeMemory();
                     ok = buildNode(children, nodeBorder(it), it.col, it.row, itemOptions, originals,
                                    originalCount, results[i], stats[i], coarse[i], errors[i]);
                     if (ok) {

@@ -18,6 +18,7 @@ Progress::Progress(std::string label, bool enabled, const std::string& stage, st
     start_ = stageStart_ = printed_ = Clock::now();
     stage_ = stage;
     total_ = total;
+    eta_.add(0, 0);
     print(true);
 }
 
