@@ -43,7 +43,11 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
     del.maxError = options.maxError;
     del.paperError = options.paperError;
     del.afterStep = options.afterStep;
-    std::vector<ExtraSample> extra;
+    ExtraSamples extra;
+    auto onGrid = [&](const Point& p) {
+        return ExtraSample{std::int32_t(std::llround((p.x - cdt.originX) / cdt.gridUnit)),
+                           std::int32_t(std::llround((p.y - cdt.originY) / cdt.gridUnit)), p.z};
+    };
     if (node != nullptr) {
         if (options.order != DeletionOrderKind::Greedy) {
             error = "tree nodes are built with the greedy order only";
@@ -54,24 +58,66 @@ bool buildBlock(const PointSet& set, std::uint32_t col, std::uint32_t row,
         del.riverFloor = node->riverFloor;
         del.riverCover = &node->riverCover;
         if (node->originals) {
-            // A root's: every original point of the model. The pool takes this buffer over
-            // (modelerror.h ModelError::init), with room for a quarter more.
+            // Every original point of the node's area (a root's: of the model). The pool takes
+            // the references' buffer over (modelerror.h ModelError::init), with room for a
+            // quarter more; a point at a sampled DEM cell is referred to by its cell (8 bytes
+            // with its height, instead of 16: SampleRef).
             const std::size_t all = node->originalCount + set.points.size();
-            extra.reserve(all + all / 4 + 1024);
+            extra.refs.reserve(all + all / 4 + 1024);
+            const OriginalGrid* g = node->grid;
+            SampleGrid& cells = extra.grid;
+            std::size_t cols = 0, rows = 0;
+            if (g != nullptr && g->dem != nullptr && g->step > 0 && g->cellCol1 >= g->cellCol0 &&
+                g->cellRow1 >= g->cellRow0) {
+                cols = std::size_t(g->cellCol1 - g->cellCol0) / std::size_t(g->step) + 1;
+                rows = std::size_t(g->cellRow1 - g->cellRow0) / std::size_t(g->step) + 1;
+                // References below 2^32 (with the set's and the explicit points: a margin; the
+                // rows' pitch is a power of two, at most twice the columns).
+                if (2.0 * double(cols) * double(rows) + double(all) >= 4.0e9) cols = rows = 0;
+            }
+            if (cols > 0) {
+                const DemGrid& dem = *g->dem;
+                for (std::size_t k = 0; k < cols; ++k)
+                    cells.gx.push_back(
+                        onGrid({dem.centreX(int(g->cellCol0 + k * g->step)), 0, 0}).gx);
+                for (std::size_t j = 0; j < rows; ++j)
+                    cells.gy.push_back(
+                        onGrid({0, dem.centreY(int(g->cellRow0 + j * g->step)), 0}).gy);
+            }
+            const std::size_t cellCount = cells.cells();
+            const int shift = cells.shift();
             node->originals([&](const Point& p) {
-                extra.push_back({std::int32_t(std::llround((p.x - cdt.originX) / cdt.gridUnit)),
-                                 std::int32_t(std::llround((p.y - cdt.originY) / cdt.gridUnit)),
-                                 p.z});
+                if (cellCount > 0) {
+                    // At a sampled cell's centre (on the grid), its height a float exactly.
+                    const DemGrid& dem = *g->dem;
+                    const double fc = (p.x - dem.originX) / dem.cellX;
+                    const double fr = (p.y - dem.originY) / dem.cellY;
+                    if (fc >= g->cellCol0 - 0.5 && fc <= g->cellCol1 + 0.5 &&
+                        fr >= g->cellRow0 - 0.5 && fr <= g->cellRow1 + 0.5) {
+                        const int dc = int(std::lround(fc)) - g->cellCol0;
+                        const int dr = int(std::lround(fr)) - g->cellRow0;
+                        const std::size_t k = std::size_t(dc / g->step),
+                                          j = std::size_t(dr / g->step);
+                        const ExtraSample e = onGrid(p);
+                        if (dc >= 0 && dr >= 0 && dc % g->step == 0 && dr % g->step == 0 &&
+                            k < cols && j < rows && e.gx == cells.gx[k] && e.gy == cells.gy[j] &&
+                            double(float(p.z)) == p.z) {
+                            extra.refs.push_back({std::uint32_t((j << shift) | k), float(p.z)});
+                            return;
+                        }
+                    }
+                }
+                extra.refs.push_back({std::uint32_t(cellCount + extra.points.size()), 0.0f});
+                extra.points.push_back(onGrid(p));
             });
         }
         del.extraSamples = &extra;
         del.releaseExtraSamples = true;  // a root's are every original point of the model
     } else if (!set.dropped.empty()) {
         // The DEM points the river clearance left out: original points, measured like the rest.
-        extra.reserve(set.dropped.size());
+        extra.points.reserve(set.dropped.size());
         for (const Point& p : set.dropped)
-            extra.push_back({std::int32_t(std::llround((p.x - cdt.originX) / cdt.gridUnit)),
-                             std::int32_t(std::llround((p.y - cdt.originY) / cdt.gridUnit)), p.z});
+            extra.points.push_back(onGrid(p));
         del.extraSamples = &extra;
     }
     DeletionRecords records;

@@ -11,8 +11,9 @@
 #include <vector>
 
 #include "cdt.h"
-#include "importance.h"
 #include "deletion.h"
+#include "dem.h"
+#include "importance.h"
 #include "points.h"
 #include "ulod.h"
 
@@ -73,12 +74,24 @@ struct CoarseState {
     double errorRiver = 0;  // its river part (DeletionRecords::errorRiver)
 };
 
+// The sampled DEM cells of a tree node's area: columns cellCol0, cellCol0 + step, ... up to
+// cellCol1, the same for rows (inclusive; the node's border lines, blocks.h BlockRect).
+struct OriginalGrid {
+    const DemGrid* dem = nullptr;
+    int cellCol0 = 0, cellCol1 = -1, cellRow0 = 0, cellRow1 = -1;
+    int step = 1;
+};
+
 // How a tree node's build differs from a leaf block's (nodebuild.h): its error is measured
 // against every original point of its area (`originals` calls its argument once per point), the
 // running `max` starts at `errorFloor` and every chain deviation gets it as slack (deletion.h).
 struct NodeErrorInput {
     std::function<void(const std::function<void(const Point&)>&)> originals;
     std::size_t originalCount = 0;  // how many points `originals` gives (a capacity hint)
+    // The DEM cells under the node (OriginalGrid): an original point that is exactly such a cell
+    // (position and height) is kept as a reference to it, 4 bytes instead of 16 (ModelError's
+    // SampleGrid); null: every point is kept whole.
+    const OriginalGrid* grid = nullptr;
     double errorFloor = 0;
     double riverFloor = 0;  // the same for the river part (DeletionOptions::riverFloor)
     // What each river edge of the node's point set stands for (DeletionOptions::riverCover).

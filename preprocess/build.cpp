@@ -504,7 +504,8 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
                     stepsExpected[i].store(std::max<std::size_t>(1, startPoints),
                                            std::memory_order_relaxed);
                     // A node high in the tree measures its error against millions of original
-                    // points (16 B each, in large buffers of their own), and one of a dense river
+                    // points (4 B each for a DEM cell, 16 B for another, in large buffers of their
+                    // own: modelerror.h SampleGrid), and one of a dense river
                     // network starts from hundreds of thousands of locked vertices: first hand
                     // the pages the finished items freed (in every thread's arena) back to the
                     // system, so that peak RSS is not the sum (estimateBuildMemory counts the
@@ -512,8 +513,12 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
                     if (originalCount >= (std::size_t(1) << 22) ||
                         startPoints >= (std::size_t(1) << 18))
                         releaseFreeMemory();
+                    const auto [lo, hi] = cornerRects(it);
+                    const OriginalGrid cells{&dem,        lo.cellCol0, hi.cellCol1,
+                                             lo.cellRow0, hi.cellRow1, int(o.stride)};
                     ok = buildNode(children, nodeBorder(it), it.col, it.row, itemOptions, originals,
-                                   originalCount, results[i], stats[i], coarse[i], errors[i]);
+                                   originalCount, results[i], stats[i], coarse[i], errors[i],
+                                   &cells);
                     if (ok) {
                         // The node's box holds its children's (the cut culls a subtree by it).
                         format::Block& b = results[i];
@@ -730,8 +735,9 @@ MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t demPoints,
     for (const ItemLoad& l : items)
         if (!l.node) e.riverPoints += l.riverPoints;
     const double perPoint = tree ? kTreeBuildBytesPerPoint : kFlatBuildBytesPerPoint;
-    const double whole =
-        double(cells) * kBuildBytesPerCell + double(demPoints + e.riverPoints) * perPoint;
+    const double perRiverPoint = tree ? kTreeBuildBytesPerRiverPoint : kFlatBuildBytesPerPoint;
+    const double whole = double(cells) * kBuildBytesPerCell + double(demPoints) * perPoint +
+                         double(e.riverPoints) * perRiverPoint;
     auto bytesOf = [](const ItemLoad& l) {
         return l.node ? double(l.demPoints + l.riverPoints) * kInFlightBytesPerNodePoint
                       : double(l.demPoints) * kInFlightBytesPerDemPoint +
@@ -774,11 +780,17 @@ MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t demPoints,
     inFlight = std::max(inFlight, double(taken.size()) * kInFlightFloorBytes);
     inFlight += waiting + double(items.size()) * kBytesPerItem;
     e.bytes = kBuildBaseBytes + whole + inFlight;
-    char text[200];
+    char points[80];
+    if (perRiverPoint == perPoint)
+        std::snprintf(points, sizeof points, "%.0f per point", perPoint);
+    else
+        std::snprintf(points, sizeof points, "%.0f per DEM point and %.0f per river point",
+                      perPoint, perRiverPoint);
+    char text[300];
     std::snprintf(text, sizeof text,
-                  "%.0f bytes per raster cell and %.0f per point, plus %.2f GB for the %zu "
+                  "%.0f bytes per raster cell and %s, plus %.2f GB for the %zu "
                   "block%s or node%s built at a time, up to %.2f M points each",
-                  kBuildBytesPerCell, perPoint, inFlight / 1e9, taken.size(),
+                  kBuildBytesPerCell, points, inFlight / 1e9, taken.size(),
                   taken.size() == 1 ? "" : "s", taken.size() == 1 ? "" : "s",
                   double(largest) / 1e6);
     e.basis = text;

@@ -83,7 +83,11 @@ struct BuildOptions : IngestOptions {
 // blocks and nodes: 50 000 crossing lines over the demo DEM make a root of 444 000 locked vertices.
 inline constexpr double kBuildBaseBytes = 64e6;  // libraries, GDAL's cache, thread stacks
 inline constexpr double kBuildBytesPerCell = 8;
-inline constexpr double kTreeBuildBytesPerPoint = 22;
+// With the tree, per DEM point 16 (22 until 2026-12-01, when the root's error pool held 16 bytes
+// for every original point, now 8 for one at a sampled DEM cell: modelerror.h SampleRef), per
+// river point 30 (its 16 bytes kept whole, and an 8-byte reference to them).
+inline constexpr double kTreeBuildBytesPerPoint = 16;
+inline constexpr double kTreeBuildBytesPerRiverPoint = 30;
 inline constexpr double kFlatBuildBytesPerPoint = 10;
 inline constexpr double kInFlightBytesPerDemPoint = 950;
 inline constexpr double kInFlightBytesPerRiverPoint = 1200;

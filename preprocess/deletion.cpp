@@ -208,7 +208,7 @@ void Sequence::start(std::size_t expectedSteps) {
     rec_.addedTriangles.reserve(expectedSteps * 17 / 4);
     if (options_.maxError || options_.paperError) {
         error_.init(set_, cdt_, options_.maxError, options_.paperError, options_.extraSamples,
-                    options_.releaseExtraSamples ? options_.extraSamples : nullptr);
+                    options_.releaseExtraSamples);
         rec_.initialErrorMax =
             options_.maxError ? std::max(error_.runningMax(), options_.errorFloor) : 0.0;
         rec_.initialErrorPaper = error_.runningPaper();

@@ -147,10 +147,10 @@ struct DeletionOptions {
     // Called after every step with the step count (tests run the checker here).
     std::function<void(std::uint32_t)> afterStep;
     // Original points beyond the set's, counted in the `max` metric only (modelerror.h
-    // ExtraSample: a tree node's original points, a block's DEM points dropped by the river
+    // ExtraSamples: a tree node's original points, a block's DEM points dropped by the river
     // clearance). Must outlive the call.
-    std::vector<ExtraSample>* extraSamples = nullptr;
-    bool releaseExtraSamples = false;  // free them once placed (ModelError::init releaseExtra)
+    ExtraSamples* extraSamples = nullptr;
+    bool releaseExtraSamples = false;  // hand them over once placed (ModelError::init release)
     // Issue 18's tree nodes (nodebuild.h), whose points are their children's coarsest vertices:
     // `errorFloor` is the error the running `max` starts from (the children's largest final
     // error: errors stay monotone up the tree). A chain as built is the children's coarsest, so

@@ -69,9 +69,9 @@ double surfaceHeight(const PointSet& set, const Cdt& cdt, std::uint32_t t, Point
 }
 
 void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool paperMetric,
-                      const std::vector<ExtraSample>* extra,
-                      std::vector<ExtraSample>* releaseExtra) {
+                      ExtraSamples* extra, bool release) {
     set_ = &set;
+    cdt_ = &cdt;
     maxMetric_ = maxMetric;
     paperMetric_ = paperMetric;
     unit_ = cdt.gridUnit;
@@ -129,10 +129,12 @@ void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool 
         // from `extra` itself, which a tree root's caller then frees (it holds every original
         // point of the model: one copy at a time, not two).
         std::vector<std::uint32_t> extraTri;
-        if (extra != nullptr && !extra->empty() && n > 0) {
-            extraTri.reserve(extra->size());
+        const std::size_t extraCount = extra != nullptr ? extra->size() : 0;
+        if (extraCount > 0 && n > 0) {
+            extraTri.reserve(extraCount);
             std::uint32_t at = realTriangleAt(cdt, cdt.representative[keys[0].second]);
-            for (const ExtraSample& e : *extra) {
+            for (std::size_t i = 0; i < extraCount; ++i) {
+                const ExtraSample e = extra->at(i);
                 std::uint32_t t = cdt.locateGridFrom(e.gx, e.gy, at);
                 if (cdt.isGhost(t)) {
                     extraTri.push_back(kNil);
@@ -174,15 +176,39 @@ void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool 
             setPlace[s] = rangeStart_[tri[s]] + rangeCount_[tri[s]]++;
         for (std::uint32_t& t : extraTri)
             if (t != kNil) t = rangeStart_[t] + rangeCount_[t]++;  // now the sample's place
-        if (releaseExtra != nullptr && !extraTri.empty()) {
-            // The released samples' buffer becomes the pool: every sample moved to its place
-            // along the cycles of the permutation (a place below extraTri.size() holds the
-            // sample of that index until it moves on; kNil marks a moved or left-out one), then
-            // the set's points written into the places left.
-            assert(releaseExtra == extra);
-            pool_.swap(*releaseExtra);
-            std::vector<ExtraSample>().swap(*releaseExtra);
+        // The references (at()): the set's points by id, the extra ones after them, the grid's
+        // cells first.
+        setCount_ = std::uint32_t(n);
+        explicit_.clear();
+        grid_ = SampleGrid{};
+        if (extra != nullptr) {
+            if (release) {
+                explicit_.swap(extra->points);
+                std::vector<ExtraSample>().swap(extra->points);
+                grid_ = std::move(extra->grid);
+            } else {
+                explicit_ = extra->points;
+                grid_ = extra->grid;
+            }
+        }
+        gridCells_ = grid_.cells();
+        gridShift_ = grid_.shift();
+        gridMask_ = (std::size_t(1) << gridShift_) - 1;
+        assert(n + gridCells_ + explicit_.size() < kNil);
+        const auto ref = [&](std::size_t i) {
+            if (extra->refs.empty()) return PoolPoint{std::uint32_t(n + gridCells_ + i), 0.0f};
+            return PoolPoint{std::uint32_t(n + extra->refs[i].ref), extra->refs[i].z};
+        };
+        if (release && extra != nullptr && !extra->refs.empty() && !extraTri.empty()) {
+            // The released references' buffer becomes the pool: every reference moved to its
+            // place along the cycles of the permutation (a place below extraTri.size() holds the
+            // reference of that index until it moves on; kNil marks a moved or left-out one),
+            // then the set's points written into the places left.
+            pool_.swap(extra->refs);
+            std::vector<SampleRef>().swap(extra->refs);
             if (pool_.capacity() < room) pool_.reserve(room);
+            for (PoolPoint& r : pool_)
+                r.ref = std::uint32_t(n + r.ref);
             pool_.resize(std::max(total, extraTri.size()));
             for (std::size_t i = 0; i < extraTri.size(); ++i) {
                 if (extraTri[i] == kNil || extraTri[i] == i) continue;
@@ -191,11 +217,11 @@ void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool 
                 extraTri[i] = kNil;
                 for (;;) {
                     if (to < extraTri.size() && extraTri[to] != kNil) {
-                        // `to` holds a sample still to move: take its place, carry it on.
+                        // `to` holds a reference still to move: take its place, carry it on.
                         std::swap(carried, pool_[to]);
                         const std::uint32_t next = extraTri[to];
                         extraTri[to] = kNil;
-                        assert(next != to);  // `to` was the place of the sample carried
+                        assert(next != to);  // `to` was the place of the reference carried
                         to = next;
                     } else {
                         pool_[to] = carried;
@@ -208,11 +234,11 @@ void ModelError::init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool 
             pool_.reserve(room);
             pool_.resize(total);
             for (std::size_t i = 0; i < extraTri.size(); ++i)
-                if (extraTri[i] != kNil) pool_[extraTri[i]] = (*extra)[i];
-            if (releaseExtra != nullptr) std::vector<ExtraSample>().swap(*releaseExtra);
+                if (extraTri[i] != kNil) pool_[extraTri[i]] = ref(i);
+            if (release && extra != nullptr) std::vector<SampleRef>().swap(extra->refs);
         }
         for (std::uint32_t s = 0; s < n; ++s)
-            pool_[setPlace[s]] = {samples_[s].gx, samples_[s].gy, samples_[s].z};
+            pool_[setPlace[s]] = {keys[s].second, 0.0f};
         garbage_ = 0;
     }
     if (paperMetric_) {
@@ -294,7 +320,7 @@ bool ModelError::linkAdded() {
     return true;
 }
 
-double ModelError::walkError(const PoolPoint& p, std::size_t& last, std::uint32_t& slot) {
+double ModelError::walkError(const Pos& p, std::size_t& last, std::uint32_t& slot) {
     const std::size_t count = addedTris_.size();
     const std::int64_t px = p.gx, py = p.gy;
     std::int64_t w[3];
@@ -401,7 +427,7 @@ double ModelError::walkError(const PoolPoint& p, std::size_t& last, std::uint32_
     return 0.0;
 }
 
-double ModelError::locateError(const PoolPoint& p, std::size_t& last, std::uint32_t& slot) const {
+double ModelError::locateError(const Pos& p, std::size_t& last, std::uint32_t& slot) const {
     // Points arrive grouped by the removed triangle that held them, so consecutive points
     // usually fall in the same created triangle: try the previous hit first. Points on a shared
     // edge may be claimed by either triangle; the height there is the same (exact weights).
@@ -615,6 +641,8 @@ void ModelError::removeVertex(PointId v) {
 
 std::size_t ModelError::memoryBytes() const {
     return samples_.capacity() * sizeof(Sample) + pool_.capacity() * sizeof(PoolPoint) +
+           explicit_.capacity() * sizeof(ExtraSample) +
+           (grid_.gx.capacity() + grid_.gy.capacity()) * sizeof(std::int32_t) +
            (rangeStart_.capacity() + rangeCount_.capacity() + destination_.capacity()) * 4 +
            compactScratch_.capacity() * 8 +
            (pending_.capacity() + spare_.capacity()) * sizeof(PoolPoint) +

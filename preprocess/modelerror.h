@@ -49,19 +49,63 @@ struct ExtraSample {
     double z = 0;
 };
 
+// A reference to an original point and, for a grid cell, its height (a float: the heights of a
+// block's points lie on the 1/128 m quantum, blocks.cpp, and such a height below 131 072 m is a
+// float exactly). 8 bytes in the error pool instead of a position and a double height, 16 (a tree
+// root measures its error against every original point of the model: 16 of the build's 30
+// bytes per point at 64M points, MEASURED.md).
+struct SampleRef {
+    std::uint32_t ref = 0;
+    float z = 0;
+};
+
+// Original points on the sampled DEM grid, known by their cell: sampled cell (k, j), reference
+// j * 2^shift() + k (a power-of-two row pitch: decoded by a shift and a mask), lies at grid
+// position (gx[k], gy[j]).
+struct SampleGrid {
+    std::vector<std::int32_t> gx, gy;  // per sampled column / row
+    int shift() const {
+        int b = 0;
+        while ((std::size_t(1) << b) < gx.size())
+            ++b;
+        return b;
+    }
+    // The references' range: rows times the pitch (0 without cells).
+    std::size_t cells() const { return gx.empty() ? 0 : gy.size() << shift(); }
+};
+
+// Original points beyond the triangulated set's, in their order: `refs[i].ref` below
+// grid.cells() is a cell of `grid` with height refs[i].z, from there on the explicit point
+// points[refs[i].ref - grid.cells()]. Empty `refs`: the points of `points` in order. The grid's
+// references plus the explicit points and the set's points must stay below 2^32.
+struct ExtraSamples {
+    std::vector<SampleRef> refs;
+    std::vector<ExtraSample> points;
+    SampleGrid grid;
+    std::size_t size() const { return refs.empty() ? points.size() : refs.size(); }
+    // The i-th point's position and height.
+    ExtraSample at(std::size_t i) const {
+        if (refs.empty()) return points[i];
+        const std::size_t r = refs[i].ref;
+        if (r >= grid.cells()) return points[r - grid.cells()];
+        const int b = grid.shift();
+        return {grid.gx[r & ((std::size_t(1) << b) - 1)], grid.gy[r >> b], double(refs[i].z)};
+    }
+};
+
 class ModelError {
 public:
-    // `cdt`: the full triangulation of `set` (before any deletion). `extra`: more original points,
-    // counted in M like the set's (the paper metric, Eq. 3-6, is over the set's points only); each
-    // is located in the triangulation (exact, closed), and one outside the domain has no vertical
-    // error. `releaseExtra` (null, or the same vector as `extra`): the caller no longer needs them
-    // (a tree root holds every original point of the model): its buffer becomes the pool, the
-    // points permuted in place, so that they are never held twice; reserve it to about 1.25 x its
-    // size plus the set's points (the pool's room for re-appended points; less costs a
+    // `cdt`: the full triangulation of `set` (before any deletion); both must outlive this
+    // object's use (the pool refers to their points). `extra`: more original points, counted in M
+    // like the set's (the paper metric, Eq. 3-6, is over the set's points only); each is located
+    // in the triangulation (exact, closed), and one outside the domain has no vertical error.
+    // `release`: the caller no longer needs them (a tree root holds every original point of the
+    // model): `extra->refs`' buffer becomes the pool, permuted in place, and the explicit points
+    // and the grid are moved here, so that nothing is held twice; reserve `refs` to about 1.25 x
+    // its size plus the set's points (the pool's room for re-appended points; less costs a
     // reallocation).
     void init(const PointSet& set, const Cdt& cdt, bool maxMetric, bool paperMetric,
-              const std::vector<ExtraSample>* extra = nullptr,
-              std::vector<ExtraSample>* releaseExtra = nullptr);
+              ExtraSamples* extra = nullptr, bool release = false);
     // After a step: the destroyed pre-existing triangle slots and the created alive real slots.
     // Returns the step's own vertical error: the largest re-evaluated value (before the running
     // maximum).
@@ -103,10 +147,24 @@ private:
         std::uint32_t nearNext;  // next sample with the same nearest vertex
     };
     static_assert(sizeof(Sample) == 24);
-    // One original point in the max metric's pool: the extra samples' own type, so that a
-    // released `extra` vector becomes the pool, its points permuted in place (init).
-    using PoolPoint = ExtraSample;
-    static_assert(sizeof(PoolPoint) == 16);
+    // One original point in the max metric's pool (at()): below the set's point count a point
+    // of the set by id, then a cell of grid_ (its height inline), then explicit_[ref - set
+    // points - cells].
+    using PoolPoint = SampleRef;
+    static_assert(sizeof(PoolPoint) == 8);
+    struct Pos {
+        std::int64_t gx, gy;
+        double z;
+    };
+    Pos at(PoolPoint p) const {
+        std::size_t r = p.ref;
+        if (r < setCount_) return {cdt_->gx[r], cdt_->gy[r], set_->points[r].z};
+        r -= setCount_;
+        if (r < gridCells_)
+            return {grid_.gx[r & gridMask_], grid_.gy[r >> gridShift_], double(p.z)};
+        const ExtraSample& e = explicit_[r - gridCells_];
+        return {e.gx, e.gy, e.z};
+    }
     // Alive vertices in grid cells, coordinates inline; a dead entry has id == kNone.
     struct Entry {
         std::int32_t gx, gy;
@@ -125,22 +183,30 @@ private:
     // Locates p among the added triangles (exact, closed; `last`: the previous hit, tried first)
     // and returns its vertical error; `slot` receives the triangle. Scans them in the order
     // last, 0, 1, ...: the first domain triangle holding p, else the first exterior one.
-    double locateError(const PoolPoint& p, std::size_t& last, std::uint32_t& slot) const;
+    double locateError(const Pos& p, std::size_t& last, std::uint32_t& slot) const;
     // The same answer, found by walking from `last` across the added triangles' shared edges
     // (a star of very high degree: the scan made a 2-row DEM build in cubic time), starting from
     // the nearest of the last few hits; the tie of a point on an edge or at a corner is decided
     // among the triangles there as the scan's order would. Falls back to locateError where the
     // walk leaves the added triangles or goes round too long. Needs linkAdded().
-    double walkError(const PoolPoint& p, std::size_t& last, std::uint32_t& slot);
+    double walkError(const Pos& p, std::size_t& last, std::uint32_t& slot);
     // Links the added triangles across their shared edges (addedNext_) when there are at least
     // walkFrom of them (else the scan is as fast); returns whether it did.
     bool linkAdded();
-    double locate(const PoolPoint& p, std::size_t& last, std::uint32_t& slot, bool walk) {
+    double locate(PoolPoint r, std::size_t& last, std::uint32_t& slot, bool walk) {
+        const Pos p = at(r);
         return walk ? walkError(p, last, slot) : locateError(p, last, slot);
     }
     PointId nearest(std::int32_t gx, std::int32_t gy, double z) const;
 
     const PointSet* set_ = nullptr;
+    const Cdt* cdt_ = nullptr;
+    // What the pool's references point to (at()).
+    std::uint32_t setCount_ = 0;
+    std::size_t gridCells_ = 0, gridMask_ = 0;
+    int gridShift_ = 0;
+    SampleGrid grid_;
+    std::vector<ExtraSample> explicit_;
     bool maxMetric_ = false, paperMetric_ = false;
     double unit_ = 1e-3;
     std::vector<Sample> samples_;

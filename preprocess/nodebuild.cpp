@@ -179,10 +179,11 @@ bool buildNode(const std::vector<const CoarseState*>& children, const NodeBorder
                std::uint32_t col, std::uint32_t row, const BlockBuildOptions& options,
                const std::function<void(const std::function<void(const Point&)>&)>& originals,
                std::size_t originalCount, format::Block& block, BlockBuildStats& stats,
-               CoarseState& coarse, std::string& error) {
+               CoarseState& coarse, std::string& error, const OriginalGrid* grid) {
     NodeErrorInput input;
     input.originals = originals;
     input.originalCount = originalCount;
+    input.grid = grid;
     for (const CoarseState* child : children) {
         input.errorFloor = std::max(input.errorFloor, child->errorMax);
         input.riverFloor = std::max(input.riverFloor, child->errorRiver);

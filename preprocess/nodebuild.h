@@ -126,12 +126,13 @@ PointSet nodePointSet(const std::vector<const CoarseState*>& children, const Nod
 
 // Builds a node from its children's hand-over states: `block` (col, row: the node's position in
 // its level's grid) and the node's own hand-over state for its parent. `originals` calls its
-// argument once for every original point of the node's area. Greedy order only (the paper's
+// argument once for every original point of the node's area; `grid` (optional) names the DEM
+// cells among them (NodeErrorInput::grid). Greedy order only (the paper's
 // 3D_DP order builds no tree). Returns false with `error` on failure.
 bool buildNode(const std::vector<const CoarseState*>& children, const NodeBorder& border,
                std::uint32_t col, std::uint32_t row, const BlockBuildOptions& options,
                const std::function<void(const std::function<void(const Point&)>&)>& originals,
                std::size_t originalCount, format::Block& block, BlockBuildStats& stats,
-               CoarseState& coarse, std::string& error);
+               CoarseState& coarse, std::string& error, const OriginalGrid* grid = nullptr);
 
 }  // namespace unilod

@@ -142,7 +142,8 @@ TEST(BuildMemory, CountsRiversAndItemsBuiltTogether) {
     items[4].leafCount = 4;
     const std::uint64_t dem = 4 * 65536;
     const double raster = kBuildBaseBytes + double(dem) * kBuildBytesPerCell;
-    const double whole = raster + double(dem + 300000) * kTreeBuildBytesPerPoint;
+    const double whole =
+        raster + double(dem) * kTreeBuildBytesPerPoint + 300000 * kTreeBuildBytesPerRiverPoint;
     const double leaf0 = 65536 * kInFlightBytesPerDemPoint;
     const double leaf1 = leaf0 + 300000 * kInFlightBytesPerRiverPoint;
     const double root = 400000 * kInFlightBytesPerNodePoint;

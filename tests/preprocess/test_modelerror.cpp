@@ -158,7 +158,9 @@ TEST(ModelError, ExtraOriginalPointsCountInTheMaxMetric) {
     // over both.
     NodeCase c = splitBlock(47, 400, 3);
     const PointSet& set = c.set;
-    std::vector<ExtraSample>& extra = c.extra;
+    const std::vector<ExtraSample>& extra = c.extra;
+    ExtraSamples samples;
+    samples.points = extra;
     Cdt cdt;
     std::string error;
     ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
@@ -166,7 +168,7 @@ TEST(ModelError, ExtraOriginalPointsCountInTheMaxMetric) {
     DeletionRecords rec;
     DeletionOptions options;
     options.paperError = false;
-    options.extraSamples = &extra;
+    options.extraSamples = &samples;
     double brute = std::max(bruteForceMaxError(set, cdt), bruteForceExtraError(set, cdt, extra));
     EXPECT_GT(bruteForceExtraError(set, cdt, extra), 0.0);  // the extra points are off the mesh
     std::uint32_t mismatches = 0;
@@ -197,7 +199,7 @@ TEST(ModelError, ExtraOriginalPointsCountInTheMaxMetric) {
         ASSERT_TRUE(buildCdt(set, {}, again, error)) << error;
         DeletionOptions both;
         both.paperError = true;
-        both.extraSamples = withExtra ? &extra : nullptr;
+        both.extraSamples = withExtra ? &samples : nullptr;
         ASSERT_TRUE(runDeletion(set, again, order, both, out, error)) << error;
     };
     DeletionRecords withExtra, withoutExtra;
@@ -211,10 +213,10 @@ TEST(ModelError, ExtraOriginalPointsCountInTheMaxMetric) {
     EXPECT_NE(withExtra.errorMax, withoutExtra.errorMax);
 }
 
-// A released sample vector (DeletionOptions::releaseExtraSamples, a tree root's every original
-// point) becomes the pool, its samples permuted in place (modelerror.h ModelError::init): the
+// Released samples (DeletionOptions::releaseExtraSamples, a tree root's every original point):
+// their references become the pool, permuted in place (modelerror.h ModelError::init): the
 // records equal those of the copying path exactly, also with the samples in shuffled order (long
-// cycles) and with samples outside the hull (left out), and the vector is freed.
+// cycles) and with samples outside the hull (left out), and the buffers are taken over.
 TEST(ModelError, ReleasedExtraSamplesGiveTheSameRecordsAsCopiedOnes) {
     const NodeCase node = splitBlock(48, 600, 2);
     const PointSet& set = node.set;
@@ -226,7 +228,7 @@ TEST(ModelError, ReleasedExtraSamplesGiveTheSameRecordsAsCopiedOnes) {
     std::mt19937 rng(3);
     std::shuffle(extra.begin(), extra.end(), rng);
     ASSERT_GT(extra.size(), 150u);
-    auto run = [&](bool release, std::vector<ExtraSample>& samples, DeletionRecords& rec) {
+    auto run = [&](bool release, ExtraSamples& samples, DeletionRecords& rec) {
         Cdt cdt;
         ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
         DeletionOptions options;
@@ -235,13 +237,20 @@ TEST(ModelError, ReleasedExtraSamplesGiveTheSameRecordsAsCopiedOnes) {
         options.releaseExtraSamples = release;
         ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, error)) << error;
     };
-    std::vector<ExtraSample> copied = extra, released = extra;
-    released.reserve(released.size() * 2);  // the room the pool needs (no reallocation)
+    // Copied: the points alone. Released: the same points through references in reverse order
+    // (the pool is filled by references, in the samples' order).
+    ExtraSamples copied, released;
+    copied.points = extra;
+    released.points.assign(extra.rbegin(), extra.rend());
+    for (std::size_t i = 0; i < extra.size(); ++i)
+        released.refs.push_back({std::uint32_t(extra.size() - 1 - i), 0.0f});
+    released.refs.reserve(released.refs.size() * 2);  // the pool's room (no reallocation)
     DeletionRecords a, b;
     run(false, copied, a);
     run(true, released, b);
-    EXPECT_EQ(copied.size(), extra.size());  // the copying path leaves them
-    EXPECT_EQ(released.capacity(), 0u);      // the released buffer became the pool
+    EXPECT_EQ(copied.points.size(), extra.size());  // the copying path leaves them
+    EXPECT_EQ(released.refs.capacity(), 0u);        // the released buffer became the pool
+    EXPECT_EQ(released.points.capacity(), 0u);      // the points were taken over
     ASSERT_GT(a.steps.size(), 200u);
     ASSERT_EQ(a.steps.size(), b.steps.size());
     EXPECT_EQ(a.initialErrorMax, b.initialErrorMax);
@@ -250,11 +259,110 @@ TEST(ModelError, ReleasedExtraSamplesGiveTheSameRecordsAsCopiedOnes) {
     for (std::size_t k = 0; k < a.steps.size(); ++k)
         ASSERT_EQ(a.steps[k].vertex, b.steps[k].vertex) << "step " << k;
     // Released without room: the pool reserves it (a reallocation), the same records.
-    std::vector<ExtraSample> tight = extra;
-    tight.shrink_to_fit();
+    ExtraSamples tight;
+    tight.points.assign(extra.rbegin(), extra.rend());
+    for (std::size_t i = 0; i < extra.size(); ++i)
+        tight.refs.push_back({std::uint32_t(extra.size() - 1 - i), 0.0f});
+    tight.refs.shrink_to_fit();
     DeletionRecords c;
     run(true, tight, c);
     EXPECT_EQ(a.errorMax, c.errorMax);
+}
+
+// Original points known by their DEM cell (modelerror.h SampleRef, SampleGrid: 8 bytes each in the
+// pool, as a tree node's are): the same records as the same points given explicitly, with cells
+// and explicit points mixed in one order, released or copied.
+TEST(ModelError, GridCellSamplesGiveTheSameRecordsAsExplicitOnes) {
+    BlockSpec spec;
+    spec.seed = 49;
+    spec.points = 900;
+    spec.rivers = 2;
+    spec.grid = true;
+    PointSet all = makeBlock(spec);
+    const std::uint32_t side = 30;  // makeBlock's grid of 900 points: row-major, then the rivers
+    ASSERT_EQ(std::size_t(std::count_if(all.points.begin(), all.points.end(),
+                                        [](const Point& p) { return p.kind == PointKind::Dem; })),
+              std::size_t(side) * side);
+    // Heights of a float's precision (a cell's height is held as a float).
+    for (std::uint32_t i = 0; i < side * side; ++i)
+        all.points[i].z = double(float(all.points[i].z));  // DEM points first, row-major
+    // The triangulation holds the DEM points with (i + j) % 3 != 1 and every river point.
+    PointSet set;
+    std::vector<PointId> newId(all.points.size(), kNoPoint);
+    std::vector<std::uint32_t> extraCells;
+    for (PointId m = 0; m < all.points.size(); ++m) {
+        const Point& p = all.points[m];
+        if (m < side * side && !p.locked && (m % side + m / side) % 3 == 1) {
+            extraCells.push_back(m);
+            continue;
+        }
+        newId[m] = PointId(set.points.size());
+        set.points.push_back(p);
+    }
+    for (const Polyline& line : all.rivers) {
+        Polyline mapped;
+        for (PointId v : line)
+            mapped.push_back(newId[v]);
+        set.rivers.push_back(mapped);
+    }
+    std::string error;
+    Cdt probe;
+    ASSERT_TRUE(buildCdt(set, {}, probe, error)) << error;
+    auto gridOf = [&](double v, double origin) {
+        return std::int32_t(std::llround((v - origin) / probe.gridUnit));
+    };
+    // The grid's columns and rows; explicit points after every fifth cell, some outside the hull.
+    ExtraSamples cells, plain;
+    for (std::uint32_t i = 0; i < side; ++i) {
+        cells.grid.gx.push_back(gridOf(all.points[i].x, probe.originX));
+        cells.grid.gy.push_back(gridOf(all.points[std::size_t(i) * side].y, probe.originY));
+    }
+    const auto gridCells = std::uint32_t(cells.grid.cells());
+    ASSERT_EQ(gridCells, 30u * 32u);  // rows of a power-of-two pitch
+    for (std::size_t k = 0; k < extraCells.size(); ++k) {
+        const Point& p = all.points[extraCells[k]];
+        const ExtraSample e{gridOf(p.x, probe.originX), gridOf(p.y, probe.originY), p.z};
+        cells.refs.push_back({extraCells[k] / side * 32 + extraCells[k] % side, float(p.z)});
+        plain.points.push_back(e);
+        EXPECT_EQ(cells.at(cells.refs.size() - 1).gx, e.gx);
+        EXPECT_EQ(cells.at(cells.refs.size() - 1).z, e.z);
+        if (k % 5 == 4) {
+            const ExtraSample x{e.gx + 3, e.gy - 2, e.z + double(k % 7) - 3.0};
+            const ExtraSample far{-1000000, std::int32_t(1000000 + k), 5.0};
+            for (const ExtraSample& q : {x, far}) {
+                cells.refs.push_back({gridCells + std::uint32_t(cells.points.size()), 0.0f});
+                cells.points.push_back(q);
+                plain.points.push_back(q);
+            }
+        }
+    }
+    ASSERT_GT(extraCells.size(), 200u);
+    auto run = [&](ExtraSamples samples, bool release, DeletionRecords& rec) {
+        Cdt cdt;
+        ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+        DeletionOptions options;
+        options.paperError = false;
+        options.extraSamples = &samples;
+        options.releaseExtraSamples = release;
+        ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, error)) << error;
+    };
+    DeletionRecords a, b, c;
+    run(plain, false, a);
+    run(cells, false, b);
+    run(cells, true, c);
+    ASSERT_GT(a.steps.size(), 200u);
+    for (const DeletionRecords* r : {&b, &c}) {
+        ASSERT_EQ(a.steps.size(), r->steps.size());
+        EXPECT_EQ(a.initialErrorMax, r->initialErrorMax);
+        EXPECT_EQ(a.errorMax, r->errorMax);
+        for (std::size_t k = 0; k < a.steps.size(); ++k)
+            ASSERT_EQ(a.steps[k].vertex, r->steps[k].vertex) << "step " << k;
+    }
+    // The cells are counted: without them the start error is lower.
+    DeletionRecords none;
+    ExtraSamples empty;
+    run(empty, false, none);
+    EXPECT_LT(none.initialErrorMax, a.initialErrorMax);
 }
 
 TEST(ModelError, MetricsCanBeSwitchedOff) {

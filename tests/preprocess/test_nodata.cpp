@@ -538,7 +538,7 @@ TEST(Nodata, PointsOnAMovedOutlineCountInTheError) {
                     twice += cdt.orient(cdt.tv[3 * t], cdt.tv[3 * t + 1], cdt.tv[3 * t + 2]);
             return twice;
         }();
-        // Extra original points (a tree node's, modelerror.h ExtraSample) in the middle of
+        // Extra original points (a tree node's, modelerror.h ExtraSamples) in the middle of
         // outline edges, 3 m above them: on the outline, so in the domain from the start.
         std::vector<ExtraSample> extra;
         if (seed % 2 == 1) {
@@ -560,8 +560,10 @@ TEST(Nodata, PointsOnAMovedOutlineCountInTheError) {
         }
         DeletionRecords rec;
         DeletionOptions options;
+        ExtraSamples samples;
+        samples.points = extra;
         if (!extra.empty()) {
-            options.extraSamples = &extra;
+            options.extraSamples = &samples;
             options.paperError = false;
         }
         options.afterStep = [&](std::uint32_t step) {
