@@ -213,6 +213,19 @@ TEST(ModelError, ExtraOriginalPointsCountInTheMaxMetric) {
     EXPECT_NE(withExtra.errorMax, withoutExtra.errorMax);
 }
 
+// The greedy deletion of `set` (max metric only) with extra original points.
+void greedyWithExtra(const PointSet& set, ExtraSamples& samples, bool release,
+                     DeletionRecords& rec) {
+    Cdt cdt;
+    std::string error;
+    ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+    DeletionOptions options;
+    options.paperError = false;
+    options.extraSamples = &samples;
+    options.releaseExtraSamples = release;
+    ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, error)) << error;
+}
+
 // Released samples (DeletionOptions::releaseExtraSamples, a tree root's every original point):
 // their references become the pool, permuted in place (modelerror.h ModelError::init): the
 // records equal those of the copying path exactly, also with the samples in shuffled order (long
@@ -229,13 +242,7 @@ TEST(ModelError, ReleasedExtraSamplesGiveTheSameRecordsAsCopiedOnes) {
     std::shuffle(extra.begin(), extra.end(), rng);
     ASSERT_GT(extra.size(), 150u);
     auto run = [&](bool release, ExtraSamples& samples, DeletionRecords& rec) {
-        Cdt cdt;
-        ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
-        DeletionOptions options;
-        options.paperError = false;
-        options.extraSamples = &samples;
-        options.releaseExtraSamples = release;
-        ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, error)) << error;
+        greedyWithExtra(set, samples, release, rec);
     };
     // Copied: the points alone. Released: the same points through references in reverse order
     // (the pool is filled by references, in the samples' order).
@@ -338,13 +345,7 @@ TEST(ModelError, GridCellSamplesGiveTheSameRecordsAsExplicitOnes) {
     }
     ASSERT_GT(extraCells.size(), 200u);
     auto run = [&](ExtraSamples samples, bool release, DeletionRecords& rec) {
-        Cdt cdt;
-        ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
-        DeletionOptions options;
-        options.paperError = false;
-        options.extraSamples = &samples;
-        options.releaseExtraSamples = release;
-        ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, error)) << error;
+        greedyWithExtra(set, samples, release, rec);
     };
     DeletionRecords a, b, c;
     run(plain, false, a);
