@@ -88,9 +88,9 @@ struct OriginalGrid {
 struct NodeErrorInput {
     std::function<void(const std::function<void(const Point&)>&)> originals;
     std::size_t originalCount = 0;  // how many points `originals` gives (a capacity hint)
-    // The DEM cells under the node (OriginalGrid): an original point that is exactly such a cell
-    // (position and height) is kept as a reference to it, 4 bytes instead of 16 (ModelError's
-    // SampleGrid); null: every point is kept whole.
+    // The DEM cells under the node (OriginalGrid): an original point at such a cell (its grid
+    // position, and a height that is a float exactly) is kept as the cell's reference with its
+    // height, 8 bytes instead of 16 (modelerror.h SampleRef); null: every point is kept whole.
     const OriginalGrid* grid = nullptr;
     double errorFloor = 0;
     double riverFloor = 0;  // the same for the river part (DeletionOptions::riverFloor)
