@@ -156,6 +156,7 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
     Ingested data;
     IngestOptions in = o;
     if (o.stage) in.onStage = [&o](const std::string& name) { o.stage(name, 0); };
+    if (o.memoryCheck) in.demMemoryBytes = memoryBound(o.memoryLimitBytes, in.demMemoryWhat);
     if (!ingest(in, data, error)) return false;
     const DemGrid& dem = data.dem;
     summary.demWidth = dem.width;
@@ -804,6 +805,15 @@ MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t demPoints,
         e.smaller = "--threads 1 builds one block at a time";
     else
         e.smaller = "--stride 2 builds a quarter of the DEM points";
+    if (e.smaller.rfind("--stride", 0) == 0 && double(cells) * kBuildBytesPerCell > whole / 3) {
+        // The raster is held whole at any stride (README "Large DEMs"): say what stays.
+        char raster[200];
+        std::snprintf(raster, sizeof raster,
+                      ", but the raster's %.0f bytes a cell stay (%.2f GB): a raster resampled to "
+                      "larger cells first (gdalwarp -tr) needs less",
+                      kBuildBytesPerCell, double(cells) * kBuildBytesPerCell / 1e9);
+        e.smaller += raster;
+    }
     return e;
 }
 

@@ -4,6 +4,8 @@
 #include "dem.h"
 
 #include <cpl_conv.h>
+#include <cpl_string.h>
+#include <gdal_alg.h>
 #include <gdal_priv.h>
 #include <gdal_utils.h>
 #include <ogr_spatialref.h>
@@ -85,6 +87,23 @@ GDALDatasetUniquePtr warpToMemory(GDALDataset* src, const std::string& dstWkt,
     GDALDatasetH out = GDALWarp("", nullptr, 1, &srcHandle, opts, &usageError);
     GDALWarpAppOptionsFree(opts);
     return GDALDatasetUniquePtr(GDALDataset::FromHandle(out));
+}
+
+// The cells of the grid warpToMemory(src, dstWkt, srcWkt) makes: GDAL's suggested output, as
+// gdalwarp computes it; 0 when GDAL cannot say.
+double warpedCells(GDALDataset* src, const std::string& dstWkt, const std::string& srcWkt) {
+    CPLStringList options;
+    if (!srcWkt.empty()) options.SetNameValue("SRC_SRS", srcWkt.c_str());
+    if (!dstWkt.empty()) options.SetNameValue("DST_SRS", dstWkt.c_str());
+    void* transformer =
+        GDALCreateGenImgProjTransformer2(GDALDataset::ToHandle(src), nullptr, options.List());
+    if (transformer == nullptr) return 0;
+    double gt[6];
+    int width = 0, height = 0;
+    const CPLErr e = GDALSuggestedWarpOutput(GDALDataset::ToHandle(src), GDALGenImgProjTransform,
+                                             transformer, gt, &width, &height);
+    GDALDestroyGenImgProjTransformer(transformer);
+    return e == CE_None ? double(width) * double(height) : 0;
 }
 
 std::string toWkt(const OGRSpatialReference& srs) {
@@ -636,6 +655,27 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
                                   number(zMetres) + ")");
     }
 
+    // The copies must fit the memory (DemLoadOptions::memoryBytes), checked before reading.
+    auto fitsMemory = [&](double cells, bool reprojected) {
+        const double need = demReadBytes(cells, reprojected);
+        if (!(options.memoryBytes > 0) || need <= options.memoryBytes) return true;
+        char text[320];
+        std::snprintf(
+            text, sizeof text,
+            "%d x %d cells%s need about %.2f GB of memory to read (%s), more than %s "
+            "allows (%.2f GB): ",
+            ds->GetRasterXSize(), ds->GetRasterYSize(), reprojected ? " (reprojected)" : "",
+            need / 1e9,
+            reprojected ? "8 bytes a cell: its warped copy and the grid" : "4 bytes a cell",
+            options.memoryWhat.empty() ? "the available memory" : options.memoryWhat.c_str(),
+            options.memoryBytes / 1e9);
+        error = "DEM '" + path + "': " + text +
+                "clip it to the area needed or resample it to larger cells first (e.g. "
+                "gdalwarp -tr)" +
+                (options.memorySkippable ? "; --no-memory-check tries anyway" : "");
+        return false;
+    };
+
     GDALDataset* source = ds.get();
     GDALDatasetUniquePtr single, warped;
     int readBand = band;
@@ -660,8 +700,11 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
         };
         std::string sourceWkt = assumedWkt;
         if (srcSrs != nullptr && srcSrs->IsCompound()) sourceWkt = horizontalWkt(*srcSrs);
-        warped = warpToMemory(source, srcSrs != nullptr ? horizontalWkt(target) : std::string(),
-                              sourceWkt);
+        const std::string targetWkt = srcSrs != nullptr ? horizontalWkt(target) : std::string();
+        double cells = warpedCells(source, targetWkt, sourceWkt);
+        if (!(cells > 0)) cells = double(ds->GetRasterXSize()) * double(ds->GetRasterYSize());
+        if (!fitsMemory(cells, true)) return false;
+        warped = warpToMemory(source, targetWkt, sourceWkt);
         if (!warped) {
             error = "DEM '" + path + "': reprojection failed" + gdalErrorSuffix();
             return false;
@@ -676,6 +719,8 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
     int hasNoData = 0;
     const double noData = rb->GetNoDataValue(&hasNoData);
     const int w = source->GetRasterXSize(), h = source->GetRasterYSize();
+    // (A warped raster was checked with its copy, before the warp.)
+    if (!warp && !fitsMemory(double(w) * double(h), false)) return false;
     dem.width = w;
     dem.height = h;
     dem.cellX = gt[1];

@@ -41,7 +41,22 @@ struct DemLoadOptions {
     std::string assumeSrs;  // the CRS of a raster that declares none (--s-srs); ignored otherwise
     // Accepted-but-odd input (an unknown elevation unit, a working CRS that distorts distances).
     std::function<void(const std::string&)> warn;
+    // The memory the raster's copies may take (bytes; 0: no check) and what bound that is ("the
+    // available memory", "--memory-limit"): loadDem refuses, before it reads a cell, a raster
+    // whose copy in memory (4 bytes a cell, and as much again for the warped copy of a
+    // reprojected one: demReadBytes) would exceed it, instead of being killed for lack of memory
+    // half-way (a 70 000 x 70 000 raster on a 23 GB machine).
+    // `memorySkippable`: the command has --no-memory-check (the error says so).
+    double memoryBytes = 0;
+    std::string memoryWhat;
+    bool memorySkippable = true;
 };
+
+// The memory loadDem's copies of a raster take: 4 bytes a cell of the grid it reads (`cells`),
+// and 4 more for the reprojected copy GDAL makes in memory first (`warped`).
+inline double demReadBytes(double cells, bool warped) {
+    return cells * (warped ? 8.0 : 4.0);
+}
 
 // Metres per unit of an elevation or length unit name as GDAL reports it (band unit type, CRS
 // unit): metre, foot, US survey foot and their usual spellings, cm, mm, km. 0 when unknown; 1 for

@@ -190,6 +190,9 @@ bool ingest(const IngestOptions& o, Ingested& data, std::string& error) {
     demOptions.targetSrs = o.targetSrs;
     demOptions.assumeSrs = o.assumeSrs;
     demOptions.warn = warn;
+    demOptions.memoryBytes = o.demMemoryBytes;
+    demOptions.memoryWhat = o.demMemoryWhat;
+    demOptions.memorySkippable = o.demMemorySkippable;
     DemGrid& dem = data.dem;
     if (!loadDem(o.demPath, demOptions, dem, error)) return false;
     if (dem.width < 2 || dem.height < 2) {

@@ -41,6 +41,12 @@ struct IngestOptions {
     int stride = 1;                       // DEM points: every stride-th row and column
     double minRiverLength = 0;            // river cleaning: drop shorter rivers (metres)
     double riverClearance = kDefaultRiverClearance;  // DEM points this close to a river go
+    // The memory the DEM's copies may take and what bound that is (DemLoadOptions::memoryBytes;
+    // 0: no check): build and order pass their memory check's bound (build.h memoryBound).
+    // `demMemorySkippable`: the command has --no-memory-check.
+    double demMemoryBytes = 0;
+    std::string demMemoryWhat;
+    bool demMemorySkippable = true;
     // Warnings for accepted-but-odd input (empty river layer, NaN cells...).
     std::function<void(const std::string&)> warn;
     // Progress: the name of a long step as it starts ("cleaning the rivers").

@@ -242,7 +242,8 @@ TEST_F(CliOutputs, BuildMemoryEstimateCountsTheRivers) {
 // Without --threads the build chooses its thread count: where the estimate with all cores
 // exceeds the bound and with fewer does not, it builds with fewer and says so; a thread count
 // given is kept (and refused). The bound is set between the demo build's estimates for one and
-// two threads, read from the refusals under a 1 MB limit.
+// two threads, read from the refusals under a 5 MB limit (which the raster's read, about 1 MB,
+// fits: loadDem checks that first).
 TEST_F(CliOutputs, BuildUsesFewerThreadsWhereMemoryAllowsOnlyFewer) {
     if (std::thread::hardware_concurrency() < 2) GTEST_SKIP() << "one core: nothing to reduce";
     const std::string build =
@@ -250,7 +251,7 @@ TEST_F(CliOutputs, BuildUsesFewerThreadsWhereMemoryAllowsOnlyFewer) {
         q(std::string(UNILOD_ASSETS_DIR) + "/jacksboro_rivers_grass.geojson") + " -o " +
         q(dir->file("fewer.ulod")) + " --overwrite";
     auto estimate = [&](const std::string& threads) {
-        const auto r = runCli(build + " --memory-limit 1 --threads " + threads);
+        const auto r = runCli(build + " --memory-limit 5 --threads " + threads);
         EXPECT_EQ(r.code, 1) << r.err;
         const std::size_t at = r.err.find("need about ");
         return at == std::string::npos ? 0.0 : std::stod(r.err.substr(at + 11)) * 1000.0;
@@ -284,6 +285,52 @@ TEST_F(CliOutputs, OrderMemoryLimitRefusesBeforeTheWork) {
     EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_TRUE(fs::exists(out));
     fs::remove(out);
+}
+
+// A raster whose copy in memory exceeds the bound is refused before a cell is read (dem.h
+// DemLoadOptions::memoryBytes), by `build` and `order` alike: a 70 000 x 70 000 raster used to be
+// read for minutes and then killed for lack of memory (signal 9, no message) on a 23 GB machine.
+// Raster header only (VRT bands without sources): nothing is ever read.
+TEST_F(CliOutputs, RasterLargerThanTheMemoryRefusedBeforeReading) {
+    auto vrt = [&](const std::string& name, int side, const char* srs, const char* transform) {
+        const std::string path = dir->file(name);
+        std::ofstream f(path);
+        f << "<VRTDataset rasterXSize=\"" << side << "\" rasterYSize=\"" << side << "\">"
+          << "<SRS>" << srs << "</SRS><GeoTransform>" << transform << "</GeoTransform>"
+          << "<VRTRasterBand dataType=\"Float32\" band=\"1\"/></VRTDataset>";
+        return path;
+    };
+    // 60 000 x 60 000 cells of 1 m in UTM: 14.4 GB as 4-byte heights.
+    const std::string utm = vrt("huge_utm.vrt", 60000, "EPSG:32616", "500000,1,0,4000000,0,-1");
+    // The same in degrees: reprojected to UTM, a warped copy first (8 bytes a cell).
+    const std::string geo =
+        vrt("huge_geo.vrt", 60000, "EPSG:4326", "-84.5,0.00001,0,36.5,0,-0.00001");
+    const std::string out = dir->file("huge.ulod");
+    struct Case {
+        std::string command, dem, needs;
+    };
+    for (const Case& c :
+         {Case{"build", utm, "60000 x 60000 cells need about 14.40 GB of memory to read"},
+          Case{"build", geo, "60000 x 60000 cells (reprojected) need about"},
+          Case{"order", utm, "60000 x 60000 cells need about 14.40 GB of memory to read"}}) {
+        SCOPED_TRACE(c.command + " " + c.dem);
+        const std::string cmd = c.command + " -q " + q(c.dem) + " -o " + q(out);
+        auto r = runCli(cmd + " --memory-limit 1000");
+        EXPECT_EQ(r.code, 1) << r.out << r.err;
+        EXPECT_NE(r.err.find("DEM '" + c.dem + "': " + c.needs), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find("more than --memory-limit allows (1.00 GB)"), std::string::npos)
+            << r.err;
+        EXPECT_NE(r.err.find("gdalwarp -tr"), std::string::npos) << r.err;
+        EXPECT_FALSE(fs::exists(out));
+    }
+    // Without a limit given: the memory this process can get (the reprojected copy alone of a
+    // 1 000 000 x 1 000 000 raster is 4 TB).
+    const std::string vast =
+        vrt("vast_geo.vrt", 1000000, "EPSG:4326", "-84.5,0.0000001,0,36.5,0,-0.0000001");
+    auto r = runCli("build -q " + q(vast) + " -o " + q(out));
+    EXPECT_EQ(r.code, 1) << r.out << r.err;
+    EXPECT_NE(r.err.find("(reprojected) need about"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out));
 }
 
 TEST_F(CliOutputs, StaleTemporariesOfKilledRunsRemoved) {

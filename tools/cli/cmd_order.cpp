@@ -166,6 +166,7 @@ int runOrder(const OrderOptions& o) {
     Clock::time_point t = Clock::now();
     IngestOptions in = o.in;
     in.warn = [&bar](const std::string& w) { bar.message("unilod order: warning: " + w); };
+    if (o.memory.check) in.demMemoryBytes = memoryBound(o.memory.limitBytes(), in.demMemoryWhat);
     Ingested data;
     if (!ingest(in, data, error)) return fail(error);
     const DemGrid& dem = data.dem;

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bai.h"
+#include "build.h"
 #include "cdt.h"
 #include "deletion.h"
 #include "importance.h"
@@ -169,6 +170,9 @@ bool compareRivers(const ReportOptions& options, const std::string& buildInfo,
     IngestOptions in = ingestOptionsFromInfo(info);
     if (!options.demPath.empty()) in.demPath = options.demPath;
     if (!options.riversPath.empty()) in.riversPath = options.riversPath;
+    // A raster larger than the memory: refused (report has no --no-memory-check).
+    in.demMemoryBytes = memoryBound(0, in.demMemoryWhat);
+    in.demMemorySkippable = false;
     // A terrain-only build (no RIVERS): nothing to compare.
     if (options.riversPath.empty() && info.is_object() && info.contains("rivers") &&
         info.at("rivers") == "") {
