@@ -73,8 +73,8 @@ struct BuildOptions : IngestOptions {
 
 // Peak memory of a build, estimated before its long work (estimateBuildMemory; README "Large
 // DEMs", fitted to peaks measured in MEASURED.md): a base, bytes per cell of the raster (held
-// whole, nodata and cells the stride skips included, and GDAL's block cache of it), bytes per
-// point of the whole model (the point data and, with the block hierarchy, the root's error
+// whole, nodata and cells the stride skips included, and what GDAL holds while it reads it), bytes
+// per point of the whole model (the point data and, with the block hierarchy, the root's error
 // against every original point), and the items built at the same time: the `threads` heaviest
 // blocks and tree nodes of which none lies under another (a node waits for its children), at bytes
 // per point of the item. A block's points are its DEM lattice points and river vertices; a node's
@@ -82,13 +82,19 @@ struct BuildOptions : IngestOptions {
 // a lower bound of what it starts from. A river network denser than the DEM weighs through its
 // blocks and nodes: 50 000 crossing lines over the demo DEM make a root of 444 000 locked vertices.
 inline constexpr double kBuildBaseBytes = 64e6;  // libraries, GDAL's cache, thread stacks
-inline constexpr double kBuildBytesPerCell = 8;
-// With the tree, per DEM point 16 (22 until 2026-12-01, when the root's error pool held 16 bytes
+// Per cell 5: the grid's 4 and GDAL's reading buffers (its block cache, capped while a
+// reprojection warps; the warp's chunks). Until 2026-12-02 8, when GDAL's block cache kept the
+// whole raster again as it was read (and a reprojected raster was warped into a copy first):
+// peaks of rasters with few points per cell (--stride 8 on 12 000^2 cells, a corridor clipped
+// from 8 000^2) fell by a third, those of full rasters stayed; their per-point bytes took the 3
+// (MEASURED.md, thirty-fourth session).
+inline constexpr double kBuildBytesPerCell = 5;
+// With the tree, per DEM point 19 (25 until 2026-12-01, when the root's error pool held 16 bytes
 // for every original point, now 8 for one at a sampled DEM cell: modelerror.h SampleRef), per
 // river point 30 (its 16 bytes kept whole, and an 8-byte reference to them).
-inline constexpr double kTreeBuildBytesPerPoint = 16;
+inline constexpr double kTreeBuildBytesPerPoint = 19;
 inline constexpr double kTreeBuildBytesPerRiverPoint = 30;
-inline constexpr double kFlatBuildBytesPerPoint = 10;
+inline constexpr double kFlatBuildBytesPerPoint = 13;
 inline constexpr double kInFlightBytesPerDemPoint = 950;
 inline constexpr double kInFlightBytesPerRiverPoint = 1200;
 inline constexpr double kInFlightBytesPerNodePoint = 1600;
@@ -134,10 +140,11 @@ MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t demPoints,
 MemoryEstimate pointMemory(std::uint64_t demPoints, std::uint64_t riverPoints,
                            double bytesPerPoint);
 
-// Bytes this process can still get (Linux): the smallest of the memory available to new
-// allocations (/proc/meminfo MemAvailable + SwapFree), the cgroup's limit less its use (v2
-// memory.max / memory.current, v1 memory.limit_in_bytes / usage_in_bytes) and the address-space
-// limit (RLIMIT_AS) less the address space in use. 0 when none can be read. `what` receives which
+// Bytes this process can hold in all (Linux): what it holds (VmRSS) plus the smallest of the
+// memory available to new allocations (/proc/meminfo MemAvailable + SwapFree), the cgroup's
+// limit less its use (v2 memory.max / memory.current, v1 memory.limit_in_bytes / usage_in_bytes)
+// and the address-space limit (RLIMIT_AS) less the address space in use: the estimates it is
+// compared with are of the process's whole peak. 0 when none can be read. `what` receives which
 // bound it is ("available memory", "the cgroup's memory limit", "the address-space limit").
 std::uint64_t availableMemory(std::string* what = nullptr);
 

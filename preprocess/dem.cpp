@@ -1,5 +1,5 @@
-// DEM ingestion: GDAL open, band choice, reprojection of geographic rasters to UTM (GDALWarp into
-// a MEM dataset), nodata normalisation to NaN, and bilinear sampling between cell centres
+// DEM ingestion: GDAL open, band choice, reprojection of geographic rasters to UTM (GDALWarp
+// straight into the grid), nodata normalisation to NaN, and bilinear sampling between cell centres
 // (DESIGN.md "Coordinates": everything downstream works in metres in one planar CRS).
 #include "dem.h"
 
@@ -68,42 +68,81 @@ GDALDatasetUniquePtr extractBand(GDALDataset* src, int band, int alphaBand) {
     return GDALDatasetUniquePtr(GDALDataset::FromHandle(out));
 }
 
-// Warps the single-band `src` to `dstWkt` in memory: Float32 with NaN as nodata, so that cells
+// The gdalwarp arguments of the reprojection: bilinear, Float32 with NaN as nodata, so that cells
 // outside the source footprint (the skewed corners of a reprojected grid) are nodata, not 0.
 // `srcWkt`: the source CRS when the raster declares none (--s-srs); empty: the raster's own.
-GDALDatasetUniquePtr warpToMemory(GDALDataset* src, const std::string& dstWkt,
-                                  const std::string& srcWkt) {
-    std::vector<std::string> args{"-of", "MEM",     "-r",         "bilinear",
-                                  "-ot", "Float32", "-dstnodata", "nan"};
+std::vector<std::string> warpArgs(const std::string& srcWkt) {
+    std::vector<std::string> args{"-r", "bilinear", "-ot", "Float32", "-dstnodata", "nan"};
     if (!srcWkt.empty()) args.insert(args.end(), {"-s_srs", srcWkt});
-    // No target: a raster without a CRS resampled north-up in its own coordinates.
-    if (!dstWkt.empty()) args.insert(args.end(), {"-t_srs", dstWkt});
-    ArgList list{args};
+    return args;
+}
+
+GDALDatasetH runWarp(GDALDatasetH dst, GDALDataset* src, std::vector<std::string> args) {
+    ArgList list{std::move(args)};
     std::vector<char*> argv = list.pointers();
     GDALWarpAppOptions* opts = GDALWarpAppOptionsNew(argv.data(), nullptr);
     if (opts == nullptr) return nullptr;
     GDALDatasetH srcHandle = GDALDataset::ToHandle(src);
     int usageError = 0;
-    GDALDatasetH out = GDALWarp("", nullptr, 1, &srcHandle, opts, &usageError);
+    GDALDatasetH out =
+        GDALWarp(dst != nullptr ? nullptr : "", dst, 1, &srcHandle, opts, &usageError);
     GDALWarpAppOptionsFree(opts);
-    return GDALDatasetUniquePtr(GDALDataset::FromHandle(out));
+    return out;
 }
 
-// The cells of the grid warpToMemory(src, dstWkt, srcWkt) makes: GDAL's suggested output, as
-// gdalwarp computes it; 0 when GDAL cannot say.
-double warpedCells(GDALDataset* src, const std::string& dstWkt, const std::string& srcWkt) {
-    CPLStringList options;
-    if (!srcWkt.empty()) options.SetNameValue("SRC_SRS", srcWkt.c_str());
-    if (!dstWkt.empty()) options.SetNameValue("DST_SRS", dstWkt.c_str());
-    void* transformer =
-        GDALCreateGenImgProjTransformer2(GDALDataset::ToHandle(src), nullptr, options.List());
-    if (transformer == nullptr) return 0;
+// The grid the reprojection of the single-band `src` to `dstWkt` makes (no target: a raster
+// without a CRS resampled north-up in its own coordinates): gdalwarp's own output, as a virtual
+// (VRT) dataset whose size, geotransform and CRS are read before a cell is warped.
+GDALDatasetUniquePtr planWarp(GDALDataset* src, const std::string& dstWkt,
+                              const std::string& srcWkt) {
+    std::vector<std::string> args = warpArgs(srcWkt);
+    args.insert(args.end(), {"-of", "VRT"});
+    if (!dstWkt.empty()) args.insert(args.end(), {"-t_srs", dstWkt});
+    return GDALDatasetUniquePtr(GDALDataset::FromHandle(runWarp(nullptr, src, args)));
+}
+
+// Warps `src` onto the grid of `plan` straight into `cells` (plan's width x height Float32
+// values, row by row, NaN before): a MEM dataset over the caller's buffer, so that the raster is
+// held once (until 2026-12-02 GDAL's warped copy and then the grid: 8 bytes a cell, and GDAL's
+// block cache of the source on top), on `threads` threads (0: all cores). The cells are the
+// ones gdalwarp's own MEM output had (same options, same chunks; a thread count splits a chunk's
+// rows only).
+bool warpInto(GDALDataset* src, GDALDataset* plan, const std::string& srcWkt, int threads,
+              float* cells) {
+    GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
+    if (mem == nullptr) return false;
+    const int w = plan->GetRasterXSize(), h = plan->GetRasterYSize();
+    GDALDatasetUniquePtr dst(mem->Create("", w, h, 0, GDT_Float32, nullptr));
+    if (!dst) return false;
+    char pointer[64] = {};
+    pointer[CPLPrintPointer(pointer, cells, sizeof pointer - 1)] = '\0';
+    const std::string at = std::string("DATAPOINTER=") + pointer;
+    CPLStringList bandOptions;
+    bandOptions.AddString(at.c_str());
+    if (dst->AddBand(GDT_Float32, bandOptions.List()) != CE_None) return false;
     double gt[6];
-    int width = 0, height = 0;
-    const CPLErr e = GDALSuggestedWarpOutput(GDALDataset::ToHandle(src), GDALGenImgProjTransform,
-                                             transformer, gt, &width, &height);
-    GDALDestroyGenImgProjTransformer(transformer);
-    return e == CE_None ? double(width) * double(height) : 0;
+    if (plan->GetGeoTransform(gt) != CE_None || dst->SetGeoTransform(gt) != CE_None) return false;
+    if (const OGRSpatialReference* srs = plan->GetSpatialRef()) dst->SetSpatialRef(srs);
+    dst->GetRasterBand(1)->SetNoDataValue(std::numeric_limits<double>::quiet_NaN());
+    std::vector<std::string> args = warpArgs(srcWkt);
+    // GDAL's block cache (default 5 % of the memory) kept the source's blocks as the warp read
+    // them: the whole source raster again on top of the grid (a 12 000^2 Float32 one: 1.25 GB
+    // read where the grid is 0.61). Capped to a warp chunk's worth while warping (its -wm);
+    // blocks shared by neighbouring chunks may be read twice.
+    struct CacheCap {
+        GIntBig before = GDALGetCacheMax64();
+        explicit CacheCap(GIntBig cap) {
+            if (before > cap) GDALSetCacheMax64(cap);
+        }
+        ~CacheCap() { GDALSetCacheMax64(before); }
+    } cap(GIntBig(64) << 20);
+    // As gdalwarp initialises an output it creates; the threads split the warp kernel's rows.
+    args.insert(args.end(), {"-wo", "INIT_DEST=NO_DATA", "-wo",
+                             "NUM_THREADS=" + (threads > 0 ? std::to_string(threads)
+                                                           : std::string("ALL_CPUS"))});
+    if (runWarp(GDALDataset::ToHandle(dst.get()), src, args) == nullptr) return false;
+    dst->FlushCache(false);
+    return true;
 }
 
 std::string toWkt(const OGRSpatialReference& srs) {
@@ -655,18 +694,18 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
                                   number(zMetres) + ")");
     }
 
-    // The copies must fit the memory (DemLoadOptions::memoryBytes), checked before reading.
+    // The grid must fit the memory (DemLoadOptions::memoryBytes), checked before reading.
     auto fitsMemory = [&](double cells, bool reprojected) {
-        const double need = demReadBytes(cells, reprojected);
+        const double perCell = std::max(4.0, options.bytesPerCell);
+        const double need = demReadBytes(cells, perCell);
         if (!(options.memoryBytes > 0) || need <= options.memoryBytes) return true;
         char text[320];
         std::snprintf(
             text, sizeof text,
-            "%d x %d cells%s need about %.2f GB of memory to read (%s), more than %s "
-            "allows (%.2f GB): ",
+            "%d x %d cells%s need at least %.2f GB of memory (%.0f bytes a cell to "
+            "read and hold them), more than %s allows (%.2f GB): ",
             ds->GetRasterXSize(), ds->GetRasterYSize(), reprojected ? " (reprojected)" : "",
-            need / 1e9,
-            reprojected ? "8 bytes a cell: its warped copy and the grid" : "4 bytes a cell",
+            need / 1e9, perCell,
             options.memoryWhat.empty() ? "the available memory" : options.memoryWhat.c_str(),
             options.memoryBytes / 1e9);
         error = "DEM '" + path + "': " + text +
@@ -677,7 +716,8 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
     };
 
     GDALDataset* source = ds.get();
-    GDALDatasetUniquePtr single, warped;
+    GDALDatasetUniquePtr single, plan;
+    std::string sourceWkt;
     int readBand = band;
     if (warp) {
         if (bands > 1) {
@@ -698,28 +738,22 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
             horizontal.StripVertical();
             return toWkt(horizontal);
         };
-        std::string sourceWkt = assumedWkt;
+        sourceWkt = assumedWkt;
         if (srcSrs != nullptr && srcSrs->IsCompound()) sourceWkt = horizontalWkt(*srcSrs);
         const std::string targetWkt = srcSrs != nullptr ? horizontalWkt(target) : std::string();
-        double cells = warpedCells(source, targetWkt, sourceWkt);
-        if (!(cells > 0)) cells = double(ds->GetRasterXSize()) * double(ds->GetRasterYSize());
-        if (!fitsMemory(cells, true)) return false;
-        warped = warpToMemory(source, targetWkt, sourceWkt);
-        if (!warped) {
+        plan = planWarp(source, targetWkt, sourceWkt);
+        if (!plan) {
             error = "DEM '" + path + "': reprojection failed" + gdalErrorSuffix();
             return false;
         }
-        source = warped.get();
+        if (!fitsMemory(double(plan->GetRasterXSize()) * double(plan->GetRasterYSize()), true))
+            return false;
+        plan->GetGeoTransform(gt);
         readBand = 1;
-        source->GetGeoTransform(gt);
     }
 
-    GDALRasterBand* rb = source->GetRasterBand(readBand);
-    assert(rb != nullptr);
-    int hasNoData = 0;
-    const double noData = rb->GetNoDataValue(&hasNoData);
-    const int w = source->GetRasterXSize(), h = source->GetRasterYSize();
-    // (A warped raster was checked with its copy, before the warp.)
+    const int w = warp ? plan->GetRasterXSize() : source->GetRasterXSize();
+    const int h = warp ? plan->GetRasterYSize() : source->GetRasterYSize();
     if (!warp && !fitsMemory(double(w) * double(h), false)) return false;
     dem.width = w;
     dem.height = h;
@@ -730,43 +764,78 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
     dem.z.assign(static_cast<std::size_t>(w) * h, kNaN);
     if (srcSrs != nullptr) dem.wkt = toWkt(target);
 
-    // The band's mask beyond its nodata value: an alpha band (read as bytes: 0 stays 0, any
-    // other value of an Int16 or UInt16 alpha is clamped above 0; GDAL takes only a Byte or
-    // UInt16 alpha as the mask), a per-dataset mask (internal or .msk) or a band mask; a cell it
-    // marks 0 is nodata. (A warped band has only its nodata: the warper applied the source's
-    // mask, extractBand handing it the alpha band.)
-    GDALRasterBand* mask = nullptr;
-    if (!warp && alphaBand > 0 && band != alphaBand) {
-        mask = ds->GetRasterBand(alphaBand);
-    } else if (const int flags = rb->GetMaskFlags();
-               (flags & GMF_ALL_VALID) == 0 && flags != GMF_NODATA) {
-        mask = rb->GetMaskBand();
-    }
-    std::vector<std::uint8_t> maskRow(mask != nullptr ? static_cast<std::size_t>(w) : 0);
-
-    // Row by row in double, so that the nodata comparison is exact for every band type.
-    std::vector<double> row(static_cast<std::size_t>(w));
     std::size_t valid = 0;
-    for (int r = 0; r < h; ++r) {
-        if (rb->RasterIO(GF_Read, 0, r, w, 1, row.data(), w, 1, GDT_Float64, 0, 0, nullptr) !=
-                CE_None ||
-            (mask != nullptr && mask->RasterIO(GF_Read, 0, r, w, 1, maskRow.data(), w, 1, GDT_Byte,
-                                               0, 0, nullptr) != CE_None)) {
-            error =
-                "DEM '" + path + "': read error at row " + std::to_string(r) + gdalErrorSuffix();
+    // Raw value -> metres; false where it is not a finite altitude.
+    auto convert = [&](double v, float& out) {
+        if (!std::isfinite(v)) return false;
+        const double z = (v * scale + offset) * zMetres;
+        if (!std::isfinite(z)) return false;
+        out = static_cast<float>(z);
+        return true;
+    };
+    if (warp) {
+        // Warped into the grid itself, NaN where no source cell reaches (the warper applied the
+        // source's nodata and mask, extractBand handing it the alpha band); converted in place.
+        if (!warpInto(source, plan.get(), sourceWkt, options.threads, dem.z.data())) {
+            error = "DEM '" + path + "': reprojection failed" + gdalErrorSuffix();
             dem = DemGrid{};
             return false;
         }
-        float* out = dem.z.data() + static_cast<std::size_t>(r) * w;
-        for (int c = 0; c < w; ++c) {
-            const double v = row[c];
-            if (!std::isfinite(v) || (hasNoData && v == noData)) continue;
-            if (mask != nullptr && maskRow[static_cast<std::size_t>(c)] == 0) continue;
-            const double z = (v * scale + offset) * zMetres;
-            if (!std::isfinite(z)) continue;
-            out[c] = static_cast<float>(z);
+        plan.reset();
+        single.reset();
+        ds->FlushCache(false);
+        for (float& z : dem.z) {
+            if (!convert(z, z)) {
+                z = kNaN;
+                continue;
+            }
             ++valid;
         }
+    } else {
+        GDALRasterBand* rb = source->GetRasterBand(readBand);
+        assert(rb != nullptr);
+        int hasNoData = 0;
+        const double noData = rb->GetNoDataValue(&hasNoData);
+        // The band's mask beyond its nodata value: an alpha band (read as bytes: 0 stays 0, any
+        // other value of an Int16 or UInt16 alpha is clamped above 0; GDAL takes only a Byte or
+        // UInt16 alpha as the mask), a per-dataset mask (internal or .msk) or a band mask; a cell
+        // it marks 0 is nodata.
+        GDALRasterBand* mask = nullptr;
+        if (alphaBand > 0 && band != alphaBand) {
+            mask = ds->GetRasterBand(alphaBand);
+        } else if (const int flags = rb->GetMaskFlags();
+                   (flags & GMF_ALL_VALID) == 0 && flags != GMF_NODATA) {
+            mask = rb->GetMaskBand();
+        }
+        std::vector<std::uint8_t> maskRow(mask != nullptr ? static_cast<std::size_t>(w) : 0);
+        // GDAL's block cache is emptied after each row of blocks: it held the whole raster again
+        // (a Float32 GeoTIFF: 8 bytes a cell read instead of 4) until 2026-12-02.
+        int blockWidth = 0, blockHeight = 0;
+        rb->GetBlockSize(&blockWidth, &blockHeight);
+        blockHeight = std::max(1, blockHeight);
+
+        // Row by row in double, so that the nodata comparison is exact for every band type.
+        std::vector<double> row(static_cast<std::size_t>(w));
+        for (int r = 0; r < h; ++r) {
+            if (rb->RasterIO(GF_Read, 0, r, w, 1, row.data(), w, 1, GDT_Float64, 0, 0, nullptr) !=
+                    CE_None ||
+                (mask != nullptr && mask->RasterIO(GF_Read, 0, r, w, 1, maskRow.data(), w, 1,
+                                                   GDT_Byte, 0, 0, nullptr) != CE_None)) {
+                error = "DEM '" + path + "': read error at row " + std::to_string(r) +
+                        gdalErrorSuffix();
+                dem = DemGrid{};
+                return false;
+            }
+            float* out = dem.z.data() + static_cast<std::size_t>(r) * w;
+            for (int c = 0; c < w; ++c) {
+                const double v = row[c];
+                if (hasNoData && v == noData) continue;
+                if (mask != nullptr && maskRow[static_cast<std::size_t>(c)] == 0) continue;
+                if (convert(v, out[c])) ++valid;
+            }
+            if ((r + 1) % blockHeight == 0) ds->FlushCache(false);
+        }
+        ds->FlushCache(false);
     }
     if (valid == 0) {
         error = "DEM '" + path + "': every cell is nodata";

@@ -3,6 +3,7 @@
 // is warped to the UTM zone of its centre (or to a CRS the user names); a projected DEM is kept.
 #pragma once
 
+#include <algorithm>
 #include <functional>
 #include <string>
 #include <vector>
@@ -43,19 +44,24 @@ struct DemLoadOptions {
     std::function<void(const std::string&)> warn;
     // The memory the raster's copies may take (bytes; 0: no check) and what bound that is ("the
     // available memory", "--memory-limit"): loadDem refuses, before it reads a cell, a raster
-    // whose copy in memory (4 bytes a cell, and as much again for the warped copy of a
-    // reprojected one: demReadBytes) would exceed it, instead of being killed for lack of memory
-    // half-way (a 70 000 x 70 000 raster on a 23 GB machine).
+    // whose grid in memory (4 bytes a cell, a reprojected one's as GDAL's warp makes it:
+    // demReadBytes) would exceed it, instead of being killed for lack of memory half-way (a
+    // 70 000 x 70 000 raster on a 23 GB machine).
     // `memorySkippable`: the command has --no-memory-check (the error says so).
     double memoryBytes = 0;
     std::string memoryWhat;
     bool memorySkippable = true;
+    // What a cell of the grid costs the caller, at least: 4 bytes (demReadBytes), `build` its
+    // estimate's bytes per raster cell (the raster is held to the end), so that a raster its
+    // build cannot hold is refused before it is read, not minutes later by the build's estimate.
+    double bytesPerCell = 4;
+    int threads = 0;  // threads of the reprojection (GDAL's warp kernel); 0: all cores
 };
 
-// The memory loadDem's copies of a raster take: 4 bytes a cell of the grid it reads (`cells`),
-// and 4 more for the reprojected copy GDAL makes in memory first (`warped`).
-inline double demReadBytes(double cells, bool warped) {
-    return cells * (warped ? 8.0 : 4.0);
+// The memory loadDem's grid of a raster takes: 4 bytes a cell of the grid it reads (`cells`; a
+// reprojected raster is warped straight into it, GDAL's block cache emptied as it reads).
+inline double demReadBytes(double cells, double bytesPerCell = 4) {
+    return cells * std::max(4.0, bytesPerCell);
 }
 
 // Metres per unit of an elevation or length unit name as GDAL reports it (band unit type, CRS

@@ -193,6 +193,8 @@ bool ingest(const IngestOptions& o, Ingested& data, std::string& error) {
     demOptions.memoryBytes = o.demMemoryBytes;
     demOptions.memoryWhat = o.demMemoryWhat;
     demOptions.memorySkippable = o.demMemorySkippable;
+    demOptions.threads = o.demThreads;
+    demOptions.bytesPerCell = o.demBytesPerCell;
     DemGrid& dem = data.dem;
     if (!loadDem(o.demPath, demOptions, dem, error)) return false;
     if (dem.width < 2 || dem.height < 2) {

@@ -47,6 +47,8 @@ struct IngestOptions {
     double demMemoryBytes = 0;
     std::string demMemoryWhat;
     bool demMemorySkippable = true;
+    int demThreads = 0;          // threads reprojecting the DEM (GDAL's warp); 0: all cores
+    double demBytesPerCell = 4;  // the memory check's bytes per cell (DemLoadOptions::bytesPerCell)
     // Warnings for accepted-but-odd input (empty river layer, NaN cells...).
     std::function<void(const std::string&)> warn;
     // Progress: the name of a long step as it starts ("cleaning the rivers").

@@ -16,6 +16,21 @@
 
 namespace unilod::test {
 
+// True in an AddressSanitizer build (GCC's __SANITIZE_ADDRESS__, Clang's __has_feature): tests
+// of resident memory or of address-space limits skip there (it reserves terabytes of address
+// space and keeps freed memory in quarantine).
+#if defined(__SANITIZE_ADDRESS__)
+inline constexpr bool kAddressSanitizer = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+inline constexpr bool kAddressSanitizer = true;
+#else
+inline constexpr bool kAddressSanitizer = false;
+#endif
+#else
+inline constexpr bool kAddressSanitizer = false;
+#endif
+
 // The pid of a process that has exited (and been reaped): no process has it now (pids are
 // reused only after the range wraps). For stale-temporary tests (atomicfile.h).
 inline pid_t deadPid() {

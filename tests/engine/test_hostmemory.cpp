@@ -9,6 +9,7 @@
 #include <string>
 
 #include "device.h"
+#include "testutil.h"
 
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -16,17 +17,7 @@
 
 namespace {
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kAsan = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kAsan = true;
-#else
-constexpr bool kAsan = false;
-#endif
-#else
-constexpr bool kAsan = false;
-#endif
+constexpr bool kAsan = unilod::test::kAddressSanitizer;
 
 void* volatile sink = nullptr;  // keeps the compiler from eliding malloc / free pairs
 

@@ -2,10 +2,16 @@
 // crossings, the stored levels against the records, the 1.3x triangle bound and the 4x memory
 // bound, determinism.
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
 #include <map>
 #include <set>
 
@@ -13,6 +19,7 @@
 #include "blocks.h"
 #include "build.h"
 #include "synthetic.h"
+#include "testutil.h"
 #include "ulod.h"
 
 using namespace unilod;
@@ -168,6 +175,58 @@ TEST(BuildMemory, CountsRiversAndItemsBuiltTogether) {
     e = estimateBuildMemory(16 * dem, dem, items, 1, false);
     EXPECT_DOUBLE_EQ(e.bytes,
                      flat + 15.0 * double(dem) * kBuildBytesPerCell + leaf1 + waiting + slots4);
+}
+
+// The memory a build may reach counts what the process holds already: the check after reading
+// compares an estimate of the whole peak, the raster read included, so the raster must not be
+// taken off the bound as well (it was until 2026-12-02). Under an address-space limit (the bound
+// chosen whatever the machine has free), touching 256 MB leaves availableMemory() where it was,
+// within 64 MB, where it fell by the 256 MB before. In a forked child: the limit is its own.
+TEST(BuildMemory, MemoryHeldCountsAsTheProcesssOwn) {
+    if (unilod::test::kAddressSanitizer)
+        GTEST_SKIP() << "address space limits do not apply under AddressSanitizer";
+    int fd[2];
+    ASSERT_EQ(pipe(fd), 0);
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+        close(fd[0]);
+        double out[3] = {0, 0, 0};
+        // 1 GB of address space beyond what the process has mapped now.
+        const double before = double(availableMemory());
+        rlimit limit{};
+        std::string what;
+        if (getrlimit(RLIMIT_AS, &limit) == 0) {
+            std::ifstream in("/proc/self/status");
+            std::string line;
+            double vmSize = 0;
+            while (std::getline(in, line))
+                if (line.rfind("VmSize:", 0) == 0) vmSize = std::atof(line.c_str() + 7) * 1024;
+            limit.rlim_cur = rlim_t(vmSize) + (rlim_t(1) << 30);
+            if (setrlimit(RLIMIT_AS, &limit) == 0) {
+                out[0] = double(availableMemory(&what));
+                std::vector<char> held(std::size_t(256) << 20);
+                std::memset(held.data(), 1, held.size());
+                out[1] = double(availableMemory());
+                out[2] = what == "the address-space limit" && before > 0 ? 1 : 0;
+                held[held.size() / 2] = char(out[1] > 0);
+            }
+        }
+        const bool written = ::write(fd[1], out, sizeof out) == sizeof out;
+        _exit(written ? 0 : 1);
+    }
+    close(fd[1]);
+    double in[3] = {0, 0, 0};
+    const bool read = ::read(fd[0], in, sizeof in) == sizeof in;
+    close(fd[0]);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ASSERT_TRUE(read && WIFEXITED(status) && WEXITSTATUS(status) == 0);
+    ASSERT_EQ(in[2], 1) << "the address-space limit was not the bound";
+    const double mb = 1 << 20;
+    EXPECT_GT(in[0], 900 * mb);
+    EXPECT_NEAR(in[1], in[0], 64 * mb)
+        << in[0] / mb << " MB before, " << in[1] / mb << " MB holding 256 MB more";
 }
 
 // Small items (blocks of a few cells): the items in flight weigh at least the floor per thread,

@@ -2,8 +2,10 @@
 // sampling on small hand-made GeoTIFFs, nodata -> NaN, and every error case naming the file.
 #include <gtest/gtest.h>
 
-#include "testutil.h"
+#include <sys/resource.h>
+#include <sys/wait.h>
 #include <unistd.h>
+#include "testutil.h"
 
 #include <cmath>
 #include <filesystem>
@@ -12,6 +14,7 @@
 
 #include <cpl_vsi.h>
 #include <gdal_priv.h>
+#include <gdal_utils.h>
 #include <ogr_spatialref.h>
 
 #include "dem.h"
@@ -124,6 +127,151 @@ TEST(Dem, BundledDemIsWarpedToUtm) {
     // The rotated footprint leaves nodata corners, but most of the grid is data.
     EXPECT_GT(valid, dem.z.size() * 8 / 10);
     EXPECT_LT(valid, dem.z.size());
+}
+
+// The reprojection warps straight into the grid (dem.cpp warpInto): the cells are GDAL's own
+// gdalwarp output (the same options into a MEM dataset, as loadDem made it until 2026-12-02),
+// bit for bit, on one thread or all of them.
+TEST(Dem, ReprojectedCellsAreGdalwarpsOnAnyThreadCount) {
+    const std::string path = kAssets + "/jacksboro_dem.tif";
+    GDALAllRegister();
+    GDALDatasetUniquePtr src(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER));
+    ASSERT_TRUE(src);
+    for (int threads : {1, 0}) {
+        SCOPED_TRACE(threads);
+        DemLoadOptions options;
+        options.threads = threads;
+        DemGrid dem;
+        std::string error;
+        ASSERT_TRUE(loadDem(path, options, dem, error)) << error;
+        std::vector<std::string> args{"-of",     "MEM",        "-r",  "bilinear", "-ot",
+                                      "Float32", "-dstnodata", "nan", "-t_srs",   dem.wkt};
+        std::vector<char*> argv;
+        for (std::string& a : args)
+            argv.push_back(a.data());
+        argv.push_back(nullptr);
+        GDALWarpAppOptions* opts = GDALWarpAppOptionsNew(argv.data(), nullptr);
+        ASSERT_NE(opts, nullptr);
+        GDALDatasetH srcHandle = GDALDataset::ToHandle(src.get());
+        GDALDatasetUniquePtr ref(
+            GDALDataset::FromHandle(GDALWarp("", nullptr, 1, &srcHandle, opts, nullptr)));
+        GDALWarpAppOptionsFree(opts);
+        ASSERT_TRUE(ref);
+        ASSERT_EQ(ref->GetRasterXSize(), dem.width);
+        ASSERT_EQ(ref->GetRasterYSize(), dem.height);
+        double gt[6];
+        ASSERT_EQ(ref->GetGeoTransform(gt), CE_None);
+        EXPECT_EQ(gt[1], dem.cellX);
+        EXPECT_EQ(gt[5], dem.cellY);
+        EXPECT_EQ(gt[0] + 0.5 * gt[1], dem.originX);
+        EXPECT_EQ(gt[3] + 0.5 * gt[5], dem.originY);
+        std::vector<float> cells(dem.z.size());
+        ASSERT_EQ(
+            ref->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, dem.width, dem.height, cells.data(),
+                                            dem.width, dem.height, GDT_Float32, 0, 0, nullptr),
+            CE_None);
+        std::size_t differ = 0, valid = 0;
+        for (std::size_t i = 0; i < cells.size(); ++i) {
+            const bool nan = std::isnan(cells[i]);
+            valid += nan ? 0 : 1;
+            if (nan != std::isnan(dem.z[i]) || (!nan && cells[i] != dem.z[i])) ++differ;
+        }
+        EXPECT_EQ(differ, 0u);
+        EXPECT_GT(valid, cells.size() / 2);
+    }
+}
+
+// A raster is held once while it is read (dem.cpp, 2026-12-02): the grid, 4 bytes a cell, and
+// not GDAL's block cache of the whole file beside it (which it was: a projected Float32 raster
+// took 8 bytes a cell), nor, for a reprojected one, a warped copy as well (12 bytes a cell and
+// more). Measured in a forked child, as the growth of its peak resident memory over what it
+// started with: 6 000 x 6 000 cells (a 144 MB grid) read in UTM and in degrees; the bounds leave
+// 64 MB for the first (a row of blocks cached, the libraries' own) and 192 MB for the second
+// (the warp's capped block cache and chunk buffers, 64 MB each), where holding it twice adds
+// 144 MB (the previous code grew 298 and 479 MB). The child warps on its own thread: GDAL's warp
+// threads, started by an earlier test, stay in the parent, and a child waiting for them hangs.
+TEST(Dem, RasterIsHeldOnceWhileRead) {
+    if (unilod::test::kAddressSanitizer)
+        GTEST_SKIP() << "resident memory is not the program's own under AddressSanitizer";
+    TempDir dir("dem_memory");
+    const int side = 6000;
+    auto writeRaster = [&](const std::string& name, int epsg, const double gt[6]) {
+        const std::string path = dir.file(name);
+        GDALAllRegister();
+        GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
+        CPLStringList create;
+        create.AddString("TILED=YES");
+        GDALDatasetUniquePtr ds(
+            driver->Create(path.c_str(), side, side, 1, GDT_Float32, create.List()));
+        EXPECT_TRUE(ds);
+        if (!ds) return path;
+        double g[6];
+        std::copy(gt, gt + 6, g);
+        ds->SetGeoTransform(g);
+        OGRSpatialReference srs;
+        srs.importFromEPSG(epsg);
+        ds->SetSpatialRef(&srs);
+        std::vector<float> row(side);
+        for (int r = 0; r < side; ++r) {
+            for (int c = 0; c < side; ++c)
+                row[c] = float(300 + 200 * std::sin(c * 0.01) * std::cos(r * 0.013));
+            EXPECT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Write, 0, r, side, 1, row.data(), side, 1,
+                                                     GDT_Float32, 0, 0, nullptr),
+                      CE_None);
+        }
+        return path;
+    };
+    const double utm[6] = {500000, 30, 0, 4200000, 0, -30};
+    const double geo[6] = {-84.5, 0.0003, 0, 36.9, 0, -0.0003};
+    const std::string projected = writeRaster("utm.tif", 32616, utm);
+    const std::string degrees = writeRaster("geo.tif", 4326, geo);
+
+    // Peak resident growth of loadDem(path) in a child, in bytes, with the grid's cells.
+    auto growth = [](const std::string& path, double& cells) {
+        int fd[2];
+        if (pipe(fd) != 0) return -1.0;
+        const pid_t pid = fork();
+        if (pid == 0) {
+            close(fd[0]);
+            long pages = 0, resident = 0;
+            if (FILE* f = std::fopen("/proc/self/statm", "r")) {
+                if (std::fscanf(f, "%ld %ld", &pages, &resident) != 2) resident = 0;
+                std::fclose(f);
+            }
+            const double start = double(resident) * double(sysconf(_SC_PAGESIZE));
+            DemLoadOptions options;
+            options.threads = 1;
+            DemGrid dem;
+            std::string error;
+            const bool ok = loadDem(path, options, dem, error);
+            rusage usage{};
+            getrusage(RUSAGE_SELF, &usage);
+            const double out[2] = {ok ? double(usage.ru_maxrss) * 1024.0 - start : -1.0,
+                                   double(dem.z.size())};
+            const bool written = ::write(fd[1], out, sizeof out) == sizeof out;
+            _exit(written ? 0 : 1);
+        }
+        close(fd[1]);
+        double in[2] = {-1, 0};
+        const bool read = ::read(fd[0], in, sizeof in) == sizeof in;
+        close(fd[0]);
+        int status = 0;
+        waitpid(pid, &status, 0);
+        cells = in[1];
+        return read && WIFEXITED(status) && WEXITSTATUS(status) == 0 ? in[0] : -1.0;
+    };
+    double cells = 0;
+    const double mb = 1 << 20;
+    const double projectedGrowth = growth(projected, cells);
+    EXPECT_EQ(cells, double(side) * side);
+    EXPECT_GT(projectedGrowth, cells * 4);
+    EXPECT_LT(projectedGrowth, cells * 4 + 64 * mb);
+    const double degreesGrowth = growth(degrees, cells);
+    EXPECT_GT(cells, double(side) * side * 0.9);
+    EXPECT_GT(degreesGrowth, cells * 4);
+    EXPECT_LT(degreesGrowth, cells * 4 + 192 * mb);
+    std::printf("read %.0f MB, %.0f MB reprojected (grids %.0f MB)\n", projectedGrowth / mb,
+                degreesGrowth / mb, cells * 4 / mb);
 }
 
 TEST(Dem, TargetSrsIsHonoured) {
