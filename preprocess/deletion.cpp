@@ -23,7 +23,21 @@ void pushGrow(std::vector<T>& v, const T& x) {
     v.push_back(x);
 }
 
-// Indexed binary min-heap of vertex keys, ties by lower id (a total order, so the top does not
+}  // namespace
+
+std::uint32_t tieRank(PointId v) {
+    std::uint32_t h = v;
+    h ^= h >> 16;
+    h *= 0x7feb352dU;
+    h ^= h >> 15;
+    h *= 0x846ca68bU;
+    h ^= h >> 16;
+    return h;
+}
+
+namespace {
+
+// Indexed binary min-heap of vertex keys, ties by tieRank (a total order, so the top does not
 // depend on the order of updates): at most one entry per vertex, updated in place.
 class KeyHeap {
 public:
@@ -38,7 +52,7 @@ public:
         std::uint32_t i = pos_[v];
         if (i == kNil) {
             i = std::uint32_t(heap_.size());
-            heap_.push_back({key, v});
+            heap_.push_back({key, v, tieRank(v)});
             pos_[v] = i;
         } else {
             heap_[i].key = key;
@@ -63,9 +77,10 @@ private:
     struct Item {
         double key;
         PointId v;
+        std::uint32_t rank;  // tieRank(v)
     };
     static bool less(const Item& a, const Item& b) {
-        return a.key != b.key ? a.key < b.key : a.v < b.v;
+        return a.key != b.key ? a.key < b.key : a.rank < b.rank;
     }
     std::uint32_t up(std::uint32_t i) {
         const Item x = heap_[i];

@@ -31,15 +31,20 @@
 // back: the largest vertical distance between the original points under the changed triangles
 // and the re-triangulated surface (the `max` metric's own quantity), and for a river vertex
 // between A and C the larger of that and the river deviation of A-C (below), multiplied by the
-// BAI factor (C * BAI + 1, paper Eq. 2) so that bends go later. Ties: lower vertex id first.
+// BAI factor (C * BAI + 1, paper Eq. 2) so that bends go later. Ties: lower tieRank(id) first,
+// a scattered order: ids follow the raster, and a flat area (a lake, the sea at 0 m, where every
+// key is 0) deleted row by row grew triangles spanning the rows already deleted, whose original
+// points every later step re-located: quadratic (a flat 300 x 300 DEM as one block 120 s, 600 x
+// 600 with 256-cell blocks 139 s; MEASURED.md, thirty-fifth session). In a scattered order the
+// triangles grow evenly, as in a random deletion order.
 // After a step the keys of every vertex of a created triangle are evaluated again (their stars
 // changed); a vertex at the top of the queue is deleted only when its deletion, done for real,
 // causes exactly its key (otherwise it goes back with the new key: the key of a river vertex
 // whose A-C leaves its star also depends on triangles outside the star). A vertex on the convex
 // hull between two hull neighbours on one straight line (a straight raster edge) is a candidate
 // too: deleting it leaves the domain as it is (cdt.h removeHullVertex); other hull vertices,
-// locked and river-end vertices are refused as above; a river vertex whose A-C is blocked waits, as above,
-// for the deletion of one of its blockers and is then evaluated again.
+// locked and river-end vertices are refused as above; a river vertex whose A-C is blocked waits, as
+// above, for the deletion of one of its blockers and is then evaluated again.
 //
 // River deviation: the largest 3D distance from the original river vertices between A and C
 // (along the river as built, X included) to the segment A-C. A 3D distance bounds the
@@ -163,6 +168,11 @@ struct DeletionOptions {
     double errorFloor = 0, chainSlack = 0, riverFloor = 0;
     const std::unordered_map<std::uint64_t, RiverCover>* riverCover = nullptr;
 };
+
+// The greedy order's tie-break rank of vertex v: a bijection of the 32-bit ids (a total order)
+// that scatters consecutive ids (the finaliser of a multiplicative hash, after C. Wellons'
+// "lowbias32": xor-shifts and odd multipliers, each invertible modulo 2^32).
+std::uint32_t tieRank(PointId v);
 
 // Runs the deletion sequence on `cdt` (built from `set` by buildCdt, no deletion yet).
 // Returns false with `error` for an invalid order (id out of range or repeated).

@@ -256,6 +256,44 @@ TEST(GreedyOrder, PaperMetricExactOnEmptiedFlats) {
     EXPECT_GT(zeroSteps, 250u);  // the flat part went first, at zero error
 }
 
+// Ties go in a scattered order (deletion.h tieRank): on a flat grid every key is 0, and ties by
+// id (raster order) deleted it row by row, growing triangles across the rows already deleted
+// whose original points every later step located again (quadratic: a flat 300 x 300 block took
+// 120 s). Half-way through, the triangles must still be about the same size: the largest covers
+// a few cells, not a band of rows.
+TEST(GreedyOrder, FlatAreasShrinkEvenly) {
+    BlockSpec spec;
+    spec.points = 64 * 64;
+    spec.rivers = 0;
+    spec.grid = true;
+    PointSet set = makeBlock(spec);
+    for (Point& p : set.points)
+        p.z = 0;
+    Cdt cdt;
+    std::string error;
+    ASSERT_TRUE(buildCdt(set, {}, cdt, error)) << error;
+    const double cell = double(cdt.gx[1] - cdt.gx[0]) * double(cdt.gy[64] - cdt.gy[0]);
+    ASSERT_GT(cell, 0);
+    DeletionRecords rec;
+    DeletionOptions options;
+    double largest = 0;  // in cells, half-way
+    std::uint32_t steps = 0;
+    options.afterStep = [&](std::uint32_t step) {
+        steps = step;
+        if (step != set.points.size() / 2) return;
+        for (std::uint32_t t = 0; t < cdt.triangleSlots(); ++t) {
+            if (!cdt.inDomain(t)) continue;
+            const PointId a = cdt.tv[3 * t], b = cdt.tv[3 * t + 1], c = cdt.tv[3 * t + 2];
+            const double area = 0.5 * std::fabs(double(cdt.orient(a, b, c)));
+            largest = std::max(largest, area / cell);
+        }
+    };
+    ASSERT_TRUE(runGreedyDeletion(set, cdt, {}, options, rec, error)) << error;
+    EXPECT_GT(steps, set.points.size() / 2);
+    EXPECT_GT(largest, 0);
+    EXPECT_LT(largest, 12.0);
+}
+
 // A straight raster edge simplifies: hull vertices between two collinear hull neighbours are
 // deleted (the domain stays: the checker compares its area), corners stay, and after every step
 // the triangulation is valid and the max error equals the brute force.
