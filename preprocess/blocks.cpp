@@ -84,12 +84,13 @@ bool BlockSource::init(const DemGrid& dem, const RiverLines& rivers, const Block
     }
 
     // Rivers: pieces on the DEM, then a crossing vertex wherever a segment crosses a border line.
+    assert(dem.heldStride == 1);  // river heights and the clearance mask read every cell
     nodesX_ = (dem.width - 1) / options.stride + 1;
     nodesY_ = (dem.height - 1) / options.stride + 1;
     const std::vector<RiverPiece> raw = cutAtOutline(sampleRiverPieces(dem, rivers));
     stats_ = {};
     stats_.riverPieces = raw.size();
-    drop_ = riverClearanceMask(dem, raw, options.riverClearance);
+    drop_ = riverClearanceMask(dem, raw, options.riverClearance, options.stride);
     pieces_.clear();
     // A river vertex on a border line's grid column (or row) of the exact grid (points are
     // quantised to format::kGridUnit in absolute coordinates, cdt.cpp) goes exactly onto the
@@ -252,6 +253,8 @@ bool BlockSource::init(const DemGrid& dem, const RiverLines& rivers, const Block
             runs_[b].push_back({p, first, static_cast<std::uint32_t>(piece.size() - 1)});
         }
     }
+    // The mask is of lattice points (the cells between them are no DEM points at --stride > 1;
+    // until 2026-12-02 it held every cell and counted them as dropped points).
     for (std::size_t c = 0; c < drop_.size(); ++c)
         stats_.droppedDemPoints += drop_[c];
     return true;
@@ -340,11 +343,12 @@ PointSet BlockSource::points(std::size_t b) const {
             if (!(covered(i - 1, j - 1) || covered(i, j - 1) || covered(i - 1, j) || covered(i, j)))
                 continue;
             const int col = i * s, row = j * s;
-            const std::size_t cell = static_cast<std::size_t>(row) * dem.width + col;
+            const float z = dem.at(col, row);
             const std::size_t l = local(i, j);
-            if (!onRing[l] && !drop_.empty() && drop_[cell]) {
-                set.dropped.push_back({dem.centreX(col), dem.centreY(row), double(dem.z[cell]),
-                                       PointKind::Dem, false});
+            if (!onRing[l] && !drop_.empty() &&
+                drop_[std::size_t(j) * std::size_t(nodesX_) + std::size_t(i)]) {
+                set.dropped.push_back(
+                    {dem.centreX(col), dem.centreY(row), double(z), PointKind::Dem, false});
                 continue;
             }
             const bool border =
@@ -353,8 +357,8 @@ PointSet BlockSource::points(std::size_t b) const {
                 (col == r.cellCol0 && (outer || col != borderCols_.front())) ||
                 (col == r.cellCol1 && (outer || col != borderCols_.back()));
             id[l] = PointId(set.points.size());
-            set.points.push_back({dem.centreX(col), dem.centreY(row), double(dem.z[cell]),
-                                  PointKind::Dem, border || outDegree[l] > 1});
+            set.points.push_back({dem.centreX(col), dem.centreY(row), double(z), PointKind::Dem,
+                                  border || outDegree[l] > 1});
         }
     }
     std::vector<std::uint8_t> used(edges.size(), 0);

@@ -110,7 +110,7 @@ private:
     std::vector<int> borderCols_, borderRows_;  // DEM cell indices of the border lines
     std::vector<BlockRect> rects_;
     std::vector<RiverPiece> pieces_;  // with crossing vertices
-    std::vector<std::uint8_t> drop_;  // global clearance mask
+    std::vector<std::uint8_t> drop_;  // global clearance mask, per lattice node (row-major)
     // Per block, the pieces (index into pieces_ and vertex range) that run inside it.
     struct Run {
         std::uint32_t piece, first, last;

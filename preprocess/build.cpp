@@ -184,6 +184,11 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
     BlockSource source;
     if (!splitIntoBlocks(data, o, blockSize, o.order == DeletionOrderKind::ThreeDdp, source, error))
         return false;
+    // The river heights are sampled (BlockSource::init): from here on the blocks read the
+    // stride's lattice only, so the cells between its points are handed back (a quarter of the
+    // raster is held at --stride 2, a 64th at 8: README "Large DEMs").
+    data.dem.keepLattice(o.stride);
+    summary.rasterCellsHeld = data.dem.z.size();
     summary.nodataCells = data.nodata.nodataCells;
     summary.filledNodataCells = data.nodata.filledCells;
     // The block hierarchy: the greedy order without the paper metric (build.h BuildOptions::tree).
@@ -371,8 +376,11 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
                 std::uint64_t(b.lockY0 + b.lockY1) * ((hi.cellCol1 - lo.cellCol0) / o.stride);
         }
         const std::uint64_t cells = std::uint64_t(dem.width) * std::uint64_t(dem.height);
+        const std::uint64_t held = std::uint64_t((dem.width - 1) / o.stride + 1) *
+                                   std::uint64_t((dem.height - 1) / o.stride + 1);
         const std::uint64_t demPoints = sampledDemPoints(data, o.stride);
-        MemoryEstimate estimate = estimateBuildMemory(cells, demPoints, itemLoads, threads, tree);
+        MemoryEstimate estimate =
+            estimateBuildMemory(cells, held, demPoints, itemLoads, threads, tree);
         if (o.memoryCheck && o.threads == 0 && threads > 1) {
             // The thread count is ours to choose: fewer threads hold fewer blocks at a time.
             // The most that fit (halving, then one more at a time), else all and the refusal.
@@ -380,13 +388,14 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
             const double have = memoryBound(o.memoryLimitBytes, what);
             unsigned fit = threads;
             while (have > 0 && fit > 1 &&
-                   estimateBuildMemory(cells, demPoints, itemLoads, fit, tree).bytes > have)
+                   estimateBuildMemory(cells, held, demPoints, itemLoads, fit, tree).bytes > have)
                 fit = std::max(1u, fit / 2);
             while (fit < threads &&
-                   estimateBuildMemory(cells, demPoints, itemLoads, fit + 1, tree).bytes <= have)
+                   estimateBuildMemory(cells, held, demPoints, itemLoads, fit + 1, tree).bytes <=
+                       have)
                 ++fit;
             const MemoryEstimate fewer =
-                estimateBuildMemory(cells, demPoints, itemLoads, fit, tree);
+                estimateBuildMemory(cells, held, demPoints, itemLoads, fit, tree);
             if (fit < threads && fewer.bytes <= have) {
                 if (o.warn) {
                     char text[200];
@@ -730,17 +739,18 @@ MemoryEstimate pointMemory(std::uint64_t demPoints, std::uint64_t riverPoints,
     return e;
 }
 
-MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t demPoints,
-                                   const std::vector<ItemLoad>& items, unsigned threads,
-                                   bool tree) {
+MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t heldCells,
+                                   std::uint64_t demPoints, const std::vector<ItemLoad>& items,
+                                   unsigned threads, bool tree) {
     MemoryEstimate e;
     e.demPoints = demPoints;
     for (const ItemLoad& l : items)
         if (!l.node) e.riverPoints += l.riverPoints;
     const double perPoint = tree ? kTreeBuildBytesPerPoint : kFlatBuildBytesPerPoint;
     const double perRiverPoint = tree ? kTreeBuildBytesPerRiverPoint : kFlatBuildBytesPerPoint;
-    const double whole = double(cells) * kBuildBytesPerCell + double(demPoints) * perPoint +
+    const double whole = double(heldCells) * kBuildBytesPerCell + double(demPoints) * perPoint +
                          double(e.riverPoints) * perRiverPoint;
+    const double read = double(cells) * kBuildBytesPerCell;  // while the raster is read
     auto bytesOf = [](const ItemLoad& l) {
         return l.node ? double(l.demPoints + l.riverPoints) * kInFlightBytesPerNodePoint
                       : double(l.demPoints) * kInFlightBytesPerDemPoint +
@@ -782,7 +792,7 @@ MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t demPoints,
                           double(blockPoints) / double(blocks) * kResultBytesPerPoint;
     inFlight = std::max(inFlight, double(taken.size()) * kInFlightFloorBytes);
     inFlight += waiting + double(items.size()) * kBytesPerItem;
-    e.bytes = kBuildBaseBytes + whole + inFlight;
+    e.bytes = kBuildBaseBytes + std::max(read, whole + inFlight);
     char points[80];
     if (perRiverPoint == perPoint)
         std::snprintf(points, sizeof points, "%.0f per point", perPoint);
@@ -791,15 +801,27 @@ MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t demPoints,
                       perPoint, perRiverPoint);
     char text[300];
     std::snprintf(text, sizeof text,
-                  "%.0f bytes per raster cell and %s, plus %.2f GB for the %zu "
-                  "block%s or node%s built at a time, up to %.2f M points each",
+                  "%.0f bytes per raster cell (the stride's lattice once read) and %s, plus "
+                  "%.2f GB for the %zu block%s or node%s built at a time, up to %.2f M points each",
                   kBuildBytesPerCell, points, inFlight / 1e9, taken.size(),
                   taken.size() == 1 ? "" : "s", taken.size() == 1 ? "" : "s",
                   double(largest) / 1e6);
     e.basis = text;
-    if (e.riverPoints > demPoints)
+    if (read > whole + inFlight) {
+        std::snprintf(text, sizeof text,
+                      "%.0f bytes a raster cell to read it; building from the --stride lattice "
+                      "then needs %.2f GB",
+                      kBuildBytesPerCell, (kBuildBaseBytes + whole + inFlight) / 1e9);
+        e.basis = text;
+    }
+    if (read > whole + inFlight)
+        e.smaller =
+            "reading the raster needs its cells (at any --stride): a raster resampled to larger "
+            "cells first (gdalwarp -tr) or clipped to its data (gdal_translate -projwin) needs "
+            "less";
+    else if (e.riverPoints > demPoints)
         e.smaller = "the rivers hold more points than the DEM: a sparser river network needs less";
-    else if (demPoints < cells / 4 && double(cells) * kBuildBytesPerCell > whole / 2)
+    else if (demPoints < heldCells / 4 && double(heldCells) * kBuildBytesPerCell > whole / 2)
         e.smaller =
             "the raster is mostly nodata: the raster clipped to its data (gdal_translate "
             "-projwin) needs less";
@@ -807,13 +829,13 @@ MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t demPoints,
         e.smaller = "--threads 1 builds one block at a time";
     else
         e.smaller = "--stride 2 builds a quarter of the DEM points";
-    if (e.smaller.rfind("--stride", 0) == 0 && double(cells) * kBuildBytesPerCell > whole / 3) {
-        // The raster is held whole at any stride (README "Large DEMs"): say what stays.
+    if (e.smaller.rfind("--stride", 0) == 0 && read > (whole + inFlight) / 3) {
+        // Reading takes the whole raster at any stride (README "Large DEMs"): say what stays.
         char raster[200];
         std::snprintf(raster, sizeof raster,
-                      ", but the raster's %.0f bytes a cell stay (%.2f GB): a raster resampled to "
-                      "larger cells first (gdalwarp -tr) needs less",
-                      kBuildBytesPerCell, double(cells) * kBuildBytesPerCell / 1e9);
+                      ", but reading the raster takes its %.0f bytes a cell (%.2f GB) at any "
+                      "stride: a raster resampled to larger cells first (gdalwarp -tr) needs less",
+                      kBuildBytesPerCell, read / 1e9);
         e.smaller += raster;
     }
     return e;

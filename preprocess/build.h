@@ -72,8 +72,9 @@ struct BuildOptions : IngestOptions {
 };
 
 // Peak memory of a build, estimated before its long work (estimateBuildMemory; README "Large
-// DEMs", fitted to peaks measured in MEASURED.md): a base, bytes per cell of the raster (held
-// whole, nodata and cells the stride skips included, and what GDAL holds while it reads it), bytes
+// DEMs", fitted to peaks measured in MEASURED.md): a base, bytes per cell of the raster (every
+// cell while it is read, with what GDAL holds then; the stride's lattice, nodata included, while
+// the blocks are built: DemGrid::keepLattice since 2026-12-02), bytes
 // per point of the whole model (the point data and, with the block hierarchy, the root's error
 // against every original point), and the items built at the same time: the `threads` heaviest
 // blocks and tree nodes of which none lies under another (a node waits for its children), at bytes
@@ -130,11 +131,14 @@ struct ItemLoad {
     std::size_t leafFirst = 0, leafCount = 1;
 };
 
-// The estimate of `build` (see the constants above): a raster of `cells` cells, `demPoints` DEM
-// points in the model, the blocks' and nodes' loads, `threads` workers, with or without the block
-// hierarchy.
-MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t demPoints,
-                                   const std::vector<ItemLoad>& items, unsigned threads, bool tree);
+// The estimate of `build` (see the constants above): a raster of `cells` cells read, of which
+// `heldCells` (the stride's lattice; all of them at stride 1) are held while the blocks are
+// built, `demPoints` DEM points in the model, the blocks' and nodes' loads, `threads` workers,
+// with or without the block hierarchy. The peak is the larger of reading (the raster's cells)
+// and building (the lattice, the points and the items in flight).
+MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t heldCells,
+                                   std::uint64_t demPoints, const std::vector<ItemLoad>& items,
+                                   unsigned threads, bool tree);
 
 // The estimate of `order`: kBuildBaseBytes + points * bytesPerPoint.
 MemoryEstimate pointMemory(std::uint64_t demPoints, std::uint64_t riverPoints,
@@ -178,6 +182,8 @@ struct BuildSummary {
     std::size_t droppedCellVertices = 0;  // river vertices added beside them (blocks.h)
     double droppedDeviation = 0;          // the largest BlockBuildStats::droppedDeviation (metres)
     std::size_t nodataCells = 0, filledNodataCells = 0;  // nodata.h: holes and bays filled
+    // Raster cells held while the blocks are built: the stride's lattice (DemGrid::keepLattice).
+    std::uint64_t rasterCellsHeld = 0;
     std::uint64_t outputBytes = 0;
     double seconds = 0;
     double memoryEstimate = 0;  // bytes (estimateBuildMemory)

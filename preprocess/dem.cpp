@@ -278,8 +278,22 @@ int utmEpsgFor(double lon, double lat) {
     return (lat >= 0 ? 32600 : 32700) + zone;
 }
 
+void DemGrid::keepLattice(int stride) {
+    if (stride <= 1 || heldStride != 1 || z.empty()) return;
+    heldStride = stride;
+    const int w = heldWidth(), h = heldHeight();
+    std::vector<float> lattice(static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i)
+            lattice[static_cast<std::size_t>(j) * w + i] =
+                z[static_cast<std::size_t>(j) * stride * width +
+                  static_cast<std::size_t>(i) * stride];
+    z.swap(lattice);
+}
+
 double DemGrid::sample(double x, double y) const {
     constexpr double kNaNd = std::numeric_limits<double>::quiet_NaN();
+    assert(heldStride == 1 && "DemGrid::sample needs every cell (before keepLattice)");
     if (width <= 0 || height <= 0) return kNaNd;
     // Coordinates computed as origin + i * cell come back as i +- 1 ulp: snap them, so that a
     // point on a row or column of centres does not pick up a zero-weight nodata neighbour.

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cassert>
 #include <functional>
 #include <string>
 #include <vector>
@@ -20,7 +21,10 @@ struct DemGrid {
     // rasters — and the step between cell centres (cellY < 0 for north-up rasters).
     double originX = 0, originY = 0;
     double cellX = 1, cellY = -1;
-    std::vector<float> z;  // row-major, width * height, NaN = nodata
+    // Row-major, NaN = nodata: width * height cells, or after keepLattice(s) only the cells of
+    // the stride's lattice (columns and rows 0, s, 2s, ...), heldWidth() * heldHeight() of them.
+    std::vector<float> z;
+    int heldStride = 1;    // 1: z holds every cell; s > 1: only the lattice (keepLattice)
     std::string wkt;       // working CRS as WKT; empty when the source had no CRS
     // What loadDem changed to reach metres, for the user (empty: nothing): a projected CRS in
     // feet reprojected, elevations scaled (the band's scale / offset) or converted from feet.
@@ -28,12 +32,29 @@ struct DemGrid {
 
     double centreX(int col) const { return originX + col * cellX; }
     double centreY(int row) const { return originY + row * cellY; }
-    float at(int col, int row) const { return z[static_cast<std::size_t>(row) * width + col]; }
+    int heldWidth() const { return (width - 1) / heldStride + 1; }
+    int heldHeight() const { return (height - 1) / heldStride + 1; }
+    // The place of cell (col, row) in z: any cell while every cell is held, else a cell of the
+    // lattice (col and row multiples of heldStride).
+    std::size_t index(int col, int row) const {
+        if (heldStride == 1)
+            return static_cast<std::size_t>(row) * static_cast<std::size_t>(width) +
+                   static_cast<std::size_t>(col);
+        assert(col % heldStride == 0 && row % heldStride == 0);
+        return static_cast<std::size_t>(row / heldStride) * static_cast<std::size_t>(heldWidth()) +
+               static_cast<std::size_t>(col / heldStride);
+    }
+    float at(int col, int row) const { return z[index(col, row)]; }
 
     // Bilinear interpolation between the four surrounding cell centres. NaN when (x, y) lies
     // outside the hull of the cell centres or when a cell with non-zero weight is nodata (a point
-    // exactly on a row or column of centres only uses that row or column).
+    // exactly on a row or column of centres only uses that row or column). Needs every cell
+    // (before keepLattice).
     double sample(double x, double y) const;
+
+    // Frees every cell but those of the `stride` lattice (a build at --stride > 1 once its river
+    // heights are sampled: README "Large DEMs"); at() and index() then take lattice cells only.
+    void keepLattice(int stride);
 };
 
 struct DemLoadOptions {
@@ -52,7 +73,8 @@ struct DemLoadOptions {
     std::string memoryWhat;
     bool memorySkippable = true;
     // What a cell of the grid costs the caller, at least: 4 bytes (demReadBytes), `build` its
-    // estimate's bytes per raster cell (the raster is held to the end), so that a raster its
+    // estimate's bytes per raster cell (the grid and the river clearance mask, held until the
+    // blocks are cut; at --stride > 1 only the lattice after that), so that a raster its
     // build cannot hold is refused before it is read, not minutes later by the build's estimate.
     double bytesPerCell = 4;
     int threads = 0;  // threads of the reprojection (GDAL's warp kernel); 0: all cores

@@ -112,14 +112,16 @@ std::vector<RiverPiece> sampleRiverPieces(const DemGrid& dem, const RiverLines& 
 
 std::vector<std::uint8_t> riverClearanceMask(const DemGrid& dem,
                                              const std::vector<RiverPiece>& pieces,
-                                             double clearance) {
+                                             double clearance, int stride) {
     std::vector<std::uint8_t> drop;
     if (clearance <= 0 || pieces.empty()) return drop;
-    drop.assign(dem.z.size(), 0);
+    const std::size_t w = std::size_t((dem.width - 1) / stride + 1);
+    drop.assign(w * std::size_t((dem.height - 1) / stride + 1), 0);
     for (const auto& piece : pieces) {
         for (std::size_t i = 0; i + 1 < piece.size(); ++i) {
             forCellsNearSegment(dem, piece[i], piece[i + 1], clearance, [&](int col, int row) {
-                drop[static_cast<std::size_t>(row) * dem.width + col] = 1;
+                if (col % stride == 0 && row % stride == 0)
+                    drop[std::size_t(row / stride) * w + std::size_t(col / stride)] = 1;
             });
         }
     }
@@ -250,7 +252,8 @@ PointSet buildPointSet(const DemGrid& dem, const RiverLines& rivers,
     assert(dem.z.size() == static_cast<std::size_t>(dem.width) * dem.height);
 
     std::vector<RiverPiece> pieces = sampleRiverPieces(dem, rivers);
-    const std::vector<std::uint8_t> drop = riverClearanceMask(dem, pieces, options.riverClearance);
+    const std::vector<std::uint8_t> drop =
+        riverClearanceMask(dem, pieces, options.riverClearance, options.stride);
     addVerticesAtDroppedCells(dem, options.riverClearance, options.stride, pieces);
 
     PointSet set;
@@ -266,7 +269,9 @@ PointSet buildPointSet(const DemGrid& dem, const RiverLines& rivers,
             p.y = dem.centreY(r);
             p.z = dem.z[cell];
             p.kind = PointKind::Dem;
-            if (!drop.empty() && drop[cell]) {
+            if (!drop.empty() &&
+                drop[std::size_t(r / stride) * std::size_t((dem.width - 1) / stride + 1) +
+                     std::size_t(c / stride)]) {
                 set.dropped.push_back(p);
                 continue;
             }

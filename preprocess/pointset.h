@@ -47,11 +47,12 @@ using RiverPiece = std::vector<RiverVertex>;
 // consecutive duplicates dropped, pieces of fewer than two vertices dropped.
 std::vector<RiverPiece> sampleRiverPieces(const DemGrid& dem, const RiverLines& rivers);
 
-// One byte per DEM cell: 1 where the cell centre is closer than `clearance` (horizontally) to a
-// segment of `pieces`. Empty when clearance <= 0 or there are no pieces.
+// One byte per DEM point of the `stride` lattice (row-major, ((height - 1) / stride + 1) rows of
+// (width - 1) / stride + 1): 1 where the cell centre is closer than `clearance` (horizontally) to
+// a segment of `pieces`. Empty when clearance <= 0 or there are no pieces.
 std::vector<std::uint8_t> riverClearanceMask(const DemGrid& dem,
                                              const std::vector<RiverPiece>& pieces,
-                                             double clearance);
+                                             double clearance, int stride = 1);
 
 // Four units of the exact grid (grid.h): a vertex this far from a segment stays off it (and
 // off its side) when both are rounded to the grid.

@@ -100,6 +100,64 @@ TEST(Blocks, SharedBordersAndCrossings) {
     }
 }
 
+// Once its river heights are sampled a block source reads the stride's lattice alone: the same
+// point sets (DEM points, dropped ones, rivers, outlines) from a grid that holds only the
+// lattice (DemGrid::keepLattice, what a build at --stride > 1 keeps while it builds).
+TEST(Blocks, LatticeHeldAloneGivesTheSamePointSets) {
+    SyntheticOptions opt;
+    opt.targetPoints = 40000;
+    opt.seed = 7;
+    SyntheticData data = generateSyntheticData(opt);
+    BlockOptions bo;
+    bo.blockSize = 48;
+    bo.stride = 3;
+    bo.riverClearance = 20;  // metres: a wide clearance, so that lattice points are dropped
+    BlockSource source;
+    std::string err;
+    ASSERT_TRUE(source.init(data.dem, data.rivers, bo, err)) << err;
+    auto all = [&] {
+        std::vector<PointSet> sets;
+        for (std::size_t i = 0; i < source.blockCount(); ++i)
+            sets.push_back(source.points(i));
+        return sets;
+    };
+    const std::vector<PointSet> before = all();
+    const std::size_t cells = data.dem.z.size();
+    data.dem.keepLattice(3);
+    const std::size_t lattice =
+        std::size_t((data.dem.width - 1) / 3 + 1) * std::size_t((data.dem.height - 1) / 3 + 1);
+    EXPECT_EQ(data.dem.z.size(), lattice);
+    EXPECT_LT(data.dem.z.size() * 8, cells);
+    const std::vector<PointSet> after = all();
+    ASSERT_EQ(after.size(), before.size());
+    std::size_t points = 0, dropped = 0, rivers = 0;
+    auto same = [](const Point& a, const Point& b) {
+        return a.x == b.x && a.y == b.y && a.z == b.z && a.kind == b.kind && a.locked == b.locked;
+    };
+    for (std::size_t i = 0; i < before.size(); ++i) {
+        const PointSet &a = before[i], &b = after[i];
+        ASSERT_EQ(a.points.size(), b.points.size()) << "block " << i;
+        ASSERT_EQ(a.dropped.size(), b.dropped.size()) << "block " << i;
+        for (std::size_t k = 0; k < a.points.size(); ++k)
+            EXPECT_TRUE(same(a.points[k], b.points[k])) << "block " << i << " point " << k;
+        for (std::size_t k = 0; k < a.dropped.size(); ++k)
+            EXPECT_TRUE(same(a.dropped[k], b.dropped[k])) << "block " << i << " dropped " << k;
+        EXPECT_EQ(a.rivers, b.rivers) << "block " << i;
+        EXPECT_EQ(a.boundaries, b.boundaries) << "block " << i;
+        points += a.points.size();
+        dropped += a.dropped.size();
+        rivers += a.rivers.size();
+    }
+    EXPECT_GT(points, 4000u);
+    EXPECT_GT(dropped, 20u);
+    EXPECT_GT(rivers, 10u);
+    // The clearance mask counts lattice points only (it counted every cell near a river, about
+    // stride^2 times as many; points on an outline are kept, those on a shared border are
+    // dropped by both blocks).
+    EXPECT_GE(source.stats().droppedDemPoints, dropped / 2);
+    EXPECT_LE(source.stats().droppedDemPoints, 2 * dropped);
+}
+
 // The loads the build's memory estimate reads (BlockSource::loads, build.h estimateBuildMemory)
 // count what each block's point set holds: its river points (a junction's vertex once), the river
 // points a tree node above keeps locked (the locked ones off the block's border lines: ends and
@@ -158,23 +216,31 @@ TEST(BuildMemory, CountsRiversAndItemsBuiltTogether) {
     // The finished blocks waiting for the writer (4 a thread, at most all 4): average blocks.
     const double waiting = 4 * double(dem + 300000) / 4 * kResultBytesPerPoint;
     const double slots = 5 * kBytesPerItem;  // every item's result slots
-    MemoryEstimate e = estimateBuildMemory(dem, dem, items, 2, true);
+    MemoryEstimate e = estimateBuildMemory(dem, dem, dem, items, 2, true);
     EXPECT_EQ(e.demPoints, dem);
     EXPECT_EQ(e.riverPoints, 300000u);        // the node's locked points are the leaves'
     EXPECT_DOUBLE_EQ(e.bytes, whole + root + waiting + slots);  // the root is built alone
     EXPECT_NE(e.smaller.find("sparser river network"), std::string::npos) << e.smaller;
     // Without the root (a flat build): the two heaviest blocks.
     items.pop_back();
-    e = estimateBuildMemory(dem, dem, items, 2, false);
+    e = estimateBuildMemory(dem, dem, dem, items, 2, false);
     const double flat = raster + double(dem + 300000) * kFlatBuildBytesPerPoint;
     const double slots4 = 4 * kBytesPerItem;
     EXPECT_DOUBLE_EQ(e.bytes, flat + leaf1 + leaf0 + waiting + slots4);
-    e = estimateBuildMemory(dem, dem, items, 1, false);
+    e = estimateBuildMemory(dem, dem, dem, items, 1, false);
     EXPECT_DOUBLE_EQ(e.bytes, flat + leaf1 + waiting + slots4);
     // A raster mostly nodata weighs by its cells (held whole).
-    e = estimateBuildMemory(16 * dem, dem, items, 1, false);
+    e = estimateBuildMemory(16 * dem, 16 * dem, dem, items, 1, false);
     EXPECT_DOUBLE_EQ(e.bytes,
                      flat + 15.0 * double(dem) * kBuildBytesPerCell + leaf1 + waiting + slots4);
+    // At --stride 4 the blocks are built beside the lattice alone (a 16th of the cells); the
+    // raster read, every cell, is the peak only where it outweighs the build.
+    e = estimateBuildMemory(16 * dem, dem, dem, items, 1, false);
+    EXPECT_DOUBLE_EQ(e.bytes, flat + leaf1 + waiting + slots4);
+    e = estimateBuildMemory(4096 * dem, dem, dem, items, 1, false);
+    EXPECT_DOUBLE_EQ(e.bytes, kBuildBaseBytes + 4096.0 * double(dem) * kBuildBytesPerCell);
+    EXPECT_NE(e.smaller.find("reading the raster"), std::string::npos) << e.smaller;
+    EXPECT_NE(e.basis.find("to read it"), std::string::npos) << e.basis;
 }
 
 // The memory a build may reach counts what the process holds already: the check after reading
@@ -244,7 +310,7 @@ TEST(BuildMemory, SmallItemsWeighTheFloorAndTheirCount) {
         kBuildBaseBytes + double(dem) * kBuildBytesPerCell + double(dem) * kTreeBuildBytesPerPoint;
     const double waiting = 4 * 3 * 16 * kResultBytesPerPoint;
     for (unsigned threads : {1u, 3u}) {
-        const MemoryEstimate e = estimateBuildMemory(dem, dem, items, threads, true);
+        const MemoryEstimate e = estimateBuildMemory(dem, dem, dem, items, threads, true);
         EXPECT_DOUBLE_EQ(e.bytes, whole + threads * kInFlightFloorBytes +
                                       double(count) * kBytesPerItem + waiting / 3 * threads)
             << threads << " threads";

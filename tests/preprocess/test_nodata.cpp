@@ -754,6 +754,43 @@ TEST(Nodata, LongRiverSegmentsGetVerticesEveryCell) {
     EXPECT_NEAR(highest, 400.0, 0.1);  // the river crosses the ridge at its height
 }
 
+// At --stride > 1 a build holds the raster's cells only while it reads them and samples the
+// rivers' heights (bilinear, from every cell); its blocks then read the lattice alone, so the
+// cells between its points are handed back (DemGrid::keepLattice): a 64th of a 97^2 raster at
+// stride 8, where all of it stayed until 2026-12-02. The river still takes its heights from every
+// cell: over a narrow ridge between two lattice columns it rises to the ridge's top, which no
+// lattice point holds; and `check --errors` passes.
+TEST(Nodata, StrideHoldsTheLatticeOnceTheRiversAreSampled) {
+    DemGrid d = plane(97, 97);
+    for (int r = 0; r < d.height; ++r)
+        d.z[std::size_t(r) * d.width + 44] += 250;  // a ridge on column 44 (lattice: 40, 48)
+    // A vertex on the ridge (x = 501320, between lattice columns 40 and 48), the river on row 50.
+    const std::string rivers = riverFile("stride_ridge_rivers.geojson",
+                                         {"[[501200,3998500],[501320,3998500],[501440,3998500]]"});
+    BuildOptions o = modelOptions(d, "stride_ridge", rivers, 32);
+    o.stride = 8;
+    BuildSummary summary;
+    std::string err;
+    ASSERT_TRUE(runBuild(o, summary, err)) << err;
+    EXPECT_EQ(summary.rasterCellsHeld, 13u * 13u);
+    format::Reader reader;
+    ASSERT_NO_FATAL_FAILURE(buildAndCheck(o, reader));
+    double highest = 0;  // of the river's vertices
+    for (std::size_t i = 0; i < reader.blocks().size(); ++i) {
+        if (reader.blocks()[i].level > 0) continue;
+        format::Block b;
+        ASSERT_TRUE(reader.readBlock(i, b, err)) << err;
+        const format::Level& full = b.levels.front();
+        for (std::uint32_t e = 0; e < full.riverCount; ++e) {
+            const format::Edge& edge = b.riverIndices[full.riverFirst + e];
+            highest =
+                std::max({highest, double(b.vertices[edge.a].z), double(b.vertices[edge.b].z)});
+        }
+    }
+    // Column 44 at row 50 (y = 3998500): 100 + 88 + 150 + 250.
+    EXPECT_NEAR(highest, 588.0, 0.01);
+}
+
 // A DEM point within the river clearance of a river is dropped (it would make slivers). Between
 // two river vertices the river's heights ran along the chord, so a dropped point on a spike was
 // 40 m off the full-resolution surface, in no stored error. Now the river gets a vertex where it
