@@ -49,6 +49,9 @@ format::OutputOptions outputOptions(const BuildOptions& o) {
     return out;
 }
 
+// What availableMemory names a ulimit -v bound (RLIMIT_AS).
+constexpr const char* kAddressSpaceLimit = "the address-space limit";
+
 // What a failed allocation reports (std::bad_alloc: a memory limit such as ulimit -v; without one
 // Linux's OOM killer ends the process instead, hence the estimate before the work, build.h).
 const std::string outOfMemory =
@@ -131,6 +134,10 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
         error = "--threads " + std::to_string(o.threads) + ": must be >= 0";
         return false;
     }
+    if (std::error_code ec; !o.tempDir.empty() && !std::filesystem::is_directory(o.tempDir, ec)) {
+        error = "--temp-dir '" + o.tempDir + "': no such folder";
+        return false;
+    }
 
     // BAI table before the long work, so that a typo fails fast.
     BlockBuildOptions blockOptions;
@@ -159,6 +166,16 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
     if (o.memoryCheck) in.demMemoryBytes = memoryBound(o.memoryLimitBytes, in.demMemoryWhat);
     in.demThreads = o.threads;
     in.demBytesPerCell = kBuildBytesPerCell;
+    in.demBaseBytes = kBuildBaseBytes;
+    // A raster too large for the memory is read through a temporary file (dem.h
+    // CellAllocator), except under an address-space limit, which the file's mapping counts
+    // against like memory.
+    in.demSpillDir = o.tempDir;
+    if (in.demSpillDir.empty()) {
+        const std::filesystem::path parent = std::filesystem::path(o.outPath).parent_path();
+        in.demSpillDir = parent.empty() ? "." : parent.string();
+    }
+    if (in.demMemoryWhat == kAddressSpaceLimit) in.demSpillDir.clear();
     if (!ingest(in, data, error)) return false;
     const DemGrid& dem = data.dem;
     summary.demWidth = dem.width;
@@ -187,6 +204,7 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
     // The river heights are sampled (BlockSource::init): from here on the blocks read the
     // stride's lattice only, so the cells between its points are handed back (a quarter of the
     // raster is held at --stride 2, a 64th at 8: README "Large DEMs").
+    const bool cellsOnDisk = data.dem.cellsOnDisk();
     data.dem.keepLattice(o.stride);
     summary.rasterCellsHeld = data.dem.z.size();
     summary.nodataCells = data.nodata.nodataCells;
@@ -380,7 +398,7 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
                                    std::uint64_t((dem.height - 1) / o.stride + 1);
         const std::uint64_t demPoints = sampledDemPoints(data, o.stride);
         MemoryEstimate estimate =
-            estimateBuildMemory(cells, held, demPoints, itemLoads, threads, tree);
+            estimateBuildMemory(cells, held, demPoints, itemLoads, threads, tree, cellsOnDisk);
         if (o.memoryCheck && o.threads == 0 && threads > 1) {
             // The thread count is ours to choose: fewer threads hold fewer blocks at a time.
             // The most that fit (halving, then one more at a time), else all and the refusal.
@@ -388,14 +406,15 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
             const double have = memoryBound(o.memoryLimitBytes, what);
             unsigned fit = threads;
             while (have > 0 && fit > 1 &&
-                   estimateBuildMemory(cells, held, demPoints, itemLoads, fit, tree).bytes > have)
+                   estimateBuildMemory(cells, held, demPoints, itemLoads, fit, tree, cellsOnDisk)
+                           .bytes > have)
                 fit = std::max(1u, fit / 2);
-            while (fit < threads &&
-                   estimateBuildMemory(cells, held, demPoints, itemLoads, fit + 1, tree).bytes <=
-                       have)
+            while (fit < threads && estimateBuildMemory(cells, held, demPoints, itemLoads, fit + 1,
+                                                        tree, cellsOnDisk)
+                                            .bytes <= have)
                 ++fit;
             const MemoryEstimate fewer =
-                estimateBuildMemory(cells, held, demPoints, itemLoads, fit, tree);
+                estimateBuildMemory(cells, held, demPoints, itemLoads, fit, tree, cellsOnDisk);
             if (fit < threads && fewer.bytes <= have) {
                 if (o.warn) {
                     char text[200];
@@ -741,7 +760,7 @@ MemoryEstimate pointMemory(std::uint64_t demPoints, std::uint64_t riverPoints,
 
 MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t heldCells,
                                    std::uint64_t demPoints, const std::vector<ItemLoad>& items,
-                                   unsigned threads, bool tree) {
+                                   unsigned threads, bool tree, bool cellsOnDisk) {
     MemoryEstimate e;
     e.demPoints = demPoints;
     for (const ItemLoad& l : items)
@@ -750,7 +769,11 @@ MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t heldCells,
     const double perRiverPoint = tree ? kTreeBuildBytesPerRiverPoint : kFlatBuildBytesPerPoint;
     const double whole = double(heldCells) * kBuildBytesPerCell + double(demPoints) * perPoint +
                          double(e.riverPoints) * perRiverPoint;
-    const double read = double(cells) * kBuildBytesPerCell;  // while the raster is read
+    // While the raster is read: its cells, or with them in a temporary file the reading's
+    // buffers and the lattice (dem.h CellAllocator).
+    const double read = cellsOnDisk ? double(cells) * (kBuildBytesPerCell - 4) +
+                                          double(heldCells) * kBuildBytesPerCell
+                                    : double(cells) * kBuildBytesPerCell;
     auto bytesOf = [](const ItemLoad& l) {
         return l.node ? double(l.demPoints + l.riverPoints) * kInFlightBytesPerNodePoint
                       : double(l.demPoints) * kInFlightBytesPerDemPoint +
@@ -909,8 +932,7 @@ std::uint64_t availableMemory(std::string* what) {
     if (getrlimit(RLIMIT_AS, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY) {
         // Address space in use (VmSize), of which the resident part is the process's own.
         const std::uint64_t used = meminfo(status.str(), "VmSize");
-        consider(limit.rlim_cur > used ? limit.rlim_cur - used + own : own + 1,
-                 "the address-space limit");
+        consider(limit.rlim_cur > used ? limit.rlim_cur - used + own : own + 1, kAddressSpaceLimit);
     }
     return best;
 }

@@ -59,6 +59,10 @@ struct BuildOptions : IngestOptions {
     // `memoryCheck` false: no check (--no-memory-check). --memory-limit MB.
     bool memoryCheck = true;
     double memoryLimitBytes = 0;
+    // At --stride > 1 a raster larger than the memory is held in a temporary file in this
+    // folder while it is read, its lattice alone in memory (dem.h CellAllocator; deleted when
+    // read, also if the build is killed). Empty: the output's folder. --temp-dir.
+    std::string tempDir;
     // Progress: the stages before the blocks ("splitting into blocks"), then the stage of the
     // blocks with their count, then blocks (and tree nodes) built of total and `work`, the
     // estimated share of the stage's work done (0 to 1; itemWork): items weigh what they cost,
@@ -134,11 +138,12 @@ struct ItemLoad {
 // The estimate of `build` (see the constants above): a raster of `cells` cells read, of which
 // `heldCells` (the stride's lattice; all of them at stride 1) are held while the blocks are
 // built, `demPoints` DEM points in the model, the blocks' and nodes' loads, `threads` workers,
-// with or without the block hierarchy. The peak is the larger of reading (the raster's cells)
-// and building (the lattice, the points and the items in flight).
+// with or without the block hierarchy. The peak is the larger of reading (the raster's cells;
+// `cellsOnDisk`: held in a temporary file, the memory holding the reading's buffers and the
+// lattice) and building (the lattice, the points and the items in flight).
 MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t heldCells,
                                    std::uint64_t demPoints, const std::vector<ItemLoad>& items,
-                                   unsigned threads, bool tree);
+                                   unsigned threads, bool tree, bool cellsOnDisk = false);
 
 // The estimate of `order`: kBuildBaseBytes + points * bytesPerPoint.
 MemoryEstimate pointMemory(std::uint64_t demPoints, std::uint64_t riverPoints,

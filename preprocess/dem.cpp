@@ -10,14 +10,22 @@
 #include <gdal_utils.h>
 #include <ogr_spatialref.h>
 
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/statvfs.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <array>
 #include <cassert>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <memory>
+#include <stdexcept>
 
 #include "atomicfile.h"
 #include "gdal_errors.h"
@@ -278,17 +286,49 @@ int utmEpsgFor(double lon, double lat) {
     return (lat >= 0 ? 32600 : 32700) + zone;
 }
 
+void* mapTemporaryFile(const std::string& dir, std::size_t bytes) {
+    const std::string where = "a temporary file in '" + dir + "'";
+    std::string name = (dir.empty() ? std::string(".") : dir) + "/.unilod-cells-XXXXXX";
+    const int fd = mkstemp(name.data());
+    if (fd < 0) throw std::runtime_error("cannot create " + where + ": " + std::strerror(errno));
+    unlink(name.c_str());  // gone with the last reference: the mapping
+    // Reserved first, so that a full disk is an error here and not a SIGBUS on a later write.
+    const int reserved = bytes > 0 ? posix_fallocate(fd, 0, off_t(bytes)) : 0;
+    if (reserved != 0) {
+        close(fd);
+        throw std::runtime_error("cannot reserve " + std::to_string(bytes) + " bytes for " + where +
+                                 ": " + std::strerror(reserved));
+    }
+    void* p =
+        mmap(nullptr, std::max<std::size_t>(bytes, 1), PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+    const int mapError = errno;
+    close(fd);
+    if (p == MAP_FAILED)
+        throw std::runtime_error("cannot map " + where + ": " + std::strerror(mapError));
+    return p;
+}
+
+void unmapTemporaryFile(void* p, std::size_t bytes) {
+    if (p != nullptr) munmap(p, std::max<std::size_t>(bytes, 1));
+}
+
+double freeDiskBytes(const std::string& dir) {
+    struct statvfs fs {};
+    if (statvfs(dir.empty() ? "." : dir.c_str(), &fs) != 0) return -1;
+    return double(fs.f_bavail) * double(fs.f_frsize);
+}
+
 void DemGrid::keepLattice(int stride) {
     if (stride <= 1 || heldStride != 1 || z.empty()) return;
     heldStride = stride;
     const int w = heldWidth(), h = heldHeight();
-    std::vector<float> lattice(static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
+    CellVector lattice(static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
     for (int j = 0; j < h; ++j)
         for (int i = 0; i < w; ++i)
             lattice[static_cast<std::size_t>(j) * w + i] =
                 z[static_cast<std::size_t>(j) * stride * width +
                   static_cast<std::size_t>(i) * stride];
-    z.swap(lattice);
+    z = std::move(lattice);  // on the heap; a temporary file is unmapped (and so deleted)
 }
 
 double DemGrid::sample(double x, double y) const {
@@ -708,22 +748,46 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
                                   number(zMetres) + ")");
     }
 
-    // The grid must fit the memory (DemLoadOptions::memoryBytes), checked before reading.
-    auto fitsMemory = [&](double cells, bool reprojected) {
+    // The grid must fit the memory (DemLoadOptions::memoryBytes), checked before reading; one
+    // that does not may be held in a temporary file (spillDir) when only its lattice stays.
+    bool spill = false;
+    auto fitsMemory = [&](double cols, double rows, bool reprojected) {
+        const double cells = cols * rows;
         const double perCell = std::max(4.0, options.bytesPerCell);
-        const double need = demReadBytes(cells, perCell);
-        if (!(options.memoryBytes > 0) || need <= options.memoryBytes) return true;
+        const double need = options.baseBytes + demReadBytes(cells, perCell);
+        const bool limited = options.memoryBytes > 0;
+        std::string onDisk;
+        if (!options.spillDir.empty() &&
+            (options.spillAlways || (limited && need > options.memoryBytes))) {
+            const double s = std::max(1, options.spillStride);
+            const double lattice =
+                (std::floor((cols - 1) / s) + 1) * (std::floor((rows - 1) / s) + 1);
+            const double memory = options.baseBytes + cells * (perCell - 4) + lattice * perCell;
+            const double disk = cells * 4, free = freeDiskBytes(options.spillDir);
+            if ((!limited || memory <= options.memoryBytes) && (free < 0 || disk <= free)) {
+                spill = true;
+                return true;
+            }
+            char text[200];
+            std::snprintf(text, sizeof text,
+                          " (a temporary file of them needs %.2f GB of disk, '%s' has %.2f GB "
+                          "free, and %.2f GB of memory)",
+                          disk / 1e9, options.spillDir.c_str(), std::max(0.0, free) / 1e9,
+                          memory / 1e9);
+            onDisk = text;
+        }
+        if (!limited || need <= options.memoryBytes) return true;
         char text[320];
         std::snprintf(
             text, sizeof text,
             "%d x %d cells%s need at least %.2f GB of memory (%.0f bytes a cell to "
-            "read and hold them), more than %s allows (%.2f GB): ",
+            "read and hold them), more than %s allows (%.2f GB)",
             ds->GetRasterXSize(), ds->GetRasterYSize(), reprojected ? " (reprojected)" : "",
             need / 1e9, perCell,
             options.memoryWhat.empty() ? "the available memory" : options.memoryWhat.c_str(),
             options.memoryBytes / 1e9);
-        error = "DEM '" + path + "': " + text +
-                "clip it to the area needed or resample it to larger cells first (e.g. "
+        error = "DEM '" + path + "': " + text + onDisk +
+                ": clip it to the area needed or resample it to larger cells first (e.g. "
                 "gdalwarp -tr)" +
                 (options.memorySkippable ? "; --no-memory-check tries anyway" : "");
         return false;
@@ -760,22 +824,44 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
             error = "DEM '" + path + "': reprojection failed" + gdalErrorSuffix();
             return false;
         }
-        if (!fitsMemory(double(plan->GetRasterXSize()) * double(plan->GetRasterYSize()), true))
-            return false;
+        if (!fitsMemory(plan->GetRasterXSize(), plan->GetRasterYSize(), true)) return false;
         plan->GetGeoTransform(gt);
         readBand = 1;
     }
 
     const int w = warp ? plan->GetRasterXSize() : source->GetRasterXSize();
     const int h = warp ? plan->GetRasterYSize() : source->GetRasterYSize();
-    if (!warp && !fitsMemory(double(w) * double(h), false)) return false;
+    if (!warp && !fitsMemory(w, h, false)) return false;
     dem.width = w;
     dem.height = h;
     dem.cellX = gt[1];
     dem.cellY = gt[5];
     dem.originX = gt[0] + 0.5 * gt[1];
     dem.originY = gt[3] + 0.5 * gt[5];
-    dem.z.assign(static_cast<std::size_t>(w) * h, kNaN);
+    if (spill) {
+        dem.z = CellVector(CellAllocator<float>(options.spillDir));
+        if (options.warn) {
+            char text[300];
+            std::snprintf(text, sizeof text,
+                          "': its %d x %d cells (%.2f GB) are held in a temporary file in '%s' "
+                          "while it is read (%s); the --stride %d lattice stays in memory",
+                          w, h, 4.0 * double(w) * double(h) / 1e9, options.spillDir.c_str(),
+                          options.spillAlways ? "asked for" : "the memory cannot hold them",
+                          options.spillStride);
+            options.warn("DEM '" + path + text);
+        }
+    }
+    try {
+        // A warp leaves NaN where no source cell reaches; a plain read writes every cell.
+        if (warp)
+            dem.z.assign(static_cast<std::size_t>(w) * h, kNaN);
+        else
+            dem.z.resize(static_cast<std::size_t>(w) * h);
+    } catch (const std::runtime_error& e) {  // the temporary file (mapTemporaryFile)
+        error = "DEM '" + path + "': its cells: " + e.what();
+        dem = DemGrid{};
+        return false;
+    }
     if (srcSrs != nullptr) dem.wkt = toWkt(target);
 
     std::size_t valid = 0;
@@ -843,6 +929,7 @@ bool loadDem(const std::string& path, const DemLoadOptions& options, DemGrid& de
             float* out = dem.z.data() + static_cast<std::size_t>(r) * w;
             for (int c = 0; c < w; ++c) {
                 const double v = row[c];
+                out[c] = kNaN;
                 if (hasNoData && v == noData) continue;
                 if (mask != nullptr && maskRow[static_cast<std::size_t>(c)] == 0) continue;
                 if (convert(v, out[c])) ++valid;

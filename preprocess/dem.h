@@ -5,11 +5,73 @@
 
 #include <algorithm>
 #include <cassert>
+#include <cstddef>
 #include <functional>
+#include <memory>
+#include <new>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace unilod {
+
+// Memory backed by a temporary file in `dir` (unlinked at once, so nothing is left behind even
+// if the process is killed; its whole size reserved on disk first): the kernel writes its pages
+// to that file instead of keeping them in memory. Throws std::runtime_error naming `dir` and
+// the reason (no space, not writable). unmapTemporaryFile unmaps it.
+void* mapTemporaryFile(const std::string& dir, std::size_t bytes);
+void unmapTemporaryFile(void* p, std::size_t bytes);
+// Free bytes for an unprivileged user on the file system of `dir` (-1: unknown).
+double freeDiskBytes(const std::string& dir);
+
+// The allocator of a raster's cells: the heap, or (given a directory) a temporary file there, so
+// that a raster larger than the memory can be read at --stride > 1, its lattice alone kept in
+// memory (DemLoadOptions::spillDir, README "Large DEMs"). Copies of a container go to the heap;
+// moves and swaps take the file along.
+template <class T>
+struct CellAllocator {
+    using value_type = T;
+    using propagate_on_container_move_assignment = std::true_type;
+    using propagate_on_container_copy_assignment = std::true_type;
+    using propagate_on_container_swap = std::true_type;
+    using is_always_equal = std::false_type;
+
+    std::shared_ptr<const std::string> fileDir;  // null: the heap
+
+    CellAllocator() = default;
+    explicit CellAllocator(std::string dir)
+        : fileDir(std::make_shared<const std::string>(std::move(dir))) {}
+    template <class U>
+    CellAllocator(const CellAllocator<U>& o) : fileDir(o.fileDir) {}
+
+    T* allocate(std::size_t n) {
+        if (fileDir) return static_cast<T*>(mapTemporaryFile(*fileDir, n * sizeof(T)));
+        return std::allocator<T>().allocate(n);
+    }
+    void deallocate(T* p, std::size_t n) {
+        if (fileDir)
+            unmapTemporaryFile(p, n * sizeof(T));
+        else
+            std::allocator<T>().deallocate(p, n);
+    }
+    // resize() leaves cells uninitialised: whoever reads a raster writes every cell, so no
+    // pass over the memory (or the file) comes before the read.
+    template <class U>
+    void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
+        ::new (static_cast<void*>(p)) U;
+    }
+    template <class U, class... Args>
+    void construct(U* p, Args&&... args) {
+        ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+    }
+    CellAllocator select_on_container_copy_construction() const { return {}; }
+    template <class U>
+    bool operator==(const CellAllocator<U>& o) const {
+        return fileDir == o.fileDir;
+    }
+};
+using CellVector = std::vector<float, CellAllocator<float>>;
 
 // A north-up grid of altitudes in the working CRS.
 //
@@ -23,7 +85,7 @@ struct DemGrid {
     double cellX = 1, cellY = -1;
     // Row-major, NaN = nodata: width * height cells, or after keepLattice(s) only the cells of
     // the stride's lattice (columns and rows 0, s, 2s, ...), heldWidth() * heldHeight() of them.
-    std::vector<float> z;
+    CellVector z;
     int heldStride = 1;    // 1: z holds every cell; s > 1: only the lattice (keepLattice)
     std::string wkt;       // working CRS as WKT; empty when the source had no CRS
     // What loadDem changed to reach metres, for the user (empty: nothing): a projected CRS in
@@ -54,7 +116,10 @@ struct DemGrid {
 
     // Frees every cell but those of the `stride` lattice (a build at --stride > 1 once its river
     // heights are sampled: README "Large DEMs"); at() and index() then take lattice cells only.
+    // The lattice is held on the heap, also when the cells were in a temporary file.
     void keepLattice(int stride);
+    // Whether the cells are held in a temporary file (DemLoadOptions::spillDir).
+    bool cellsOnDisk() const { return z.get_allocator().fileDir != nullptr; }
 };
 
 struct DemLoadOptions {
@@ -77,7 +142,16 @@ struct DemLoadOptions {
     // blocks are cut; at --stride > 1 only the lattice after that), so that a raster its
     // build cannot hold is refused before it is read, not minutes later by the build's estimate.
     double bytesPerCell = 4;
+    double baseBytes = 0;  // what the caller holds besides (build: kBuildBaseBytes)
     int threads = 0;  // threads of the reprojection (GDAL's warp kernel); 0: all cores
+    // A raster whose cells exceed memoryBytes may be held in a temporary file in `spillDir`
+    // (empty: never) when the caller keeps only the `spillStride` lattice once it has read
+    // what it needs of every cell (build --stride > 1): then the memory holds bytesPerCell - 4
+    // bytes a cell while reading and bytesPerCell a lattice cell, and the disk 4 bytes a cell.
+    // `spillAlways`: whenever spillDir is given (tests).
+    std::string spillDir;
+    int spillStride = 1;
+    bool spillAlways = false;
 };
 
 // The memory loadDem's grid of a raster takes: 4 bytes a cell of the grid it reads (`cells`; a

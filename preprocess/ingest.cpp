@@ -195,6 +195,11 @@ bool ingest(const IngestOptions& o, Ingested& data, std::string& error) {
     demOptions.memorySkippable = o.demMemorySkippable;
     demOptions.threads = o.demThreads;
     demOptions.bytesPerCell = o.demBytesPerCell;
+    demOptions.baseBytes = o.demBaseBytes;
+    if (o.stride > 1) {
+        demOptions.spillDir = o.demSpillDir;
+        demOptions.spillStride = o.stride;
+    }
     DemGrid& dem = data.dem;
     if (!loadDem(o.demPath, demOptions, dem, error)) return false;
     if (dem.width < 2 || dem.height < 2) {

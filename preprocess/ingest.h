@@ -49,6 +49,10 @@ struct IngestOptions {
     bool demMemorySkippable = true;
     int demThreads = 0;          // threads reprojecting the DEM (GDAL's warp); 0: all cores
     double demBytesPerCell = 4;  // the memory check's bytes per cell (DemLoadOptions::bytesPerCell)
+    double demBaseBytes = 0;     // and the caller's fixed bytes (DemLoadOptions::baseBytes)
+    // Where a raster the memory cannot hold is kept while it is read at --stride > 1
+    // (DemLoadOptions::spillDir; empty: nowhere, such a raster is refused).
+    std::string demSpillDir;
     // Warnings for accepted-but-odd input (empty river layer, NaN cells...).
     std::function<void(const std::string&)> warn;
     // Progress: the name of a long step as it starts ("cleaning the rivers").

@@ -580,7 +580,9 @@ SyntheticData generateSyntheticData(const SyntheticOptions& options) {
     dem.cellY = -options.cellSize;
     dem.originX = kSyntheticOriginX + 0.5 * options.cellSize;
     dem.originY = kSyntheticOriginY + (height - 0.5) * options.cellSize;
-    dem.z = generateTerrain(width, height, options.seed, options.roughness);
+    const std::vector<float> terrain =
+        generateTerrain(width, height, options.seed, options.roughness);
+    dem.z.assign(terrain.begin(), terrain.end());
 
     // Cell units -> metres. The junction copies are transformed by the same expression, so they
     // stay bit-identical to the main river vertex they join.

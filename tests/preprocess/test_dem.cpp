@@ -7,6 +7,7 @@
 #include <unistd.h>
 #include "testutil.h"
 
+#include <bit>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -1006,4 +1007,105 @@ TEST(Dem, CellsTooSmallForTheExactGridAreNamed) {
     EXPECT_FALSE(checkCellsFitExactGrid(dem, 1, error));
     dem.cellY = -0.01;
     EXPECT_TRUE(checkCellsFitExactGrid(dem, 1, error)) << error;
+}
+
+// Cells held in a temporary file (DemLoadOptions::spillDir, dem.h CellAllocator): the same
+// values as on the heap, projected and reprojected; the file is deleted from the folder at once
+// and lives as a mapping until keepLattice takes the lattice to the heap; the memory check
+// sends a raster there only when its lattice fits and the file does not fit, and names both.
+TEST(Dem, CellsCanBeHeldInATemporaryFile) {
+    TempDir dir("spill"), spillDir("spill_cells");
+    const int w = 37, h = 29;
+    std::vector<double> v;
+    for (int r = 0; r < h; ++r)
+        for (int c = 0; c < w; ++c)
+            v.push_back(300 + 50 * std::sin(c * 0.37) * std::cos(r * 0.23) + 0.5 * c);
+    const std::string projected = dir.file("utm.tif"), degrees = dir.file("geo.tif");
+    writeTiff(projected, w, h, {v}, GDT_Float32, kGt, 32616);
+    const double geo[6] = {-84.5, 0.0003, 0, 36.9, 0, -0.0003};
+    writeTiff(degrees, w, h, {v}, GDT_Float32, geo, 4326);
+    // The mappings of files from `folder` that are deleted ("(deleted)" in /proc/self/maps).
+    auto mapped = [](const fs::path& folder) {
+        std::ifstream maps("/proc/self/maps");
+        std::size_t n = 0;
+        for (std::string line; std::getline(maps, line);)
+            n += line.find(folder.string() + "/.unilod-cells-") != std::string::npos &&
+                 line.find("(deleted)") != std::string::npos;
+        return n;
+    };
+    for (const std::string& path : {projected, degrees}) {
+        SCOPED_TRACE(path);
+        DemGrid heap, disk;
+        std::string error;
+        ASSERT_TRUE(loadDem(path, {}, heap, error)) << error;
+        std::vector<std::string> warnings;
+        DemLoadOptions o = collecting(warnings);
+        o.spillDir = spillDir.path.string();
+        o.spillStride = 4;
+        o.spillAlways = true;
+        ASSERT_TRUE(loadDem(path, o, disk, error)) << error;
+        EXPECT_FALSE(heap.cellsOnDisk());
+        ASSERT_TRUE(disk.cellsOnDisk());
+        EXPECT_EQ(mapped(spillDir.path), 1u);
+        EXPECT_EQ(spillDir.entries(), 0u);
+        ASSERT_EQ(warnings.size(), 1u);
+        EXPECT_NE(warnings[0].find("are held in a temporary file in '" + o.spillDir +
+                                   "' while it is read (asked for); the --stride 4 lattice"),
+                  std::string::npos)
+            << warnings[0];
+        ASSERT_EQ(disk.width, heap.width);
+        ASSERT_EQ(disk.height, heap.height);
+        ASSERT_EQ(disk.z.size(), heap.z.size());
+        for (std::size_t i = 0; i < heap.z.size(); ++i)
+            ASSERT_EQ(std::bit_cast<std::uint32_t>(disk.z[i]),
+                      std::bit_cast<std::uint32_t>(heap.z[i]))
+                << "cell " << i;
+        const DemGrid copy = disk;  // a copy goes to the heap
+        EXPECT_FALSE(copy.cellsOnDisk());
+        EXPECT_EQ(mapped(spillDir.path), 1u);
+        heap.keepLattice(4);
+        disk.keepLattice(4);
+        EXPECT_FALSE(disk.cellsOnDisk());
+        EXPECT_EQ(mapped(spillDir.path), 0u);
+        ASSERT_EQ(disk.z.size(), heap.z.size());
+        for (std::size_t i = 0; i < heap.z.size(); ++i)
+            EXPECT_EQ(std::bit_cast<std::uint32_t>(disk.z[i]),
+                      std::bit_cast<std::uint32_t>(heap.z[i]));
+    }
+
+    // A folder that cannot take the file: the error names the DEM, the folder and the reason.
+    DemGrid dem;
+    std::string error;
+    DemLoadOptions o;
+    o.spillDir = dir.file("missing");
+    o.spillStride = 2;
+    o.spillAlways = true;
+    EXPECT_FALSE(loadDem(projected, o, dem, error));
+    EXPECT_NE(error.find("DEM '" + projected + "': its cells: cannot create a temporary file in '" +
+                         o.spillDir + "': No such file or directory"),
+              std::string::npos)
+        << error;
+    EXPECT_TRUE(dem.z.empty());
+
+    // The memory check: 37 x 29 cells at 5 bytes a cell (5 365 bytes) over a 3 000-byte bound go
+    // to the file, whose lattice of --stride 4 (10 x 8 cells, 400 bytes) and reading buffers
+    // (1 073 bytes) fit; a spill folder left out, or a lattice that does not fit either, refuses.
+    o = DemLoadOptions{};
+    o.bytesPerCell = 5;
+    o.memoryBytes = 3000;
+    o.memoryWhat = "--memory-limit";
+    EXPECT_FALSE(loadDem(projected, o, dem, error));
+    EXPECT_NE(error.find("37 x 29 cells need at least 0.00 GB of memory"), std::string::npos)
+        << error;
+    EXPECT_EQ(error.find("temporary file"), std::string::npos) << error;
+    o.spillDir = spillDir.path.string();
+    o.spillStride = 4;
+    ASSERT_TRUE(loadDem(projected, o, dem, error)) << error;
+    EXPECT_TRUE(dem.cellsOnDisk());
+    o.spillStride = 1;  // the lattice is every cell: 5 365 + 1 073 bytes
+    EXPECT_FALSE(loadDem(projected, o, dem, error));
+    EXPECT_NE(
+        error.find("(a temporary file of them needs 0.00 GB of disk, '" + o.spillDir + "' has"),
+        std::string::npos)
+        << error;
 }

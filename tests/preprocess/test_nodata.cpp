@@ -67,7 +67,7 @@ std::string writeTiff(const DemGrid& d, const std::string& name) {
     OGRSpatialReference srs;
     srs.importFromEPSG(32616);
     ds->SetSpatialRef(&srs);
-    std::vector<float> z = d.z;
+    std::vector<float> z(d.z.begin(), d.z.end());
     EXPECT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, d.width, d.height, z.data(), d.width,
                                              d.height, GDT_Float32, 0, 0),
               CE_None);

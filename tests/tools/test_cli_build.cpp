@@ -1351,3 +1351,49 @@ TEST_F(CliBuildJacksboro, TreeRetentionFallsWithDistance) {
     EXPECT_LT(t.back()[9], double(leaves)) << s.out;
     EXPECT_GT(f.back()[8], 2.0 * t.back()[8]) << f.back()[8];  // the flat grid keeps its borders
 }
+
+// A raster whose cells the memory cannot hold is read at --stride > 1 through a temporary file
+// (dem.h CellAllocator; README "Large DEMs"): 4000 x 3000 cells need about 0.12 GB to read (the
+// base and 5 bytes a cell), a build of their --stride 20 lattice about 0.10 GB on one thread.
+// Under a 110 MB limit the cells go to a file in the output's folder (or --temp-dir), the model
+// is byte for byte the one built without the limit, and nothing is left in either folder; at
+// --stride 1 the same limit refuses the raster as before, and a missing --temp-dir is named.
+TEST(CliBuildOdd, RasterLargerThanTheMemoryIsReadThroughATemporaryFile) {
+    Case c("spill");
+    writeTiff(c.in("dem.tif"), 4000, 3000, 1, terrain);
+    writeText(c.in("rivers.geojson"), geoJson({lineString(Case::mainRiver())}));
+    const std::string args = "build -q " + q(c.in("dem.tif")) + " " + q(c.in("rivers.geojson")) +
+                             " -o " + q(c.out()) + " --stride 20 --block-size 640 --threads 1";
+    Result r = run(args);
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.err.find("temporary file"), std::string::npos) << r.err;
+    fs::rename(c.out(), c.in("unlimited.ulod"));
+    const std::string limited = args + " --memory-limit 110";
+    r = run(limited);
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("its 4000 x 3000 cells (0.05 GB) are held in a temporary file in '" +
+                         (c.root / "out").string() + "' while it is read"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(slurp(c.out()), slurp(c.in("unlimited.ulod")));
+    EXPECT_EQ(c.outEntries(), std::vector<std::string>{"model.ulod"});
+    const Result check = run("check -q --errors " + q(c.out()));
+    EXPECT_EQ(check.code, 0) << check.err << check.out;
+    fs::remove(c.out());
+    // --temp-dir: there instead; a missing one is named before any work.
+    const fs::path temp = c.root / "temp";
+    fs::create_directories(temp);
+    r = run(limited + " --temp-dir " + q(temp.string()));
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("temporary file in '" + temp.string() + "'"), std::string::npos) << r.err;
+    EXPECT_EQ(slurp(c.out()), slurp(c.in("unlimited.ulod")));
+    EXPECT_TRUE(fs::is_empty(temp));
+    fs::remove(c.out());
+    expectRejected(c, run(limited + " --temp-dir " + q((c.root / "missing").string())), 1, "",
+                   "--temp-dir '" + (c.root / "missing").string() + "': no such folder");
+    // Stride 1 keeps every cell to the end: no file helps, the raster is refused as before.
+    expectRejected(c,
+                   run("build -q " + q(c.in("dem.tif")) + " -o " + q(c.out()) +
+                       " --block-size 640 --threads 1 --memory-limit 110"),
+                   1, c.in("dem.tif"), "more than --memory-limit allows (0.11 GB)");
+}

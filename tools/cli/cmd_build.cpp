@@ -172,6 +172,10 @@ void addBuildCommand(CLI::App& app, int& exitCode) {
                         "larger: coarser nodes drawn sooner")
         ->check(numberIn(1.0, 1e6));
     addMemoryOptions(*sub, c->memory, "build");
+    sub->add_option("--temp-dir", c->o.tempDir,
+                    "folder of the temporary file that holds a raster larger than the memory "
+                    "while it is read at --stride > 1 (4 bytes a cell, deleted once read; "
+                    "default: the output's folder)");
     sub->add_option("--encoding", c->encoding,
                     "block encoding: compact (default; about 7 bytes per point) or raw (plain "
                     "arrays, about 35-40 times larger, for tools that read the layout directly)")
