@@ -134,10 +134,7 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
         error = "--threads " + std::to_string(o.threads) + ": must be >= 0";
         return false;
     }
-    if (std::error_code ec; !o.tempDir.empty() && !std::filesystem::is_directory(o.tempDir, ec)) {
-        error = "--temp-dir '" + o.tempDir + "': no such folder";
-        return false;
-    }
+    if (!checkTempDir(o.tempDir, error)) return false;
 
     // BAI table before the long work, so that a typo fails fast.
     BlockBuildOptions blockOptions;
@@ -167,15 +164,8 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
     in.demThreads = o.threads;
     in.demBytesPerCell = kBuildBytesPerCell;
     in.demBaseBytes = kBuildBaseBytes;
-    // A raster too large for the memory is read through a temporary file (dem.h
-    // CellAllocator), except under an address-space limit, which the file's mapping counts
-    // against like memory.
-    in.demSpillDir = o.tempDir;
-    if (in.demSpillDir.empty()) {
-        const std::filesystem::path parent = std::filesystem::path(o.outPath).parent_path();
-        in.demSpillDir = parent.empty() ? "." : parent.string();
-    }
-    if (in.demMemoryWhat == kAddressSpaceLimit) in.demSpillDir.clear();
+    // A raster too large for the memory is read through a temporary file (dem.h CellAllocator).
+    in.demSpillDir = spillFolder(o.tempDir, o.outPath, in.demMemoryWhat);
     if (!ingest(in, data, error)) return false;
     const DemGrid& dem = data.dem;
     summary.demWidth = dem.width;
@@ -935,6 +925,22 @@ std::uint64_t availableMemory(std::string* what) {
         consider(limit.rlim_cur > used ? limit.rlim_cur - used + own : own + 1, kAddressSpaceLimit);
     }
     return best;
+}
+
+bool checkTempDir(const std::string& tempDir, std::string& error) {
+    if (std::error_code ec; !tempDir.empty() && !std::filesystem::is_directory(tempDir, ec)) {
+        error = "--temp-dir '" + tempDir + "': no such folder";
+        return false;
+    }
+    return true;
+}
+
+std::string spillFolder(const std::string& tempDir, const std::string& outPath,
+                        const std::string& memoryWhat) {
+    if (memoryWhat == kAddressSpaceLimit) return {};
+    if (!tempDir.empty()) return tempDir;
+    const std::filesystem::path parent = std::filesystem::path(outPath).parent_path();
+    return parent.empty() ? "." : parent.string();
 }
 
 bool runBuild(const BuildOptions& o, BuildSummary& summary, std::string& error) {

@@ -149,6 +149,15 @@ MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t heldCells,
 MemoryEstimate pointMemory(std::uint64_t demPoints, std::uint64_t riverPoints,
                            double bytesPerPoint);
 
+// The folder of the temporary file that holds a raster larger than the memory while it is read
+// at --stride > 1 (dem.h CellAllocator; build and order): `tempDir` (--temp-dir) when given,
+// else the output's folder (the working folder without an output); none ("") under an
+// address-space limit (`memoryWhat` from availableMemory), which counts the file's mapping
+// against it like memory. checkTempDir: false and `error` when a given --temp-dir is no folder.
+bool checkTempDir(const std::string& tempDir, std::string& error);
+std::string spillFolder(const std::string& tempDir, const std::string& outPath,
+                        const std::string& memoryWhat);
+
 // Bytes this process can hold in all (Linux): what it holds (VmRSS) plus the smallest of the
 // memory available to new allocations (/proc/meminfo MemAvailable + SwapFree), the cgroup's
 // limit less its use (v2 memory.max / memory.current, v1 memory.limit_in_bytes / usage_in_bytes)

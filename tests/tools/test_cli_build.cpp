@@ -1397,3 +1397,42 @@ TEST(CliBuildOdd, RasterLargerThanTheMemoryIsReadThroughATemporaryFile) {
                        " --block-size 640 --threads 1 --memory-limit 110"),
                    1, c.in("dem.tif"), "more than --memory-limit allows (0.11 GB)");
 }
+
+// `order` reads such a raster the same way (README "Large DEMs"): under the limit the cells go
+// to a temporary file in the CSV's folder (or --temp-dir), the deletion order is the one ranked
+// without the limit, byte for byte, and nothing is left behind; at --stride 1 it is refused.
+TEST(CliBuildOdd, OrderReadsARasterLargerThanTheMemoryThroughATemporaryFile) {
+    Case c("order_spill");
+    writeTiff(c.in("dem.tif"), 4000, 3000, 1, terrain);
+    writeText(c.in("rivers.geojson"), geoJson({lineString(Case::mainRiver())}));
+    const std::string csv = c.out("order.csv");
+    const std::string args = "order " + q(c.in("dem.tif")) + " " + q(c.in("rivers.geojson")) +
+                             " -o " + q(csv) + " --stride 20 --json";
+    Result r = run(args);
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.err.find("temporary file"), std::string::npos) << r.err;
+    fs::rename(csv, c.in("unlimited.csv"));
+    const std::string limited = args + " --memory-limit 110";
+    r = run(limited);
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("its 4000 x 3000 cells (0.05 GB) are held in a temporary file in '" +
+                         (c.root / "out").string() + "' while it is read"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(slurp(csv), slurp(c.in("unlimited.csv")));
+    EXPECT_GT(slurp(csv).size(), 200u * 150u * 10u);  // a row for each of the lattice's points
+    EXPECT_EQ(c.outEntries(), std::vector<std::string>{"order.csv"});
+    fs::remove(csv);
+    const fs::path temp = c.root / "temp";
+    fs::create_directories(temp);
+    r = run(limited + " --temp-dir " + q(temp.string()));
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("temporary file in '" + temp.string() + "'"), std::string::npos) << r.err;
+    EXPECT_EQ(slurp(csv), slurp(c.in("unlimited.csv")));
+    EXPECT_TRUE(fs::is_empty(temp));
+    fs::remove(csv);
+    expectRejected(c, run(limited + " --temp-dir " + q((c.root / "missing").string())), 1, "",
+                   "--temp-dir '" + (c.root / "missing").string() + "': no such folder");
+    expectRejected(c, run("order " + q(c.in("dem.tif")) + " -o " + q(csv) + " --memory-limit 110"),
+                   1, c.in("dem.tif"), "more than --memory-limit allows (0.11 GB)");
+}

@@ -43,6 +43,7 @@ struct OrderOptions {
     double baiRow = kDefaultBaiRow;
     std::string baiTable;
     MemoryFlags memory;
+    std::string tempDir;  // --temp-dir (build.h spillFolder)
     OutputFlags out;
     JsonFlags json;
     bool quiet = false;
@@ -136,6 +137,7 @@ int runOrder(const OrderOptions& o) {
         return 1;
     };
     // Fail fast on an existing or unwritable output (or one of the inputs) before the long work.
+    if (!checkTempDir(o.tempDir, error)) return fail(error);
     format::AtomicFile csv;
     format::OutputOptions output = outputOptions(o.out, {o.in.demPath, o.in.riversPath});
     if (!o.baiTable.empty()) output.inputs.push_back(o.baiTable);
@@ -167,6 +169,11 @@ int runOrder(const OrderOptions& o) {
     IngestOptions in = o.in;
     in.warn = [&bar](const std::string& w) { bar.message("unilod order: warning: " + w); };
     if (o.memory.check) in.demMemoryBytes = memoryBound(o.memory.limitBytes(), in.demMemoryWhat);
+    // As in `build`: at --stride > 1 a raster too large for the memory is read through a
+    // temporary file (dem.h CellAllocator), and only the lattice is kept once the river heights
+    // are sampled.
+    in.demBaseBytes = kBuildBaseBytes;
+    in.demSpillDir = spillFolder(o.tempDir, o.out.path, in.demMemoryWhat);
     Ingested data;
     if (!ingest(in, data, error)) return fail(error);
     const DemGrid& dem = data.dem;
@@ -197,6 +204,7 @@ int runOrder(const OrderOptions& o) {
         return fail(error);
     BlockSource source;
     if (!splitIntoBlocks(data, in, kWholeDem, true, source, error)) return fail(error);
+    data.dem.keepLattice(in.stride);
     const PointSet set = source.points(0);
     seconds["pointSet"] = secondsSince(t);
     std::size_t demPoints = 0, riverPoints = 0, locked = 0, unlocked = 0;
@@ -342,6 +350,10 @@ void addOrderCommand(CLI::App& app, int& exitCode) {
     addIngestOptions(*sub, opts->in);
     sub->add_flag("--no-bai", opts->noBai, "Plain 3D_DP without the bending adjustment index");
     addMemoryOptions(*sub, opts->memory, "ranking");
+    sub->add_option("--temp-dir", opts->tempDir,
+                    "folder of the temporary file that holds a raster larger than the memory "
+                    "while it is read at --stride > 1 (4 bytes a cell, deleted once read; "
+                    "default: the output's folder, else the working folder)");
     CLI::Option* table =
         sub->add_option("--bai-table", opts->baiTable, "BAI constants table file (Table 1 format)");
     // Without a table file the row must be one of the paper's: checked while parsing.
