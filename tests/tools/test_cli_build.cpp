@@ -1355,42 +1355,54 @@ TEST_F(CliBuildJacksboro, TreeRetentionFallsWithDistance) {
 // A raster whose cells the memory cannot hold is read at --stride > 1 through a temporary file
 // (dem.h CellAllocator; README "Large DEMs"): 4000 x 3000 cells need about 0.12 GB to read (the
 // base and 5 bytes a cell), a build of their --stride 20 lattice about 0.10 GB on one thread.
-// Under a 110 MB limit the cells go to a file in the output's folder (or --temp-dir), the model
-// is byte for byte the one built without the limit, and nothing is left in either folder; at
-// --stride 1 the same limit refuses the raster as before, and a missing --temp-dir is named.
-TEST(CliBuildOdd, RasterLargerThanTheMemoryIsReadThroughATemporaryFile) {
-    Case c("spill");
-    writeTiff(c.in("dem.tif"), 4000, 3000, 1, terrain);
-    writeText(c.in("rivers.geojson"), geoJson({lineString(Case::mainRiver())}));
-    const std::string args = "build -q " + q(c.in("dem.tif")) + " " + q(c.in("rivers.geojson")) +
-                             " -o " + q(c.out()) + " --stride 20 --block-size 640 --threads 1";
+// `args` (writing `out`, of that raster at --stride 20) under a 110 MB limit: the cells go to a
+// file in out/ (or --temp-dir), the output is byte for byte the one written without the limit,
+// and nothing is left in either folder; a missing --temp-dir is named before any work. Returns
+// the output written without the limit.
+namespace {
+std::string expectReadThroughATemporaryFile(const Case& c, const std::string& args,
+                                            const std::string& out) {
     Result r = run(args);
-    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_EQ(r.err.find("temporary file"), std::string::npos) << r.err;
-    fs::rename(c.out(), c.in("unlimited.ulod"));
+    const std::string unlimited = slurp(out);
+    fs::remove(out);
     const std::string limited = args + " --memory-limit 110";
     r = run(limited);
-    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_NE(r.err.find("its 4000 x 3000 cells (0.05 GB) are held in a temporary file in '" +
                          (c.root / "out").string() + "' while it is read"),
               std::string::npos)
         << r.err;
-    EXPECT_EQ(slurp(c.out()), slurp(c.in("unlimited.ulod")));
-    EXPECT_EQ(c.outEntries(), std::vector<std::string>{"model.ulod"});
-    const Result check = run("check -q --errors " + q(c.out()));
-    EXPECT_EQ(check.code, 0) << check.err << check.out;
-    fs::remove(c.out());
-    // --temp-dir: there instead; a missing one is named before any work.
+    EXPECT_EQ(slurp(out), unlimited);
+    EXPECT_EQ(c.outEntries(), std::vector<std::string>{fs::path(out).filename().string()});
+    fs::remove(out);
     const fs::path temp = c.root / "temp";
     fs::create_directories(temp);
     r = run(limited + " --temp-dir " + q(temp.string()));
-    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_NE(r.err.find("temporary file in '" + temp.string() + "'"), std::string::npos) << r.err;
-    EXPECT_EQ(slurp(c.out()), slurp(c.in("unlimited.ulod")));
+    EXPECT_EQ(slurp(out), unlimited);
     EXPECT_TRUE(fs::is_empty(temp));
-    fs::remove(c.out());
+    fs::remove(out);
     expectRejected(c, run(limited + " --temp-dir " + q((c.root / "missing").string())), 1, "",
                    "--temp-dir '" + (c.root / "missing").string() + "': no such folder");
+    return unlimited;
+}
+}  // namespace
+
+TEST(CliBuildOdd, RasterLargerThanTheMemoryIsReadThroughATemporaryFile) {
+    Case c("spill");
+    writeTiff(c.in("dem.tif"), 4000, 3000, 1, terrain);
+    writeText(c.in("rivers.geojson"), geoJson({lineString(Case::mainRiver())}));
+    const std::string model = expectReadThroughATemporaryFile(
+        c,
+        "build -q " + q(c.in("dem.tif")) + " " + q(c.in("rivers.geojson")) + " -o " + q(c.out()) +
+            " --stride 20 --block-size 640 --threads 1",
+        c.out());
+    writeText(c.in("model.ulod"), model);
+    const Result check = run("check -q --errors " + q(c.in("model.ulod")));
+    EXPECT_EQ(check.code, 0) << check.err << check.out;
     // Stride 1 keeps every cell to the end: no file helps, the raster is refused as before.
     expectRejected(c,
                    run("build -q " + q(c.in("dem.tif")) + " -o " + q(c.out()) +
@@ -1398,41 +1410,19 @@ TEST(CliBuildOdd, RasterLargerThanTheMemoryIsReadThroughATemporaryFile) {
                    1, c.in("dem.tif"), "more than --memory-limit allows (0.11 GB)");
 }
 
-// `order` reads such a raster the same way (README "Large DEMs"): under the limit the cells go
-// to a temporary file in the CSV's folder (or --temp-dir), the deletion order is the one ranked
-// without the limit, byte for byte, and nothing is left behind; at --stride 1 it is refused.
+// `order` reads such a raster the same way: the same deletion order, byte for byte, in memory
+// and through the file; at --stride 1 it is refused.
 TEST(CliBuildOdd, OrderReadsARasterLargerThanTheMemoryThroughATemporaryFile) {
     Case c("order_spill");
     writeTiff(c.in("dem.tif"), 4000, 3000, 1, terrain);
     writeText(c.in("rivers.geojson"), geoJson({lineString(Case::mainRiver())}));
     const std::string csv = c.out("order.csv");
-    const std::string args = "order " + q(c.in("dem.tif")) + " " + q(c.in("rivers.geojson")) +
-                             " -o " + q(csv) + " --stride 20 --json";
-    Result r = run(args);
-    ASSERT_EQ(r.code, 0) << r.err;
-    EXPECT_EQ(r.err.find("temporary file"), std::string::npos) << r.err;
-    fs::rename(csv, c.in("unlimited.csv"));
-    const std::string limited = args + " --memory-limit 110";
-    r = run(limited);
-    ASSERT_EQ(r.code, 0) << r.err;
-    EXPECT_NE(r.err.find("its 4000 x 3000 cells (0.05 GB) are held in a temporary file in '" +
-                         (c.root / "out").string() + "' while it is read"),
-              std::string::npos)
-        << r.err;
-    EXPECT_EQ(slurp(csv), slurp(c.in("unlimited.csv")));
-    EXPECT_GT(slurp(csv).size(), 200u * 150u * 10u);  // a row for each of the lattice's points
-    EXPECT_EQ(c.outEntries(), std::vector<std::string>{"order.csv"});
-    fs::remove(csv);
-    const fs::path temp = c.root / "temp";
-    fs::create_directories(temp);
-    r = run(limited + " --temp-dir " + q(temp.string()));
-    ASSERT_EQ(r.code, 0) << r.err;
-    EXPECT_NE(r.err.find("temporary file in '" + temp.string() + "'"), std::string::npos) << r.err;
-    EXPECT_EQ(slurp(csv), slurp(c.in("unlimited.csv")));
-    EXPECT_TRUE(fs::is_empty(temp));
-    fs::remove(csv);
-    expectRejected(c, run(limited + " --temp-dir " + q((c.root / "missing").string())), 1, "",
-                   "--temp-dir '" + (c.root / "missing").string() + "': no such folder");
+    const std::string order = expectReadThroughATemporaryFile(
+        c,
+        "order " + q(c.in("dem.tif")) + " " + q(c.in("rivers.geojson")) + " -o " + q(csv) +
+            " --stride 20 --json",
+        csv);
+    EXPECT_GT(order.size(), 200u * 150u * 10u);  // a row for each of the lattice's points
     expectRejected(c, run("order " + q(c.in("dem.tif")) + " -o " + q(csv) + " --memory-limit 110"),
                    1, c.in("dem.tif"), "more than --memory-limit allows (0.11 GB)");
 }
