@@ -387,8 +387,8 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
         const std::uint64_t held = std::uint64_t((dem.width - 1) / o.stride + 1) *
                                    std::uint64_t((dem.height - 1) / o.stride + 1);
         const std::uint64_t demPoints = sampledDemPoints(data, o.stride);
-        MemoryEstimate estimate =
-            estimateBuildMemory(cells, held, demPoints, itemLoads, threads, tree, cellsOnDisk);
+        MemoryEstimate estimate = estimateBuildMemory(cells, held, demPoints, itemLoads, threads,
+                                                      tree, cellsOnDisk, o.stride);
         if (o.memoryCheck && o.threads == 0 && threads > 1) {
             // The thread count is ours to choose: fewer threads hold fewer blocks at a time.
             // The most that fit (halving, then one more at a time), else all and the refusal.
@@ -396,15 +396,16 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
             const double have = memoryBound(o.memoryLimitBytes, what);
             unsigned fit = threads;
             while (have > 0 && fit > 1 &&
-                   estimateBuildMemory(cells, held, demPoints, itemLoads, fit, tree, cellsOnDisk)
+                   estimateBuildMemory(cells, held, demPoints, itemLoads, fit, tree, cellsOnDisk,
+                                       o.stride)
                            .bytes > have)
                 fit = std::max(1u, fit / 2);
             while (fit < threads && estimateBuildMemory(cells, held, demPoints, itemLoads, fit + 1,
-                                                        tree, cellsOnDisk)
+                                                        tree, cellsOnDisk, o.stride)
                                             .bytes <= have)
                 ++fit;
-            const MemoryEstimate fewer =
-                estimateBuildMemory(cells, held, demPoints, itemLoads, fit, tree, cellsOnDisk);
+            const MemoryEstimate fewer = estimateBuildMemory(cells, held, demPoints, itemLoads, fit,
+                                                             tree, cellsOnDisk, o.stride);
             if (fit < threads && fewer.bytes <= have) {
                 if (o.warn) {
                     char text[200];
@@ -735,8 +736,18 @@ std::uint64_t sampledDemPoints(const Ingested& data, int stride) {
     return cells - std::min(cells, empty);
 }
 
-MemoryEstimate pointMemory(std::uint64_t demPoints, std::uint64_t riverPoints,
-                           double bytesPerPoint) {
+namespace {
+
+// The advice of a refusal at `stride`: twice it takes a quarter of the DEM points.
+std::string widerStride(int stride, const char* doing) {
+    return "--stride " + std::to_string(2 * std::max(1, stride)) + " " + doing +
+           " a quarter of the DEM points";
+}
+
+}  // namespace
+
+MemoryEstimate pointMemory(std::uint64_t demPoints, std::uint64_t riverPoints, double bytesPerPoint,
+                           int stride) {
     MemoryEstimate e;
     e.demPoints = demPoints;
     e.riverPoints = riverPoints;
@@ -744,13 +755,13 @@ MemoryEstimate pointMemory(std::uint64_t demPoints, std::uint64_t riverPoints,
     char text[80];
     std::snprintf(text, sizeof text, "%.0f bytes per point measured", bytesPerPoint);
     e.basis = text;
-    e.smaller = "--stride 2 ranks a quarter of the DEM points";
+    e.smaller = widerStride(stride, "ranks");
     return e;
 }
 
 MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t heldCells,
                                    std::uint64_t demPoints, const std::vector<ItemLoad>& items,
-                                   unsigned threads, bool tree, bool cellsOnDisk) {
+                                   unsigned threads, bool tree, bool cellsOnDisk, int stride) {
     MemoryEstimate e;
     e.demPoints = demPoints;
     for (const ItemLoad& l : items)
@@ -841,14 +852,16 @@ MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t heldCells,
     else if (inFlight > whole && threads > 1)
         e.smaller = "--threads 1 builds one block at a time";
     else
-        e.smaller = "--stride 2 builds a quarter of the DEM points";
+        e.smaller = widerStride(stride, "builds");
     if (e.smaller.rfind("--stride", 0) == 0 && read > (whole + inFlight) / 3) {
-        // Reading takes the whole raster at any stride (README "Large DEMs"): say what stays.
-        char raster[200];
+        // Reading takes every cell at any stride (README "Large DEMs"): say what it needs then.
+        char raster[300];
         std::snprintf(raster, sizeof raster,
-                      ", but reading the raster takes its %.0f bytes a cell (%.2f GB) at any "
-                      "stride: a raster resampled to larger cells first (gdalwarp -tr) needs less",
-                      kBuildBytesPerCell, read / 1e9);
+                      ", though reading the raster takes its %.0f bytes a cell (%.2f GB) or, "
+                      "where the memory cannot hold them, a temporary file of %.2f GB and "
+                      "%.2f GB of memory",
+                      kBuildBytesPerCell, read / 1e9, double(cells) * 4 / 1e9,
+                      double(cells) * (kBuildBytesPerCell - 4) / 1e9);
         e.smaller += raster;
     }
     return e;

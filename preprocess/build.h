@@ -140,14 +140,16 @@ struct ItemLoad {
 // built, `demPoints` DEM points in the model, the blocks' and nodes' loads, `threads` workers,
 // with or without the block hierarchy. The peak is the larger of reading (the raster's cells;
 // `cellsOnDisk`: held in a temporary file, the memory holding the reading's buffers and the
-// lattice) and building (the lattice, the points and the items in flight).
+// lattice) and building (the lattice, the points and the items in flight). `stride`: the build's
+// --stride, for the advice (MemoryEstimate::smaller: twice it builds a quarter of the points).
 MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t heldCells,
                                    std::uint64_t demPoints, const std::vector<ItemLoad>& items,
-                                   unsigned threads, bool tree, bool cellsOnDisk = false);
+                                   unsigned threads, bool tree, bool cellsOnDisk = false,
+                                   int stride = 1);
 
-// The estimate of `order`: kBuildBaseBytes + points * bytesPerPoint.
-MemoryEstimate pointMemory(std::uint64_t demPoints, std::uint64_t riverPoints,
-                           double bytesPerPoint);
+// The estimate of `order` at `stride`: kBuildBaseBytes + points * bytesPerPoint.
+MemoryEstimate pointMemory(std::uint64_t demPoints, std::uint64_t riverPoints, double bytesPerPoint,
+                           int stride);
 
 // The folder of the temporary file that holds a raster larger than the memory while it is read
 // at --stride > 1 (dem.h CellAllocator; build and order): `tempDir` (--temp-dir) when given,

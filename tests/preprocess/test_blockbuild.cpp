@@ -243,6 +243,34 @@ TEST(BuildMemory, CountsRiversAndItemsBuiltTogether) {
     EXPECT_NE(e.basis.find("to read it"), std::string::npos) << e.basis;
 }
 
+// The advice of a refused build takes its --stride: twice it builds a quarter of the points
+// (until 2026-12-03 it was "--stride 2" at any stride, more points at --stride 4). Where the
+// reading weighs, it says what reading at a wider stride still takes: the cells in memory or, as
+// they then would be where the memory cannot hold them, in a temporary file.
+TEST(BuildMemory, AdviceDoublesTheStride) {
+    std::vector<ItemLoad> items(4);
+    for (std::size_t i = 0; i < 4; ++i) {
+        items[i].demPoints = 65536;
+        items[i].leafFirst = i;
+    }
+    const std::uint64_t dem = 4 * 65536;
+    MemoryEstimate e = estimateBuildMemory(dem, dem, dem, items, 1, false);
+    EXPECT_EQ(e.smaller, "--stride 2 builds a quarter of the DEM points");
+    e = estimateBuildMemory(16 * dem, dem, dem, items, 1, false, false, 4);
+    EXPECT_EQ(e.smaller, "--stride 8 builds a quarter of the DEM points");
+    // 48 cells a lattice point: reading 63 MB, building 70 MB.
+    e = estimateBuildMemory(48 * dem, dem, dem, items, 1, false, false, 4);
+    EXPECT_EQ(e.smaller.rfind("--stride 8 builds a quarter of the DEM points, though reading the "
+                              "raster takes its 5 bytes a cell (0.06 GB) or, where the memory "
+                              "cannot hold them, a temporary file of 0.05 GB and 0.01 GB of "
+                              "memory",
+                              0),
+              0u)
+        << e.smaller;
+    EXPECT_EQ(pointMemory(dem, 0, kOrderBytesPerPoint, 3).smaller,
+              "--stride 6 ranks a quarter of the DEM points");
+}
+
 // The memory a build may reach counts what the process holds already: the check after reading
 // compares an estimate of the whole peak, the raster read included, so the raster must not be
 // taken off the bound as well (it was until 2026-12-02). Under an address-space limit (the bound

@@ -199,7 +199,7 @@ int runOrder(const OrderOptions& o) {
         riverVertices += line.size();
     if (o.memory.check && !checkMemory(o.in.demPath,
                                        pointMemory(sampledDemPoints(data, in.stride), riverVertices,
-                                                   kOrderBytesPerPoint),
+                                                   kOrderBytesPerPoint, in.stride),
                                        o.memory.limitBytes(), "rank as one block", error))
         return fail(error);
     BlockSource source;
