@@ -941,11 +941,11 @@ std::uint64_t availableMemory(std::string* what) {
 }
 
 bool checkTempDir(const std::string& tempDir, std::string& error) {
-    if (std::error_code ec; !tempDir.empty() && !std::filesystem::is_directory(tempDir, ec)) {
-        error = "--temp-dir '" + tempDir + "': no such folder";
-        return false;
-    }
-    return true;
+    std::error_code ec;
+    if (tempDir.empty() || std::filesystem::is_directory(tempDir, ec)) return true;
+    error = "--temp-dir '" + tempDir +
+            "': " + (std::filesystem::exists(tempDir, ec) ? "not a folder" : "no such folder");
+    return false;
 }
 
 std::string spillFolder(const std::string& tempDir, const std::string& outPath,

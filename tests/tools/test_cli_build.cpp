@@ -1387,6 +1387,8 @@ std::string expectReadThroughATemporaryFile(const Case& c, const std::string& ar
     fs::remove(out);
     expectRejected(c, run(limited + " --temp-dir " + q((c.root / "missing").string())), 1, "",
                    "--temp-dir '" + (c.root / "missing").string() + "': no such folder");
+    expectRejected(c, run(limited + " --temp-dir " + q(c.in("dem.tif"))), 1, "",
+                   "--temp-dir '" + c.in("dem.tif") + "': not a folder");
     return unlimited;
 }
 }  // namespace
