@@ -860,8 +860,8 @@ MemoryEstimate estimateBuildMemory(std::uint64_t cells, std::uint64_t heldCells,
                       ", though reading the raster takes its %.0f bytes a cell (%.2f GB) or, "
                       "where the memory cannot hold them, a temporary file of %.2f GB and "
                       "%.2f GB of memory",
-                      kBuildBytesPerCell, read / 1e9, double(cells) * 4 / 1e9,
-                      double(cells) * (kBuildBytesPerCell - 4) / 1e9);
+                      kBuildBytesPerCell, double(cells) * kBuildBytesPerCell / 1e9,
+                      double(cells) * 4 / 1e9, double(cells) * (kBuildBytesPerCell - 4) / 1e9);
         e.smaller += raster;
     }
     return e;
