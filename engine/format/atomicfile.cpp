@@ -51,11 +51,12 @@ std::string notRegular(mode_t mode) {
     return kind.empty() ? "is not a regular file" : "is " + kind + ", not a regular file";
 }
 
-// Temporary files removed when the process is stopped by SIGINT, SIGTERM or SIGHUP (Ctrl-C, kill,
-// a closed terminal), so that such a stop leaves no partial file behind either: a fixed table the
-// handler walks with async-signal-safe calls only (unlink), then the signal's default action is
-// taken again (the process ends by the signal, as before). A slot is free (0), being filled (1)
-// or armed (2). Temporary folders (report, 3D Tiles) are not removed here (no async-signal-safe
+// Temporary files removed when the process is stopped by SIGINT, SIGTERM, SIGHUP, SIGQUIT or
+// SIGPIPE (Ctrl-C, kill, a closed terminal, Ctrl-\, a reader gone: `unilod order ... | head`
+// left its temporary CSV behind until 2026-12-03), so that such a stop leaves no partial file
+// behind either: a fixed table the handler walks with async-signal-safe calls only (unlink),
+// then the signal's default action is taken again (the process ends by the signal, as before).
+// A slot is free (0), being filled (1) or armed (2). Temporary folders (report, 3D Tiles) are not removed here (no async-signal-safe
 // recursive removal); the next run writing the same PATH removes them as stale.
 constexpr int kSignalSlots = 64;
 constexpr std::size_t kSignalPathMax = 4096;
@@ -77,7 +78,7 @@ extern "C" void removeTemporariesAndReraise(int sig) {
 void installSignalCleanup() {
     static std::once_flag once;
     std::call_once(once, [] {
-        for (int sig : {SIGINT, SIGTERM, SIGHUP}) {
+        for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE}) {
             struct sigaction old {};
             if (::sigaction(sig, nullptr, &old) != 0 || old.sa_handler != SIG_DFL ||
                 (old.sa_flags & SA_SIGINFO))

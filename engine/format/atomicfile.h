@@ -20,9 +20,9 @@
 //   never replaced: of two runs racing to the same new PATH exactly one succeeds, the other fails
 //   with "already exists". Then the folder is fsynced (best effort).
 // - An AtomicFile destroyed before commit() (any error, an exception) removes its temporary, and
-//   so does a SIGINT, SIGTERM or SIGHUP that stops the process (a handler installed where the
-//   signal's action is the default; the process then ends by the signal as before). A temporary
-//   folder is left to the stale-temporary removal of the next run.
+//   so does a SIGINT, SIGTERM, SIGHUP, SIGQUIT or SIGPIPE that stops the process (a handler
+//   installed where the signal's action is the default; the process then ends by the signal as
+//   before). A temporary folder is left to the stale-temporary removal of the next run.
 // Errors name the file and the problem (strerror): "out.glb: write failed: No space left on
 // device". On failure PATH is untouched: the old file (if any) stays, no partial file appears.
 //

@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -266,15 +267,23 @@ TEST_F(CliOutputs, BuildUsesFewerThreadsWhereMemoryAllowsOnlyFewer) {
 }
 
 // `order` ranks the whole DEM as one point set: the same check, at its own bytes per point,
-// before the point set is made; nothing written when refused.
+// before the point set is made; nothing written when refused. 64.1 MB hold the 64 MB base and
+// the raster (the check before reading, since 2026-12-03 with the base as in `build`), not the
+// points' 130 bytes each as well.
 TEST_F(CliOutputs, OrderMemoryLimitRefusesBeforeTheWork) {
     const std::string out = dir->file("limited.csv");
     const std::string order = "order -q " + q(dem) + " " + q(rivers) + " -o " + q(out);
-    auto r = runCli(order + " --memory-limit 1");
+    auto r = runCli(order + " --memory-limit 64.1");
     EXPECT_EQ(r.code, 1) << r.out << r.err;
     EXPECT_NE(r.err.find(dem), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("to rank as one block (130 bytes per point"), std::string::npos) << r.err;
-    EXPECT_NE(r.err.find("more than --memory-limit allows (0.00 GB)"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("more than --memory-limit allows (0.06 GB)"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("--stride 2 ranks a quarter of the DEM points"), std::string::npos)
+        << r.err;
+    EXPECT_FALSE(fs::exists(out));
+    r = runCli(order + " --memory-limit 1");  // the raster and the base: before reading
+    EXPECT_EQ(r.code, 1) << r.out << r.err;
+    EXPECT_NE(r.err.find("cells need at least 0.06 GB of memory"), std::string::npos) << r.err;
     EXPECT_FALSE(fs::exists(out));
     r = runCli(order + " --memory-limit 1 --no-memory-check");
     EXPECT_EQ(r.code, 0) << r.err;
@@ -312,7 +321,7 @@ TEST_F(CliOutputs, RasterLargerThanTheMemoryRefusedBeforeReading) {
                "hold them)"},
           Case{"build", geo, "60000 x 60000 cells (reprojected) need at least"},
           Case{"order", utm,
-               "60000 x 60000 cells need at least 14.40 GB of memory (4 bytes a cell to read and "
+               "60000 x 60000 cells need at least 14.46 GB of memory (4 bytes a cell to read and "
                "hold them)"}}) {
         SCOPED_TRACE(c.command + " " + c.dem);
         const std::string cmd = c.command + " -q " + q(c.dem) + " -o " + q(out);
@@ -356,16 +365,17 @@ TEST_F(CliOutputs, StaleTemporariesOfKilledRunsRemoved) {
     fs::remove(built);
 }
 
-// A build stopped by SIGTERM or SIGINT (kill, Ctrl-C) removes its temporary output and ends by
-// the signal: no partial file is left (before, the temporary stayed until a later run to the
-// same output removed it as stale). The build of a 1M-point model runs for seconds; the signal
-// is sent as soon as its temporary output appears.
+// A build stopped by SIGTERM, SIGINT or SIGPIPE (kill, Ctrl-C, a reader of its output gone)
+// removes its temporary output and ends by the signal: no partial file is left (before, the
+// temporary stayed until a later run to the same output removed it as stale; SIGPIPE until
+// 2026-12-03). The build of a 1M-point model runs for seconds; the signal is sent as soon as its
+// temporary output appears.
 TEST_F(CliOutputs, BuildStoppedBySignalLeavesNoTemporary) {
     const std::string data = dir->file("bigdata");
     auto r = runCli("synth -q --points 1000000 -o " + q(data));
     ASSERT_EQ(r.code, 0) << r.err;
-    for (int sig : {SIGTERM, SIGINT}) {
-        SCOPED_TRACE(sig == SIGTERM ? "SIGTERM" : "SIGINT");
+    for (int sig : {SIGTERM, SIGINT, SIGPIPE}) {
+        SCOPED_TRACE(strsignal(sig));
         const std::string out = dir->file("signalled.ulod");
         const pid_t child = fork();
         ASSERT_GE(child, 0);
@@ -373,6 +383,7 @@ TEST_F(CliOutputs, BuildStoppedBySignalLeavesNoTemporary) {
             const int devnull = ::open("/dev/null", O_WRONLY);
             dup2(devnull, 1);
             dup2(devnull, 2);
+            signal(SIGPIPE, SIG_DFL);  // as in a shell (a test runner may ignore it)
             execl(UNILOD_CLI, UNILOD_CLI, "build", "-q", (data + "/dem.tif").c_str(),
                   (data + "/rivers.geojson").c_str(), "-o", out.c_str(), "--threads", "1",
                   static_cast<char*>(nullptr));
