@@ -193,6 +193,37 @@ TEST(CliOrder, UsageErrorsExitWith2) {
     }
 }
 
+// `-o -` is stdout where a command's output is text (order's CSV; bench's JSON): the CSV the same
+// bytes as a file's, the summary then on stderr. Elsewhere it is refused as a usage error rather
+// than written as a file named "-".
+TEST(CliOrder, DashOutputIsStdoutForOrderAndRefusedElsewhere) {
+    TempDir dir("dash");
+    const std::string csv = dir.file("order.csv");
+    const std::string args = "order " + q(kDem) + " " + q(kRivers) + " --stride 2";
+    const std::string inDir = "cd " + q(dir.path.string()) + " &&";
+    ASSERT_EQ(run(args + " -q -o " + q(csv)).code, 0);
+    Result r = unilod::test::runCli(args + " -q -o -", inDir);
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.out, slurp(csv));
+    EXPECT_EQ(r.err.find("summary"), std::string::npos) << r.err;  // -q: none
+    r = unilod::test::runCli(args + " -o -", inDir);
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.out, slurp(csv));
+    EXPECT_NE(r.err.find("unilod order summary"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("stdout ("), std::string::npos) << r.err;
+    r = unilod::test::runCli(args + " -o - --json", inDir);
+    EXPECT_EQ(r.code, 2) << r.err;
+    EXPECT_NE(r.err.find("both write to stdout"), std::string::npos) << r.err;
+    for (const std::string& refused :
+         std::vector<std::string>{"build " + q(kDem) + " -o -", "build " + q(kDem) + " --out -",
+                                  "synth --points 1000 -o -", "export " + q(csv) + " -o -"}) {
+        r = unilod::test::runCli(refused, inDir);
+        EXPECT_EQ(r.code, 2) << refused << "\n" << r.err;
+        EXPECT_NE(r.err.find("'-' is not stdout here"), std::string::npos) << refused << r.err;
+    }
+    EXPECT_EQ(dir.entries(), 1u);  // order.csv alone: no file named "-"
+}
+
 TEST(CliOrder, HelpForEveryCommand) {
     for (const std::string args : {"--help", "order --help", "synth --help"}) {
         const Result r = run(args);

@@ -244,7 +244,7 @@ void addBenchCommand(CLI::App& app, int& exitCode) {
                     "each round's ratios (default 1)")
         ->transform(integerIn(1, 100));
     sub->add_flag("--per-frame", c->o.perFrame, "include every frame's numbers in the JSON");
-    addOutputOptions(sub, c->output, "write the JSON to this file ('-': stdout)", false);
+    addOutputOptions(sub, c->output, "write the JSON to this file ('-': stdout)", false, true);
     addJsonOption(sub, c->json,
                   "print the JSON on stdout instead of the table ('-', the default; "
                   "--json FILE: the old spelling of -o FILE)",

@@ -10,9 +10,11 @@
 #include <ogr_spatialref.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -72,61 +74,65 @@ json pointJson(const PointSet& set, PointId id) {
     return json{{"id", id}, {"x", p.x}, {"y", p.y}, {"z", p.z}};
 }
 
-void printText(const json& s) {
+void printText(const json& s, std::FILE* out) {
     const auto& in = s["input"];
     const auto& pts = s["points"];
-    std::printf("unilod order summary\n");
-    std::printf("  DEM            %s (%d x %d cells, %s)\n", in["dem"].get<std::string>().c_str(),
-                in["width"].get<int>(), in["height"].get<int>(),
-                in["crs"].get<std::string>().c_str());
+    std::fprintf(out, "unilod order summary\n");
+    std::fprintf(out, "  DEM            %s (%d x %d cells, %s)\n",
+                 in["dem"].get<std::string>().c_str(), in["width"].get<int>(),
+                 in["height"].get<int>(), in["crs"].get<std::string>().c_str());
     const std::string rivers = in["rivers"].get<std::string>();
-    std::printf("  rivers         %s\n", rivers.empty() ? "none (terrain only)" : rivers.c_str());
-    std::printf("  DEM points     %zu (stride %d, %zu dropped next to rivers)\n",
-                pts["dem"].get<std::size_t>(), in["stride"].get<int>(),
-                pts["demDroppedNearRivers"].get<std::size_t>());
-    std::printf("  river points   %zu in %zu polylines\n", pts["river"].get<std::size_t>(),
-                pts["polylines"].get<std::size_t>());
-    std::printf("  locked points  %zu\n", pts["locked"].get<std::size_t>());
+    std::fprintf(out, "  rivers         %s\n",
+                 rivers.empty() ? "none (terrain only)" : rivers.c_str());
+    std::fprintf(out, "  DEM points     %zu (stride %d, %zu dropped next to rivers)\n",
+                 pts["dem"].get<std::size_t>(), in["stride"].get<int>(),
+                 pts["demDroppedNearRivers"].get<std::size_t>());
+    std::fprintf(out, "  river points   %zu in %zu polylines\n", pts["river"].get<std::size_t>(),
+                 pts["polylines"].get<std::size_t>());
+    std::fprintf(out, "  locked points  %zu\n", pts["locked"].get<std::size_t>());
     for (const char* k : {"O", "A", "B"}) {
         const auto& p = s["basePlane"][k];
         if (p.is_null()) {
-            std::printf("  %s              none\n", k);
+            std::fprintf(out, "  %s              none\n", k);
         } else {
-            std::printf("  %s              id %u (%.3f, %.3f, %.3f)\n", k, p["id"].get<unsigned>(),
-                        p["x"].get<double>(), p["y"].get<double>(), p["z"].get<double>());
+            std::fprintf(out, "  %s              id %u (%.3f, %.3f, %.3f)\n", k,
+                         p["id"].get<unsigned>(), p["x"].get<double>(), p["y"].get<double>(),
+                         p["z"].get<double>());
         }
     }
-    std::printf("  chain length   %zu\n", s["chainLength"].get<std::size_t>());
-    std::printf("  BAI            %s\n", s["bai"]["enabled"].get<bool>()
-                                             ? ("on, row " + jsonText(s["bai"]["row"]) + " m").c_str()
-                                             : "off (plain 3D_DP)");
+    std::fprintf(out, "  chain length   %zu\n", s["chainLength"].get<std::size_t>());
+    std::fprintf(out, "  BAI            %s\n",
+                 s["bai"]["enabled"].get<bool>()
+                     ? ("on, row " + jsonText(s["bai"]["row"]) + " m").c_str()
+                     : "off (plain 3D_DP)");
     for (const char* k : {"dem", "river"}) {
         const auto& q = s["importance"][k];
         if (q["count"].get<std::size_t>() == 0) {
-            std::printf("  importance %-5s (no ranked points)\n", k);
+            std::fprintf(out, "  importance %-5s (no ranked points)\n", k);
             continue;
         }
-        std::printf("  importance %-5s min %.3f  median %.3f  p90 %.3f  max %.3f  (%zu points)\n",
-                    k, q["min"].get<double>(), q["median"].get<double>(), q["p90"].get<double>(),
-                    q["max"].get<double>(), q["count"].get<std::size_t>());
+        std::fprintf(out,
+                     "  importance %-5s min %.3f  median %.3f  p90 %.3f  max %.3f  (%zu points)\n",
+                     k, q["min"].get<double>(), q["median"].get<double>(), q["p90"].get<double>(),
+                     q["max"].get<double>(), q["count"].get<std::size_t>());
     }
-    std::printf("  bends          %zu\n", s["bends"]["count"].get<std::size_t>());
+    std::fprintf(out, "  bends          %zu\n", s["bends"]["count"].get<std::size_t>());
     if (!s["bends"]["top"].empty()) {
-        std::printf(
-            "  largest BAI    polyline        W (m)        L (m)       S (m2)   mean z"
-            "        BAI      C\n");
+        std::fprintf(out,
+                     "  largest BAI    polyline        W (m)        L (m)       S (m2)   mean z"
+                     "        BAI      C\n");
         for (const auto& b : s["bends"]["top"]) {
-            std::printf("                 %8zu %12.1f %12.1f %12.0f %8.1f %10.3f %6.2f\n",
-                        b["polyline"].get<std::size_t>(), b["W"].get<double>(),
-                        b["L"].get<double>(), b["S"].get<double>(), b["meanZ"].get<double>(),
-                        b["bai"].get<double>(), b["c"].get<double>());
+            std::fprintf(out, "                 %8zu %12.1f %12.1f %12.0f %8.1f %10.3f %6.2f\n",
+                         b["polyline"].get<std::size_t>(), b["W"].get<double>(),
+                         b["L"].get<double>(), b["S"].get<double>(), b["meanZ"].get<double>(),
+                         b["bai"].get<double>(), b["c"].get<double>());
         }
     }
     if (s.contains("output")) {
-        std::printf("  output         %s (%zu rows)\n", s["output"].get<std::string>().c_str(),
-                    s["outputRows"].get<std::size_t>());
+        std::fprintf(out, "  output         %s (%zu rows)\n",
+                     s["output"].get<std::string>().c_str(), s["outputRows"].get<std::size_t>());
     }
-    std::printf("  total          %.2f s\n", s["seconds"]["total"].get<double>());
+    std::fprintf(out, "  total          %.2f s\n", s["seconds"]["total"].get<double>());
 }
 
 int runOrder(const OrderOptions& o) {
@@ -138,10 +144,17 @@ int runOrder(const OrderOptions& o) {
     };
     // Fail fast on an existing or unwritable output (or one of the inputs) before the long work.
     if (!checkTempDir(o.tempDir, error)) return fail(error);
+    // `-o -`: the CSV on stdout, the summary on stderr (none with -q).
+    const bool csvStdout = o.out.path == "-";
+    if (csvStdout && o.json.requested()) {
+        std::fprintf(stderr, "unilod order: -o - and --json both write to stdout: give one\n");
+        return 2;
+    }
+    const std::string csvPath = csvStdout ? std::string() : o.out.path;
     format::AtomicFile csv;
     format::OutputOptions output = outputOptions(o.out, {o.in.demPath, o.in.riversPath});
     if (!o.baiTable.empty()) output.inputs.push_back(o.baiTable);
-    if (!o.out.path.empty() && !csv.open(o.out.path, output, error)) return fail(error);
+    if (!csvPath.empty() && !csv.open(csvPath, output, error)) return fail(error);
     Progress bar("order", !o.quiet, "ingest");
     // Each stage's result as a line of its own (what the stage found), then the next stage.
     auto progress = [&](const char* stage, double seconds, const std::string& detail) {
@@ -173,7 +186,7 @@ int runOrder(const OrderOptions& o) {
     // temporary file (dem.h CellAllocator), and only the lattice is kept once the river heights
     // are sampled.
     in.demBaseBytes = kBuildBaseBytes;
-    in.demSpillDir = spillFolder(o.tempDir, o.out.path, in.demMemoryWhat);
+    in.demSpillDir = spillFolder(o.tempDir, csvPath, in.demMemoryWhat);
     Ingested data;
     if (!ingest(in, data, error)) return fail(error);
     const DemGrid& dem = data.dem;
@@ -304,6 +317,12 @@ int runOrder(const OrderOptions& o) {
         t = Clock::now();
         bar.stage("write CSV", result.order.size());
         // Written in chunks of about 1 MiB: the order of a large DEM is gigabytes of text.
+        const auto writeCsv = [&](const std::string& text) {
+            if (!csvStdout) return csv.write(text, error);
+            if (std::fwrite(text.data(), 1, text.size(), stdout) == text.size()) return true;
+            error = "stdout: " + std::string(std::strerror(errno));
+            return false;
+        };
         std::string chunk = "rank,id,x,y,z,kind,locked,importance,own_importance,bai_factor\n";
         char line[256];
         for (std::size_t rank = 0; rank < result.order.size(); ++rank) {
@@ -316,15 +335,16 @@ int runOrder(const OrderOptions& o) {
             chunk += line;
             if (chunk.size() >= (1u << 20)) {
                 bar.update(rank + 1, result.order.size());
-                if (!csv.write(chunk, error)) return fail(error);
+                if (!writeCsv(chunk)) return fail(error);
                 chunk.clear();
             }
         }
-        if (!csv.write(chunk, error)) return fail(error);
-        if (!csv.commit(error)) return fail(error);
+        if (!writeCsv(chunk)) return fail(error);
+        if (csvStdout ? std::fflush(stdout) != 0 : !csv.commit(error))
+            return fail(csvStdout ? "stdout: " + std::string(std::strerror(errno)) : error);
         seconds["csv"] = secondsSince(t);
-        progress("write CSV", seconds["csv"], o.out.path);
-        summary["output"] = o.out.path;
+        progress("write CSV", seconds["csv"], csvStdout ? "stdout" : o.out.path);
+        summary["output"] = csvStdout ? "stdout" : o.out.path;
         summary["outputRows"] = result.order.size();
     }
     summary["importanceStats"] = {{"maxDepth", result.stats.maxDepth},
@@ -335,8 +355,10 @@ int runOrder(const OrderOptions& o) {
 
     if (o.json.requested()) {
         std::printf("%s\n", jsonText(summary, 2).c_str());
-    } else {
-        printText(summary);
+    } else if (!csvStdout) {
+        printText(summary, stdout);
+    } else if (!o.quiet) {
+        printText(summary, stderr);
     }
     return 0;
 }
@@ -379,7 +401,10 @@ void addOrderCommand(CLI::App& app, int& exitCode) {
                 return "no such row in the paper's table (rows: " + rows + ")";
             },
             "ROW", "bai-row"));
-    addOutputOptions(sub, opts->out, "write the deletion order as CSV (rank ascending)", false);
+    addOutputOptions(sub, opts->out,
+                     "write the deletion order as CSV (rank ascending); '-': on stdout, the "
+                     "summary then on stderr",
+                     false, true);
     addJsonOption(sub, opts->json, "print the summary as JSON on stdout ('-', the default)");
     addQuietFlag(sub, opts->quiet);
     sub->callback([opts, &exitCode] { exitCode = runOrder(*opts); });

@@ -12,10 +12,20 @@
 
 namespace unilod::cli {
 
-CLI::Option* addOutputOptions(CLI::App* sub, OutputFlags& o, const std::string& help,
-                              bool required) {
+CLI::Option* addOutputOptions(CLI::App* sub, OutputFlags& o, const std::string& help, bool required,
+                              bool stdoutAllowed) {
     CLI::Option* output = sub->add_option("-o,--output", o.path, help);
     if (required) output->required();
+    if (!stdoutAllowed) {
+        const std::string name = sub->get_name();
+        output->check(CLI::Validator(
+            [name](std::string& v) -> std::string {
+                if (v != "-") return "";
+                return "'-' is not stdout here: " + name +
+                       " writes to a named path (./- names a file '-')";
+            },
+            ""));
+    }
     // The old spelling feeds the documented option, so that `required` is met by either.
     sub->add_option_function<std::string>(
            "--out", [output](const std::string& v) { output->add_result(v); },

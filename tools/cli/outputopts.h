@@ -36,10 +36,12 @@ enum class OutputKind { File, Folder };
 
 // Adds `-o,--output PATH` (help `help`) and `--overwrite`, with the old spellings `--out` and
 // `--force` as hidden aliases. `required`: a missing -o/--output is a usage error (exit 2, raised
-// after the subcommand's options are parsed, so that the old alias satisfies it too). Returns
+// after the subcommand's options are parsed, so that the old alias satisfies it too).
+// `stdoutAllowed`: `-o -` means stdout (bench's JSON, order's CSV); otherwise `-` is refused as a
+// usage error (exit 2) instead of writing a file named "-" (`-o ./-` still names one). Returns
 // the -o,--output option.
 CLI::Option* addOutputOptions(CLI::App* sub, OutputFlags& o, const std::string& help,
-                              bool required = true);
+                              bool required = true, bool stdoutAllowed = false);
 
 // The existing-output rule above for `o.path` (`kind`): true when the command may write it.
 // False with `error` = "PATH: already exists (use --overwrite to replace it)" (or why the path
