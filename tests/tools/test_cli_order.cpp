@@ -216,7 +216,9 @@ TEST(CliOrder, DashOutputIsStdoutForOrderAndRefusedElsewhere) {
     EXPECT_NE(r.err.find("both write to stdout"), std::string::npos) << r.err;
     for (const std::string& refused :
          std::vector<std::string>{"build " + q(kDem) + " -o -", "build " + q(kDem) + " --out -",
-                                  "synth --points 1000 -o -", "export " + q(csv) + " -o -"}) {
+                                  "synth --points 1000 -o -", "export " + q(csv) + " -o -",
+                                  "export " + q(csv) + " --3dtiles -",
+                                  "view " + q(csv) + " --frames 1 --screenshot -"}) {
         r = unilod::test::runCli(refused, inDir);
         EXPECT_EQ(r.code, 2) << refused << "\n" << r.err;
         EXPECT_NE(r.err.find("'-' is not stdout here"), std::string::npos) << refused << r.err;

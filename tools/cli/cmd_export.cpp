@@ -199,10 +199,12 @@ void addExportCommand(CLI::App& app, int& exitCode) {
     sub->add_option("--metric", c->metric, "error metric (default: the file's)")
         ->check(CLI::IsMember({"max", "paper"}));
     CLI::Option* out = addOutputOptions(sub, c->output, "output .glb", false);
-    CLI::Option* tiles = sub->add_option(
-        "--3dtiles", c->tilesDir,
-        "write the whole model as a 3D Tiles 1.1 tileset into this new folder (tileset.json + "
-        "tiles/*.glb; the stored levels as chains of tiles, refine REPLACE, on the WGS84 globe)");
+    CLI::Option* tiles = sub->add_option("--3dtiles", c->tilesDir,
+                                         "write the whole model as a 3D Tiles 1.1 tileset into "
+                                         "this new folder (tileset.json + "
+                                         "tiles/*.glb; the stored levels as chains of tiles, "
+                                         "refine REPLACE, on the WGS84 globe)")
+                             ->check(notStdout("export"));
     out->excludes(tiles);
     tiles->excludes(out)->excludes(camera)->excludes(hLim);
     sub->add_option("--s-srs", c->sourceSrs,

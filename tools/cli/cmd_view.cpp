@@ -91,7 +91,8 @@ void addViewCommand(CLI::App& app, int& exitCode) {
         ->transform(integerIn(1, 1000000000));
     sub->add_option("--screenshot", c->o.screenshotPath,
                     "with --frames: write the last frame to this PNG (rendering goes on, at most "
-                    "30 s, until every block the view selects is loaded)");
+                    "30 s, until every block the view selects is loaded)")
+        ->check(notStdout("view"));
     sub->add_flag("--overwrite", c->overwrite, "--screenshot: replace an existing PNG");
     sub->add_flag("--force", c->overwrite, "old spelling of --overwrite")->group("");
     sub->add_option("--resize", c->resize,

@@ -16,16 +16,7 @@ CLI::Option* addOutputOptions(CLI::App* sub, OutputFlags& o, const std::string& 
                               bool stdoutAllowed) {
     CLI::Option* output = sub->add_option("-o,--output", o.path, help);
     if (required) output->required();
-    if (!stdoutAllowed) {
-        const std::string name = sub->get_name();
-        output->check(CLI::Validator(
-            [name](std::string& v) -> std::string {
-                if (v != "-") return "";
-                return "'-' is not stdout here: " + name +
-                       " writes to a named path (./- names a file '-')";
-            },
-            ""));
-    }
+    if (!stdoutAllowed) output->check(notStdout(sub->get_name()));
     // The old spelling feeds the documented option, so that `required` is met by either.
     sub->add_option_function<std::string>(
            "--out", [output](const std::string& v) { output->add_result(v); },
@@ -36,6 +27,16 @@ CLI::Option* addOutputOptions(CLI::App* sub, OutputFlags& o, const std::string& 
                   "replace an existing output (a folder output: one that is not empty)");
     sub->add_flag("--force", o.overwrite, "old spelling of --overwrite")->group("");
     return output;
+}
+
+CLI::Validator notStdout(const std::string& command) {
+    return CLI::Validator(
+        [command](std::string& v) -> std::string {
+            if (v != "-") return "";
+            return "'-' is not stdout here: " + command +
+                   " writes to a named path (./- is one called '-')";
+        },
+        "");
 }
 
 bool checkOutput(const OutputFlags& o, OutputKind kind, std::string& error) {

@@ -43,6 +43,10 @@ enum class OutputKind { File, Folder };
 CLI::Option* addOutputOptions(CLI::App* sub, OutputFlags& o, const std::string& help,
                               bool required = true, bool stdoutAllowed = false);
 
+// Refuses `-` as an output path of `command` (a usage error, exit 2): its output is a named file or
+// folder, not stdout (addOutputOptions without stdoutAllowed; export --3dtiles, view --screenshot).
+CLI::Validator notStdout(const std::string& command);
+
 // The existing-output rule above for `o.path` (`kind`): true when the command may write it.
 // False with `error` = "PATH: already exists (use --overwrite to replace it)" (or why the path
 // cannot be an output: a directory where a file is expected, a FIFO). Commands that write through
