@@ -40,11 +40,12 @@ std::string inputsName(const BuildOptions& o) {
 }
 
 // The output rules: replace only with --overwrite, and never one of the inputs (also with
-// --overwrite: `build dem.tif rivers.geojson -o dem.tif --overwrite` must not destroy the DEM).
+// --overwrite: `build dem.tif rivers.geojson -o dem.tif --overwrite` must not destroy the DEM,
+// nor `-o rivers.dbf` the Shapefile's table: every file of the inputs, ingest.h addInputFiles).
 format::OutputOptions outputOptions(const BuildOptions& o) {
     format::OutputOptions out;
     out.replace = o.force;
-    out.inputs = {o.demPath, o.riversPath};
+    addInputFiles(out, o.demPath, o.riversPath);
     if (!o.baiTablePath.empty()) out.inputs.push_back(o.baiTablePath);
     return out;
 }
@@ -129,7 +130,8 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
         error = "no output file given (-o OUT.ulod)";
         return false;
     }
-    if (!format::checkOutputPath(o.outPath, outputOptions(o), false, error)) return false;
+    const format::OutputOptions output = outputOptions(o);
+    if (!format::checkOutputPath(o.outPath, output, false, error)) return false;
     if (o.threads < 0) {
         error = "--threads " + std::to_string(o.threads) + ": must be >= 0";
         return false;
@@ -428,7 +430,7 @@ bool buildModel(const BuildOptions& o, BuildSummary& summary, std::string& error
             return false;
     }
     format::Writer writer;
-    if (!writer.open(o.outPath, header, n, outputOptions(o), error)) return false;
+    if (!writer.open(o.outPath, header, n, output, error)) return false;
     writer.storeRaw(o.rawBlocks);
     const std::size_t window = kWriterWindowPerThread * std::size_t(threads);
     std::vector<format::Block> results(n);

@@ -1,12 +1,15 @@
 // Ingestion (ingest.h): the one path from a DEM + river files to block point sets.
 #include "ingest.h"
 
+#include <sys/stat.h>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <utility>
 
+#include "atomicfile.h"
+#include "gdal_errors.h"
 #include "predicates.h"
 #include "ulod.h"
 
@@ -168,6 +171,41 @@ std::string cells(const DemGrid& dem) {
 }
 
 }  // namespace
+
+std::vector<std::string> datasetFiles(const std::string& name, bool raster) {
+    if (name.empty()) return {};
+    // A path on the disk that is no regular file or folder is not opened (a FIFO would block):
+    // the name itself or the file a GDAL name reads (a subdataset's container).
+    const auto openable = [](const std::string& path) {
+        struct stat st {};
+        return path.empty() || ::stat(path.c_str(), &st) != 0 || S_ISREG(st.st_mode) ||
+               S_ISDIR(st.st_mode);
+    };
+    if (!openable(name) || !openable(format::fileInside(name))) return {};
+    QuietGdalErrors quiet;
+    GDALDatasetH dataset =
+        GDALOpenEx(name.c_str(), GDAL_OF_READONLY | (raster ? GDAL_OF_RASTER : GDAL_OF_VECTOR),
+                   nullptr, nullptr, nullptr);
+    if (dataset == nullptr) return {};
+    std::vector<std::string> files;
+    char** list = GDALGetFileList(dataset);
+    for (char** f = list; f != nullptr && *f != nullptr; ++f)
+        if (*f != name && std::find(files.begin(), files.end(), *f) == files.end())
+            files.emplace_back(*f);
+    CSLDestroy(list);
+    GDALClose(dataset);
+    return files;
+}
+
+void addInputFiles(format::OutputOptions& output, const std::string& demPath,
+                   const std::string& riversPath) {
+    for (const auto& [name, raster] : {std::pair{&demPath, true}, {&riversPath, false}}) {
+        if (name->empty()) continue;
+        output.inputs.push_back(*name);
+        for (std::string& file : datasetFiles(*name, raster))
+            output.inputParts.emplace_back(std::move(file), *name);
+    }
+}
 
 bool ingest(const IngestOptions& o, Ingested& data, std::string& error) {
     data = Ingested{};

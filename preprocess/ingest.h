@@ -14,7 +14,9 @@
 #include <functional>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
+#include <vector>
 
+#include "atomicfile.h"
 #include "blocks.h"
 #include "dem.h"
 #include "nodata.h"
@@ -92,6 +94,20 @@ int automaticBlockSize(const DemGrid& dem, int stride);
 // False with `error` naming --block-size when blocks of `blockSize` cells (clamped to the DEM)
 // would not fit that grid.
 bool checkBlockFitsExactGrid(const DemGrid& dem, int stride, int blockSize, std::string& error);
+
+// The files a GDAL input consists of besides its name, for the output checks (an output is
+// never one of them, also with --overwrite): where GDAL opens `name` (`raster`: as a raster,
+// else as a vector source), every other file its driver lists (GDALGetFileList): a Shapefile's
+// .shx, .dbf and .prj, a VRT's source rasters, a GeoTIFF's .aux.xml, .ovr or world file, the
+// container of a subdataset. (`build dem.vrt -o src.tif --overwrite`, src.tif a source of the
+// VRT, replaced the source raster; `-o rivers.dbf` the Shapefile's table.) Nothing for a name
+// that is no regular file or folder (a FIFO: opening it would block) or that GDAL cannot open:
+// its reader reports it.
+std::vector<std::string> datasetFiles(const std::string& name, bool raster);
+// Adds a DEM (raster) and rivers (vector; "": none) to `output`: each name to inputs, its
+// datasetFiles to inputParts.
+void addInputFiles(format::OutputOptions& output, const std::string& demPath,
+                   const std::string& riversPath);
 
 // The build info keys of these options: `unilod build` records them in the .ulod file,
 // `unilod report` reads them back (absent keys keep the defaults).

@@ -149,8 +149,8 @@ int main(int argc, char** argv) {
     std::printf("%s\n", text.c_str());
     if (!out.empty()) {
         std::string error;
-        if (!unilod::format::writeFileAtomically(out, text + "\n", {.replace = true, .inputs = {}},
-                                                 error)) {
+        if (!unilod::format::writeFileAtomically(
+                out, text + "\n", {.replace = true, .inputs = {}, .inputParts = {}}, error)) {
             std::fprintf(stderr, "bench_importance: error: %s\n", error.c_str());
             return 1;
         }

@@ -710,7 +710,7 @@ bool writeSyntheticData(const SyntheticData& data, const std::string& dir, std::
     srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
     // GDAL writes the temporaries by name; AtomicFile checks, syncs and moves them into place
     // (replacing the files of an earlier run only when `replace`).
-    const format::OutputOptions output{.replace = replace, .inputs = {}};
+    const format::OutputOptions output{.replace = replace, .inputs = {}, .inputParts = {}};
     format::AtomicFile demFile, riverFile;
     return demFile.openByName(demPath, output, error) &&
            riverFile.openByName(riverPath, output, error) &&

@@ -170,6 +170,26 @@ bool inputIs(const std::string& name, const struct stat& out) {
     return !inside.empty() && ::stat(inside.c_str(), &in) == 0 && sameFile(in, out);
 }
 
+// Why the existing file `out` at `path` is not to be replaced because it is an input or a file
+// of one ("is also an input of this command"); "" when it is neither.
+std::string inputConflict(const std::string& path, const struct stat& out,
+                          const OutputOptions& options) {
+    for (const std::string& input : options.inputs) {
+        if (inputIs(input, out)) {
+            return input == path
+                       ? "is also an input of this command: refusing to overwrite it"
+                       : "is the same file as the input '" + input + "': refusing to overwrite it";
+        }
+    }
+    for (const auto& [file, input] : options.inputParts) {
+        if (inputIs(file, out)) {
+            return "is a file of the input '" + input +
+                   "' (read with it): refusing to overwrite it";
+        }
+    }
+    return "";
+}
+
 // Makes the directory entries of `folder` (a rename) durable; some file systems refuse fsync
 // on folders, so this is best effort.
 void syncFolder(const std::string& folder) {
@@ -202,14 +222,8 @@ bool checkOutputPath(const std::string& path, const OutputOptions& options, bool
     }
     struct stat out {};
     if (::stat(path.c_str(), &out) == 0) {
-        for (const std::string& input : options.inputs) {
-            if (inputIs(input, out)) {
-                return fail(input == path ? "is also an input of this command: refusing to "
-                                            "overwrite it"
-                                          : "is the same file as the input '" + input +
-                                                "': refusing to overwrite it");
-            }
-        }
+        const std::string conflict = inputConflict(path, out, options);
+        if (!conflict.empty()) return fail(conflict);
         if (folder) {
             if (!S_ISDIR(out.st_mode) || !std::filesystem::is_empty(path)) {
                 return fail("already exists and is not an empty folder");
@@ -394,13 +408,8 @@ bool AtomicFile::commit(std::string& error) {
     // Inputs may have been moved onto PATH while we wrote: check again just before the move.
     struct stat out {};
     if (::stat(path_.c_str(), &out) == 0) {
-        for (const std::string& input : options_.inputs) {
-            if (inputIs(input, out)) {
-                return fail(
-                    "is the same file as the input '" + input + "': refusing to overwrite it",
-                    error);
-            }
-        }
+        const std::string conflict = inputConflict(path_, out, options_);
+        if (!conflict.empty()) return fail(conflict, error);
     }
 
     const char* from = temp_.c_str();

@@ -37,6 +37,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace unilod::format {
@@ -44,6 +45,9 @@ namespace unilod::format {
 struct OutputOptions {
     bool replace = false;             // replace an existing PATH (--force); never an input
     std::vector<std::string> inputs;  // files the command reads: PATH must not be one of them
+    // Files that belong to an input and are read with it, as (file, the input): a Shapefile's
+    // .dbf, a VRT's source rasters (preprocess/ingest.h addInputFiles). PATH is none of them.
+    std::vector<std::pair<std::string, std::string>> inputParts;
 };
 
 class AtomicFile {

@@ -566,8 +566,8 @@ bool Writer::finish(std::string& error) {
 bool writeUlod(const std::string& path, const Header& header, const std::vector<Block>& blocks,
                std::string& error) {
     Writer writer;
-    if (!writer.open(path, header, blocks.size(), OutputOptions{.replace = true, .inputs = {}},
-                     error)) {
+    if (!writer.open(path, header, blocks.size(),
+                     OutputOptions{.replace = true, .inputs = {}, .inputParts = {}}, error)) {
         return false;
     }
     for (const Block& b : blocks) {

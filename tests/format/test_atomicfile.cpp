@@ -38,8 +38,8 @@ std::set<std::string> names(const TempDir& dir) {
 
 using unilod::test::deadPid;
 
-const OutputOptions kReplace{.replace = true, .inputs = {}};
-const OutputOptions kNoReplace{.replace = false, .inputs = {}};
+const OutputOptions kReplace{.replace = true, .inputs = {}, .inputParts = {}};
+const OutputOptions kNoReplace{.replace = false, .inputs = {}, .inputParts = {}};
 
 }  // namespace
 
@@ -132,7 +132,7 @@ TEST(AtomicFile, TwoWritersOfANewFileExactlyOneWins) {
 TEST(AtomicFile, OutputNeverAnInput) {
     TempDir dir("inputs");
     const std::string input = dir.write("model.ulod", "precious");
-    const OutputOptions withInput{.replace = true, .inputs = {input}};
+    const OutputOptions withInput{.replace = true, .inputs = {input}, .inputParts = {}};
     std::string error;
     // The input itself, also when replacing (--force).
     EXPECT_FALSE(writeFileAtomically(input, "glb", withInput, error));
@@ -171,7 +171,7 @@ TEST(AtomicFile, OutputNeverTheFileInsideAnInputName) {
     std::string error;
     for (const auto& [input, output] :
          {std::pair{"GPKG:" + gpkg + ":elev", gpkg}, {"/vsizip/" + zip + "/dem.tif", zip}}) {
-        const OutputOptions options{.replace = true, .inputs = {input}};
+        const OutputOptions options{.replace = true, .inputs = {input}, .inputParts = {}};
         EXPECT_FALSE(writeFileAtomically(output, "model", options, error)) << input;
         EXPECT_NE(error.find("is the same file as the input '" + input + "'"), std::string::npos)
             << error;

@@ -20,6 +20,7 @@
 #include <set>
 #include <string>
 #include <thread>
+#include <tuple>
 
 #include "testutil.h"
 #include "tools/cliutil.h"
@@ -409,6 +410,46 @@ TEST_F(CliOutputs, BuildStoppedBySignalLeavesNoTemporary) {
 // An output folder that holds the command's input is refused with --overwrite, before the folder
 // is moved aside (the input was moved away with it and the command failed with "cannot open: No
 // such file or directory").
+// The files GDAL reads with an input are inputs too (preprocess/ingest.h addInputFiles):
+// `build dem.vrt -o src.tif --overwrite` replaced the VRT's source raster, and `-o rivers.dbf
+// --overwrite` the Shapefile's attribute table; order and report the same.
+TEST_F(CliOutputs, FilesReadWithAnInputRefusedEvenWithOverwrite) {
+    const std::string folder = dir->file("parts");
+    fs::create_directories(folder);
+    fs::create_directories(folder + "/sources");
+    const std::string src = folder + "/sources/src.tif", vrt = folder + "/dem.vrt";
+    const std::string shp = folder + "/rivers.shp", dbf = folder + "/rivers.dbf";
+    fs::copy_file(dem, src);
+    ASSERT_EQ(std::system(("gdalbuildvrt -q " + q(vrt) + " " + q(src)).c_str()), 0);
+    ASSERT_EQ(std::system(("ogr2ogr " + q(shp) + " " + q(rivers) + " 2>/dev/null").c_str()), 0);
+    ASSERT_TRUE(fs::exists(dbf));
+    const std::string srcBefore = slurp(src), dbfBefore = slurp(dbf);
+    const std::string inputs = " " + q(vrt) + " " + q(shp) + " --overwrite -o ";
+    for (const auto& [command, target, input] :
+         {std::tuple{"build -q" + inputs + q(src) + kBlocks, src, vrt},
+          {"build -q" + inputs + q(dbf) + kBlocks, dbf, shp},
+          {"order -q" + inputs + q(src), src, vrt},
+          {"order -q" + inputs + q(dbf), dbf, shp}}) {
+        SCOPED_TRACE(command);
+        const auto r = runCli(command);
+        EXPECT_EQ(r.code, 1) << r.out << r.err;
+        EXPECT_NE(r.err.find(target + ": is a file of the input '" + input + "'"),
+                  std::string::npos)
+            << r.err;
+    }
+    // report: its output folder may not hold a file of an input either.
+    const auto r = runCli("report -q " + q(model) + " --dem " + q(vrt) + " -o " +
+                          q(folder + "/sources") + " --overwrite --bench-frames 0");
+    EXPECT_EQ(r.code, 1) << r.out << r.err;
+    EXPECT_NE(r.err.find("holds '" + src + "', an input of this command"), std::string::npos)
+        << r.err;
+    EXPECT_EQ(slurp(src), srcBefore);
+    EXPECT_EQ(slurp(dbf), dbfBefore);
+    // The same inputs build, writing elsewhere.
+    const auto ok = runCli("build -q" + inputs + q(folder + "/m.ulod") + kBlocks);
+    EXPECT_EQ(ok.code, 0) << ok.err;
+}
+
 TEST_F(CliOutputs, OutputFolderHoldingTheInputRefused) {
     const std::string folder = dir->file("holds_input");
     fs::create_directories(folder);

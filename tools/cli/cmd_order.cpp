@@ -152,7 +152,8 @@ int runOrder(const OrderOptions& o) {
     }
     const std::string csvPath = csvStdout ? std::string() : o.out.path;
     format::AtomicFile csv;
-    format::OutputOptions output = outputOptions(o.out, {o.in.demPath, o.in.riversPath});
+    format::OutputOptions output = outputOptions(o.out, {});
+    addInputFiles(output, o.in.demPath, o.in.riversPath);  // every file of each (ingest.h)
     if (!o.baiTable.empty()) output.inputs.push_back(o.baiTable);
     if (!csvPath.empty() && !csv.open(csvPath, output, error)) return fail(error);
     Progress bar("order", !o.quiet, "ingest");

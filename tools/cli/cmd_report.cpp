@@ -11,6 +11,7 @@
 
 #include "commands.h"
 #include "engineopts.h"
+#include "ingest.h"
 #include "numbers.h"
 #include "outputopts.h"
 #include "progress.h"
@@ -46,9 +47,13 @@ int run(ReportCli& c) {
     c.o.outDir = c.output.path;
     std::string error;
     ReplacedFolder old;
+    format::OutputOptions read{.replace = false, .inputs = {c.o.path}, .inputParts = {}};
+    addInputFiles(read, c.o.demPath, c.o.riversPath);  // every file of each (ingest.h)
+    std::vector<std::string> inputs = read.inputs;
+    for (const auto& part : read.inputParts)
+        inputs.push_back(part.first);
     if (!checkOutput(c.output, OutputKind::Folder, error) ||
-        (c.output.overwrite &&
-         !old.moveAside(c.output.path, {c.o.path, c.o.demPath, c.o.riversPath}, error))) {
+        (c.output.overwrite && !old.moveAside(c.output.path, inputs, error))) {
         std::fprintf(stderr, "unilod report: error: %s\n", error.c_str());
         return 1;
     }

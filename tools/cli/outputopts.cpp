@@ -117,7 +117,8 @@ bool ReplacedFolder::moveAside(const std::string& path, const std::vector<std::s
     // An input inside the folder (by its real path: symbolic links and ".." resolved).
     const std::filesystem::path folder = std::filesystem::weakly_canonical(path, ec);
     for (const std::string& input : inputs) {
-        if (ec || input.empty()) break;
+        if (ec) break;
+        if (input.empty()) continue;  // an input not given (report's --dem)
         std::error_code ic;
         const std::filesystem::path in = std::filesystem::weakly_canonical(input, ic);
         if (ic) continue;

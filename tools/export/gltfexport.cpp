@@ -100,7 +100,9 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
     summary = {};
     // The output first: a bad -o (the input itself, a missing folder) fails before the work.
     format::AtomicFile out;
-    if (!out.open(options.outPath, {.replace = options.overwrite, .inputs = {options.path}}, error)) {
+    if (!out.open(options.outPath,
+                  {.replace = options.overwrite, .inputs = {options.path}, .inputParts = {}},
+                  error)) {
         return false;
     }
     format::Reader reader;

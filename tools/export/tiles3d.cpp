@@ -366,8 +366,8 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
     summary = {};
     // The output first: a bad -o (an existing folder, the input) fails before the work.
     format::AtomicFile folder;
-    if (!folder.openFolder(options.outDir, {.replace = false, .inputs = {options.path}},
-                           error)) {
+    if (!folder.openFolder(options.outDir,
+                           {.replace = false, .inputs = {options.path}, .inputParts = {}}, error)) {
         return false;
     }
     format::Reader reader;

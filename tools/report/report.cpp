@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "ingest.h"
 #include "jsontext.h"
 #include "pngwrite.h"
 #include "ulod.h"
@@ -27,7 +28,7 @@ std::string fmt(const char* f, double v) {
 std::string fmtU(std::uint64_t v) { return std::to_string(v); }
 
 // Inside the report's temporary folder (runReport): nothing else writes there.
-const format::OutputOptions kInTempFolder{.replace = true, .inputs = {}};
+const format::OutputOptions kInTempFolder{.replace = true, .inputs = {}, .inputParts = {}};
 
 bool writeText(const fs::path& dir, const std::string& name, const std::string& text,
                ReportSummary& summary, std::string& error) {
@@ -304,7 +305,8 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
     // The folder is written as a temporary folder beside it and moved into place at the end
     // (AtomicFile::openFolder): an existing non-empty folder is refused now and stays untouched.
     format::OutputOptions output;
-    output.inputs = {o.path, o.demPath, o.riversPath};
+    output.inputs = {o.path};
+    addInputFiles(output, o.demPath, o.riversPath);  // every file of each (ingest.h)
     if (!format::checkOutputPath(o.outDir, output, true, error)) return false;
     if (o.imageSize < 16 || o.imageSize > 16384) {
         error = "image size must be in 16..16384";
