@@ -280,7 +280,8 @@ TEST(CliReadme, ExistingOutputsNeedOverwrite) {
     EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_EQ(slurp(csv).rfind("rank,id,", 0), 0u);
 
-    // report: a non-empty folder is refused and stays as it was; --overwrite replaces it whole.
+    // report: a non-empty folder is refused and stays as it was; --overwrite replaces an earlier
+    // report whole, never a folder holding anything else (it removed every file there).
     const fs::path report = dir / "report";
     fs::create_directories(report);
     {
@@ -294,8 +295,18 @@ TEST(CliReadme, ExistingOutputsNeedOverwrite) {
     EXPECT_TRUE(fs::exists(report / "old.txt"));
     EXPECT_FALSE(fs::exists(report / "tables.md"));
     r = runCli(reportArgs + " --overwrite", "ASAN_OPTIONS=detect_leaks=0");
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find("holds 'old.txt', not of a report: refusing to replace the folder"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(slurp((report / "old.txt").string()), "old");
+    EXPECT_FALSE(fs::exists(report / "tables.md"));
+    fs::remove(report / "old.txt");
+    r = runCli(reportArgs, "ASAN_OPTIONS=detect_leaks=0");  // an empty folder: written as new
     EXPECT_EQ(r.code, 0) << r.err;
-    EXPECT_FALSE(fs::exists(report / "old.txt"));
+    fs::remove(report / "tables.md");  // an earlier report missing one of its files
+    r = runCli(reportArgs + " --overwrite", "ASAN_OPTIONS=detect_leaks=0");
+    EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_TRUE(fs::exists(report / "tables.md"));
     // Nothing left beside it (the old folder moved aside is removed).
     std::size_t entries = 0;

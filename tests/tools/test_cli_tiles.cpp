@@ -469,14 +469,26 @@ TEST_F(TilesTest, ErrorsLeaveNoFolder) {
     EXPECT_EQ(r.code, 1);
     EXPECT_NE(r.err.find(tiles), std::string::npos) << r.err;
     EXPECT_TRUE(fs::exists(tiles + "/tileset.json"));
-    // --overwrite replaces a folder (here one with a stray file, which goes with the old one).
+    // --overwrite replaces an earlier tileset, never a folder holding anything else (here a
+    // stray file: it was removed with the folder until 2026-12-03).
     const std::string again = dir->file("again");
     fs::create_directory(again);
     std::ofstream(again + "/stray.txt") << "old";
     r = runCli("export -q " + q(model) + " --3dtiles " + q(again) + " --overwrite");
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find(again + ": holds 'stray.txt', not of a 3D Tiles tileset"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(test::slurp(again + "/stray.txt"), "old");
+    EXPECT_FALSE(fs::exists(again + "/tileset.json"));
+    fs::remove(again + "/stray.txt");
+    r = runCli("export -q " + q(model) + " --3dtiles " + q(again));
+    EXPECT_EQ(r.code, 0) << r.err;
+    std::ofstream(again + "/tiles/old.glb") << "old";  // a tile of the earlier tileset
+    r = runCli("export -q " + q(model) + " --3dtiles " + q(again) + " --overwrite");
     EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_TRUE(fs::exists(again + "/tileset.json"));
-    EXPECT_FALSE(fs::exists(again + "/stray.txt"));
+    EXPECT_FALSE(fs::exists(again + "/tiles/old.glb"));  // replaced whole
     r = runCli("export -q " + q(model) + " --3dtiles " + q(out) + " --s-srs NOT_A_CRS");
     EXPECT_EQ(r.code, 1);
     EXPECT_NE(r.err.find("NOT_A_CRS"), std::string::npos) << r.err;

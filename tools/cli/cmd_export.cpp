@@ -65,7 +65,8 @@ int runTileset(ExportCli& c) {
     std::string error;
     ReplacedFolder old;
     if (!checkOutput(folder, OutputKind::Folder, error) ||
-        (folder.overwrite && !old.moveAside(folder.path, {c.o.path}, error))) {
+        (folder.overwrite && !old.moveAside(folder.path, {c.o.path}, exporter::kTilesetEntries,
+                                            "a 3D Tiles tileset", error))) {
         std::fprintf(stderr, "unilod export: error: %s\n", error.c_str());
         return 1;
     }

@@ -53,7 +53,9 @@ int run(ReportCli& c) {
     for (const auto& part : read.inputParts)
         inputs.push_back(part.first);
     if (!checkOutput(c.output, OutputKind::Folder, error) ||
-        (c.output.overwrite && !old.moveAside(c.output.path, inputs, error))) {
+        (c.output.overwrite &&
+         !old.moveAside(c.output.path, inputs, report::earlierReportEntries(c.output.path),
+                        "a report", error))) {
         std::fprintf(stderr, "unilod report: error: %s\n", error.c_str());
         return 1;
     }

@@ -108,6 +108,7 @@ ReplacedFolder::~ReplacedFolder() {
 }
 
 bool ReplacedFolder::moveAside(const std::string& path, const std::vector<std::string>& inputs,
+                               const std::set<std::string>& earlier, const std::string& what,
                                std::string& error) {
     struct stat st {};
     std::error_code ec;
@@ -129,6 +130,27 @@ bool ReplacedFolder::moveAside(const std::string& path, const std::vector<std::s
                     "output elsewhere)";
             return false;
         }
+    }
+    // Only an earlier output of the command is replaced: every entry one it writes.
+    std::vector<std::string> foreign;
+    for (const auto& entry : std::filesystem::directory_iterator(path, ec)) {
+        const std::string name = entry.path().filename().string();
+        if (earlier.count(name) == 0) foreign.push_back(name);
+    }
+    if (ec) {
+        error = path + ": cannot list the folder: " + ec.message();
+        return false;
+    }
+    if (!foreign.empty()) {
+        std::sort(foreign.begin(), foreign.end());
+        std::string names;
+        for (std::size_t i = 0; i < foreign.size() && i < 3; ++i)
+            names += (i == 0 ? "'" : ", '") + foreign[i] + "'";
+        if (foreign.size() > 3) names += " and " + std::to_string(foreign.size() - 3) + " more";
+        error = path + ": holds " + names + ", not of " + what +
+                ": refusing to replace the folder (--overwrite replaces " + what +
+                " written before; give a new or empty folder)";
+        return false;
     }
     std::string p = path;
     while (p.size() > 1 && p.back() == '/')

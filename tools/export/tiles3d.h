@@ -49,6 +49,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <set>
 #include <string>
 
 namespace unilod::exporter {
@@ -80,6 +81,10 @@ struct TilesetSummary {
     double maxQuantizationError = 0;  // --compress: the largest move of a vertex (metres)
     std::size_t floatTiles = 0;       // --compress: tiles too large for 16-bit positions
 };
+
+// What a tileset folder holds: tileset.json and the tiles/ folder of the tiles' .glb files (what
+// `export --3dtiles --overwrite` may replace).
+inline const std::set<std::string> kTilesetEntries{"tileset.json", "tiles"};
 
 // False with a message naming the file on a data error (no CRS and no --s-srs, a CRS GDAL cannot
 // transform to WGS84, an unreadable block); no output folder is left then.

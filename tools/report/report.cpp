@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -296,6 +297,23 @@ std::string gridName(double distance) {
 }
 
 }  // namespace
+
+std::set<std::string> earlierReportEntries(const std::string& folder) {
+    // A regular file of a report's size only (a FIFO would block the read).
+    const std::string path = folder + "/report.json";
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec) || fs::file_size(path, ec) > (16u << 20) || ec) return {};
+    std::ifstream in(path, std::ios::binary);
+    const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+    if (!j.is_object() || !j.contains("files") || !j["files"].is_array()) return {};
+    std::set<std::string> entries{"report.json", "report.md"};
+    for (const nlohmann::json& f : j["files"]) {
+        if (!f.is_string()) continue;
+        const std::string name = f.get<std::string>();
+        entries.insert(name.substr(0, name.find('/')));
+    }
+    return entries;
+}
 
 bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& error) {
     summary = {};

@@ -55,6 +55,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -128,6 +129,11 @@ struct ReportSummary {
     FrameTimes frameTimes;           // runs empty: not measured (benchFrames 0)
     std::vector<std::string> files;  // written, relative to outDir
 };
+
+// The entries of `folder` an earlier report wrote: report.json, report.md and the files its
+// report.json lists (their first path component); none when it holds no readable report.json.
+// What `report --overwrite` may replace (cli/outputopts.h ReplacedFolder).
+std::set<std::string> earlierReportEntries(const std::string& folder);
 
 // Writes everything into a temporary folder beside outDir and renames it into place at the end:
 // on failure nothing is left (outDir untouched). False with a message naming the file.
