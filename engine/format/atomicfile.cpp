@@ -56,19 +56,29 @@ std::string notRegular(mode_t mode) {
 // left its temporary CSV behind until 2026-12-03), so that such a stop leaves no partial file
 // behind either: a fixed table the handler walks with async-signal-safe calls only (unlink),
 // then the signal's default action is taken again (the process ends by the signal, as before).
-// A slot is free (0), being filled (1) or armed (2). Temporary folders (report, 3D Tiles) are not removed here (no async-signal-safe
-// recursive removal); the next run writing the same PATH removes them as stale.
+// A slot is free (0), being filled (1) or armed (2). Temporary folders (report, 3D Tiles) are not
+// removed here (no async-signal-safe recursive removal); the next run writing the same PATH removes
+// them as stale. A slot with a `to` path renames `path` back to it instead (renameOnSignal: an old
+// folder moved aside by
+// --overwrite goes back, as when the command fails).
 constexpr int kSignalSlots = 64;
 constexpr std::size_t kSignalPathMax = 4096;
 struct SignalSlot {
     std::atomic<int> state{0};
     char path[kSignalPathMax];
+    char to[kSignalPathMax];
 };
 SignalSlot signalSlots[kSignalSlots];
 
 extern "C" void removeTemporariesAndReraise(int sig) {
-    for (SignalSlot& slot : signalSlots)
-        if (slot.state.load(std::memory_order_acquire) == 2) ::unlink(slot.path);
+    for (SignalSlot& slot : signalSlots) {
+        if (slot.state.load(std::memory_order_acquire) != 2) continue;
+        if (slot.to[0] != '\0') {
+            ::rename(slot.path, slot.to);
+        } else {
+            ::unlink(slot.path);
+        }
+    }
     ::signal(sig, SIG_DFL);
     ::raise(sig);
 }
@@ -93,13 +103,14 @@ void installSignalCleanup() {
 
 // The slot now armed for `temp` (-1: none free or the path too long: the file is then only
 // removed as stale by a later run).
-int armSignalCleanup(const std::string& temp) {
-    if (temp.size() >= kSignalPathMax) return -1;
+int armSignalCleanup(const std::string& temp, const std::string& to = "") {
+    if (temp.size() >= kSignalPathMax || to.size() >= kSignalPathMax) return -1;
     installSignalCleanup();
     for (int i = 0; i < kSignalSlots; ++i) {
         int expected = 0;
         if (signalSlots[i].state.compare_exchange_strong(expected, 1, std::memory_order_acq_rel)) {
             std::memcpy(signalSlots[i].path, temp.c_str(), temp.size() + 1);
+            std::memcpy(signalSlots[i].to, to.c_str(), to.size() + 1);
             signalSlots[i].state.store(2, std::memory_order_release);
             return i;
         }
@@ -208,6 +219,14 @@ bool checkInputFile(const std::string& path, bool folderAllowed, std::string& wh
     if (S_ISREG(st.st_mode) || (folderAllowed && S_ISDIR(st.st_mode))) return true;
     why = notRegular(st.st_mode);
     return false;
+}
+
+int renameOnSignal(const std::string& from, const std::string& to) {
+    return armSignalCleanup(from, to);
+}
+
+void cancelOnSignal(int& slot) {
+    disarmSignalCleanup(slot);
 }
 
 bool checkOutputPath(const std::string& path, const OutputOptions& options, bool folder,

@@ -131,6 +131,13 @@ private:
 bool checkOutputPath(const std::string& path, const OutputOptions& options, bool folder,
                      std::string& error);
 
+// While armed, a SIGINT, SIGTERM, SIGHUP, SIGQUIT or SIGPIPE that stops the process renames
+// `from` to `to` first (as AtomicFile removes its temporary then): an old folder moved aside by
+// --overwrite goes back where it was (cli/outputopts.h ReplacedFolder). The slot to pass to
+// cancelOnSignal (-1: none free or a path too long; nothing is renamed then).
+int renameOnSignal(const std::string& from, const std::string& to);
+void cancelOnSignal(int& slot);  // disarms `slot` and sets it to -1
+
 // Writes `data` to PATH with an AtomicFile (open, write, commit).
 bool writeFileAtomically(const std::string& path, std::string_view data,
                          const OutputOptions& options, std::string& error);

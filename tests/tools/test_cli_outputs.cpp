@@ -407,6 +407,50 @@ TEST_F(CliOutputs, BuildStoppedBySignalLeavesNoTemporary) {
     }
 }
 
+// report --overwrite moves the old folder aside (PATH.old-<pid>) while it writes the new one; a
+// SIGTERM or SIGINT then left it there and nothing at PATH. Now the signal puts it back
+// (format::renameOnSignal), as a failure does.
+TEST_F(CliOutputs, ReportStoppedBySignalPutsTheOldFolderBack) {
+    const std::string folder = dir->file("stopped_report");
+    auto r = runCli("report -q " + q(model) + " -o " + q(folder) +
+                    " --no-rivers --bench-frames 0 --distance 100km --image-size 64");
+    ASSERT_EQ(r.code, 0) << r.err;
+    const std::string before = slurp(folder + "/report.json");
+    const std::set<std::string> old = entries(folder, "");
+    for (int sig : {SIGTERM, SIGINT}) {
+        SCOPED_TRACE(strsignal(sig));
+        const pid_t child = fork();
+        ASSERT_GE(child, 0);
+        if (child == 0) {
+            const int devnull = ::open("/dev/null", O_WRONLY);
+            dup2(devnull, 1);
+            dup2(devnull, 2);
+            signal(SIGINT, SIG_DFL);  // as in a terminal (a background job ignores it)
+            // Large grid diagrams: seconds of work after the old folder is moved aside.
+            execl(UNILOD_CLI, UNILOD_CLI, "report", "-q", model.c_str(), "-o", folder.c_str(),
+                  "--overwrite", "--no-rivers", "--bench-frames", "0", "--image-size", "8192",
+                  "--distance", "100km,200km,300km,400km", static_cast<char*>(nullptr));
+            _exit(127);
+        }
+        const std::string aside = "stopped_report.old-" + std::to_string(child);
+        bool seen = false, exited = false;
+        int status = 0;
+        for (int i = 0; i < 6000 && !seen && !exited; ++i) {  // up to 60 s
+            seen = !entries(dir->path, aside).empty();
+            exited = !seen && waitpid(child, &status, WNOHANG) == child;
+            if (!seen && !exited) usleep(10000);
+        }
+        ASSERT_FALSE(exited) << "the report ended before it moved the old folder aside";
+        ASSERT_TRUE(seen) << "the old folder was not moved aside";
+        kill(child, sig);
+        ASSERT_EQ(waitpid(child, &status, 0), child);
+        EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == sig) << status;
+        EXPECT_TRUE(entries(dir->path, aside).empty());
+        EXPECT_EQ(entries(folder, ""), old);
+        EXPECT_EQ(slurp(folder + "/report.json"), before);
+    }
+}
+
 // An output folder that holds the command's input is refused with --overwrite, before the folder
 // is moved aside (the input was moved away with it and the command failed with "cannot open: No
 // such file or directory").

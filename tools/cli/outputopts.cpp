@@ -99,6 +99,7 @@ CLI::Option* addJsonOption(CLI::App* sub, JsonFlags& j, const std::string& help,
 }
 
 ReplacedFolder::~ReplacedFolder() {
+    format::cancelOnSignal(signalSlot_);
     if (aside_.empty()) return;
     // The writer failed: it left nothing at path_ (atomicfile.h), so the old folder goes back.
     if (::rename(aside_.c_str(), path_.c_str()) != 0) {
@@ -156,7 +157,11 @@ bool ReplacedFolder::moveAside(const std::string& path, const std::vector<std::s
     while (p.size() > 1 && p.back() == '/')
         p.pop_back();
     const std::string aside = p + ".old-" + std::to_string(::getpid());
+    // Armed first: a Ctrl-C at any time from here on puts the old folder back (before the move,
+    // the rename back finds nothing to move).
+    signalSlot_ = format::renameOnSignal(aside, p);
     if (::rename(p.c_str(), aside.c_str()) != 0) {
+        format::cancelOnSignal(signalSlot_);
         error = path + ": cannot move the old folder aside to '" + aside +
                 "': " + std::strerror(errno);
         return false;
@@ -167,6 +172,7 @@ bool ReplacedFolder::moveAside(const std::string& path, const std::vector<std::s
 }
 
 void ReplacedFolder::keep() {
+    format::cancelOnSignal(signalSlot_);
     if (aside_.empty()) return;
     std::error_code ec;
     std::filesystem::remove_all(aside_, ec);

@@ -76,7 +76,9 @@ CLI::Option* addJsonOption(CLI::App* sub, JsonFlags& j, const std::string& help,
 // --overwrite of a folder output whose writer needs a missing or empty folder (report): moves an
 // existing non-empty folder aside (PATH.old-<pid>) so that the writer sees none; keep() removes
 // the old folder after the new one is in place, and the destructor (the writer failed) moves it
-// back, so that a failed run leaves the old folder as it was.
+// back, so that a failed run leaves the old folder as it was; so does a stop by SIGINT, SIGTERM,
+// SIGHUP, SIGQUIT or SIGPIPE (format::renameOnSignal; until 2026-12-03 Ctrl-C left it at
+// PATH.old-<pid> and nothing at PATH).
 class ReplacedFolder {
 public:
     ReplacedFolder() = default;
@@ -97,6 +99,7 @@ public:
 
 private:
     std::string path_, aside_;
+    int signalSlot_ = -1;  // format::renameOnSignal: a Ctrl-C moves the old folder back
 };
 
 }  // namespace unilod::cli
