@@ -21,6 +21,7 @@
 #include <string>
 #include <thread>
 #include <tuple>
+#include <vector>
 
 #include "testutil.h"
 #include "tools/cliutil.h"
@@ -71,6 +72,41 @@ protected:
 };
 
 using unilod::test::deadPid;
+
+// Starts `unilod ARGS...` with stdout and stderr to /dev/null and SIGINT and SIGPIPE at their
+// defaults, as in a terminal (a background job or a test runner may ignore them).
+pid_t startCli(const std::vector<std::string>& args) {
+    std::vector<char*> argv{const_cast<char*>(UNILOD_CLI)};  // before the fork: no allocation
+    for (const std::string& a : args)                        // in the child
+        argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    const pid_t child = fork();
+    if (child != 0) return child;
+    const int devnull = ::open("/dev/null", O_WRONLY);
+    dup2(devnull, 1);
+    dup2(devnull, 2);
+    signal(SIGINT, SIG_DFL);
+    signal(SIGPIPE, SIG_DFL);
+    execv(UNILOD_CLI, argv.data());
+    _exit(127);
+}
+
+// Waits up to 60 s for an entry of `folder` whose name starts with `prefix` to appear while
+// `child` runs: a failure when it ends first or none appears.
+::testing::AssertionResult waitForEntry(const fs::path& folder, const std::string& prefix,
+                                        pid_t child) {
+    for (int i = 0; i < 6000; ++i) {
+        for (const auto& e : fs::directory_iterator(folder))
+            if (e.path().filename().string().rfind(prefix, 0) == 0)
+                return ::testing::AssertionSuccess();
+        int status = 0;
+        if (waitpid(child, &status, WNOHANG) == child)
+            return ::testing::AssertionFailure()
+                   << "the command ended before '" << prefix << "...' appeared";
+        usleep(10000);
+    }
+    return ::testing::AssertionFailure() << "no '" << prefix << "...' appeared in 60 s";
+}
 
 }  // namespace
 
@@ -378,29 +414,13 @@ TEST_F(CliOutputs, BuildStoppedBySignalLeavesNoTemporary) {
     for (int sig : {SIGTERM, SIGINT, SIGPIPE}) {
         SCOPED_TRACE(strsignal(sig));
         const std::string out = dir->file("signalled.ulod");
-        const pid_t child = fork();
+        const pid_t child = startCli({"build", "-q", data + "/dem.tif", data + "/rivers.geojson",
+                                      "-o", out, "--threads", "1"});
         ASSERT_GE(child, 0);
-        if (child == 0) {
-            const int devnull = ::open("/dev/null", O_WRONLY);
-            dup2(devnull, 1);
-            dup2(devnull, 2);
-            signal(SIGPIPE, SIG_DFL);  // as in a shell (a test runner may ignore it)
-            execl(UNILOD_CLI, UNILOD_CLI, "build", "-q", (data + "/dem.tif").c_str(),
-                  (data + "/rivers.geojson").c_str(), "-o", out.c_str(), "--threads", "1",
-                  static_cast<char*>(nullptr));
-            _exit(127);
-        }
-        const std::string prefix = "signalled.ulod.tmp-" + std::to_string(child) + "-";
-        bool seen = false, exited = false;
-        int status = 0;
-        for (int i = 0; i < 6000 && !seen && !exited; ++i) {  // up to 60 s
-            seen = !entries(dir->path, prefix).empty();
-            exited = !seen && waitpid(child, &status, WNOHANG) == child;
-            if (!seen && !exited) usleep(10000);
-        }
-        ASSERT_FALSE(exited) << "the build ended before its temporary output appeared";
-        ASSERT_TRUE(seen) << "no temporary output appeared";
+        ASSERT_TRUE(
+            waitForEntry(dir->path, "signalled.ulod.tmp-" + std::to_string(child) + "-", child));
         kill(child, sig);
+        int status = 0;
         ASSERT_EQ(waitpid(child, &status, 0), child);
         EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == sig) << status;
         EXPECT_TRUE(entries(dir->path, "signalled.ulod").empty());
@@ -419,30 +439,15 @@ TEST_F(CliOutputs, ReportStoppedBySignalPutsTheOldFolderBack) {
     const std::set<std::string> old = entries(folder, "");
     for (int sig : {SIGTERM, SIGINT}) {
         SCOPED_TRACE(strsignal(sig));
-        const pid_t child = fork();
+        // Large grid diagrams: seconds of work after the old folder is moved aside.
+        const pid_t child = startCli({"report", "-q", model, "-o", folder, "--overwrite",
+                                      "--no-rivers", "--bench-frames", "0", "--image-size", "8192",
+                                      "--distance", "100km,200km,300km,400km"});
         ASSERT_GE(child, 0);
-        if (child == 0) {
-            const int devnull = ::open("/dev/null", O_WRONLY);
-            dup2(devnull, 1);
-            dup2(devnull, 2);
-            signal(SIGINT, SIG_DFL);  // as in a terminal (a background job ignores it)
-            // Large grid diagrams: seconds of work after the old folder is moved aside.
-            execl(UNILOD_CLI, UNILOD_CLI, "report", "-q", model.c_str(), "-o", folder.c_str(),
-                  "--overwrite", "--no-rivers", "--bench-frames", "0", "--image-size", "8192",
-                  "--distance", "100km,200km,300km,400km", static_cast<char*>(nullptr));
-            _exit(127);
-        }
         const std::string aside = "stopped_report.old-" + std::to_string(child);
-        bool seen = false, exited = false;
-        int status = 0;
-        for (int i = 0; i < 6000 && !seen && !exited; ++i) {  // up to 60 s
-            seen = !entries(dir->path, aside).empty();
-            exited = !seen && waitpid(child, &status, WNOHANG) == child;
-            if (!seen && !exited) usleep(10000);
-        }
-        ASSERT_FALSE(exited) << "the report ended before it moved the old folder aside";
-        ASSERT_TRUE(seen) << "the old folder was not moved aside";
+        ASSERT_TRUE(waitForEntry(dir->path, aside, child));
         kill(child, sig);
+        int status = 0;
         ASSERT_EQ(waitpid(child, &status, 0), child);
         EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == sig) << status;
         EXPECT_TRUE(entries(dir->path, aside).empty());
