@@ -59,8 +59,7 @@ std::string notRegular(mode_t mode) {
 // A slot is free (0), being filled (1) or armed (2). Temporary folders (report, 3D Tiles) are not
 // removed here (no async-signal-safe recursive removal); the next run writing the same PATH removes
 // them as stale. A slot with a `to` path renames `path` back to it instead (renameOnSignal: an old
-// folder moved aside by
-// --overwrite goes back, as when the command fails).
+// folder moved aside by --overwrite goes back, as when the command fails).
 constexpr int kSignalSlots = 64;
 constexpr std::size_t kSignalPathMax = 4096;
 struct SignalSlot {
