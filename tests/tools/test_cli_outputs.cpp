@@ -497,6 +497,14 @@ TEST_F(CliOutputs, FilesReadWithAnInputRefusedEvenWithOverwrite) {
     // The same inputs build, writing elsewhere.
     const auto ok = runCli("build -q" + inputs + q(folder + "/m.ulod") + kBlocks);
     EXPECT_EQ(ok.code, 0) << ok.err;
+    // report without --dem / --rivers reads those the model's build info names: they are its
+    // inputs as well (until 2026-12-03 only --dem / --rivers were).
+    const auto fromInfo = runCli("report -q " + q(folder + "/m.ulod") + " -o " +
+                                 q(folder + "/sources") + " --overwrite --bench-frames 0");
+    EXPECT_EQ(fromInfo.code, 1) << fromInfo.out << fromInfo.err;
+    EXPECT_NE(fromInfo.err.find("holds '" + src + "', an input of this command"), std::string::npos)
+        << fromInfo.err;
+    EXPECT_EQ(slurp(src), srcBefore);
 }
 
 TEST_F(CliOutputs, OutputFolderHoldingTheInputRefused) {

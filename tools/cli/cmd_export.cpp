@@ -65,8 +65,9 @@ int runTileset(ExportCli& c) {
     std::string error;
     ReplacedFolder old;
     if (!checkOutput(folder, OutputKind::Folder, error) ||
-        (folder.overwrite && !old.moveAside(folder.path, {c.o.path}, exporter::kTilesetEntries,
-                                            "a 3D Tiles tileset", error))) {
+        (folder.overwrite &&
+         !old.moveAside(folder.path, {.replace = false, .inputs = {c.o.path}, .inputParts = {}},
+                        exporter::kTilesetEntries, "a 3D Tiles tileset", error))) {
         std::fprintf(stderr, "unilod export: error: %s\n", error.c_str());
         return 1;
     }

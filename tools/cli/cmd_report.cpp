@@ -11,7 +11,6 @@
 
 #include "commands.h"
 #include "engineopts.h"
-#include "ingest.h"
 #include "numbers.h"
 #include "outputopts.h"
 #include "progress.h"
@@ -47,15 +46,10 @@ int run(ReportCli& c) {
     c.o.outDir = c.output.path;
     std::string error;
     ReplacedFolder old;
-    format::OutputOptions read{.replace = false, .inputs = {c.o.path}, .inputParts = {}};
-    addInputFiles(read, c.o.demPath, c.o.riversPath);  // every file of each (ingest.h)
-    std::vector<std::string> inputs = read.inputs;
-    for (const auto& part : read.inputParts)
-        inputs.push_back(part.first);
     if (!checkOutput(c.output, OutputKind::Folder, error) ||
         (c.output.overwrite &&
-         !old.moveAside(c.output.path, inputs, report::earlierReportEntries(c.output.path),
-                        "a report", error))) {
+         !old.moveAside(c.output.path, report::reportInputs(c.o),
+                        report::earlierReportEntries(c.output.path), "a report", error))) {
         std::fprintf(stderr, "unilod report: error: %s\n", error.c_str());
         return 1;
     }

@@ -108,7 +108,7 @@ ReplacedFolder::~ReplacedFolder() {
     }
 }
 
-bool ReplacedFolder::moveAside(const std::string& path, const std::vector<std::string>& inputs,
+bool ReplacedFolder::moveAside(const std::string& path, const format::OutputOptions& inputs,
                                const std::set<std::string>& earlier, const std::string& what,
                                std::string& error) {
     struct stat st {};
@@ -118,7 +118,10 @@ bool ReplacedFolder::moveAside(const std::string& path, const std::vector<std::s
         return true;
     // An input inside the folder (by its real path: symbolic links and ".." resolved).
     const std::filesystem::path folder = std::filesystem::weakly_canonical(path, ec);
-    for (const std::string& input : inputs) {
+    std::vector<std::string> files = inputs.inputs;
+    for (const auto& part : inputs.inputParts)
+        files.push_back(part.first);
+    for (const std::string& input : files) {
         if (ec) break;
         if (input.empty()) continue;  // an input not given (report's --dem)
         std::error_code ic;

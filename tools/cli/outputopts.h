@@ -87,12 +87,12 @@ public:
     ReplacedFolder& operator=(const ReplacedFolder&) = delete;
 
     // Moves `path` aside when it is a non-empty folder. False with `error` when it cannot, when
-    // one of `inputs` (the command's input files) is inside it (replacing the folder would
-    // remove the input), or when it holds an entry that `earlier` (the names the command's
-    // earlier output holds) does not list: --overwrite replaces an earlier output, never a
-    // folder of other files (`report m.ulod -o ~/Documents --overwrite` removed every document
+    // one of `inputs` (the command's input files and their parts) is inside it (replacing the
+    // folder would remove the input), or when it holds an entry that `earlier` (the names the
+    // command's earlier output holds) does not list: --overwrite replaces an earlier output, never
+    // a folder of other files (`report m.ulod -o ~/Documents --overwrite` removed every document
     // until 2026-12-03). `what` names that output in the message ("a report").
-    bool moveAside(const std::string& path, const std::vector<std::string>& inputs,
+    bool moveAside(const std::string& path, const format::OutputOptions& inputs,
                    const std::set<std::string>& earlier, const std::string& what,
                    std::string& error);
     void keep();  // the new folder is in place: remove the old one

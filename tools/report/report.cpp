@@ -315,6 +315,28 @@ std::set<std::string> earlierReportEntries(const std::string& folder) {
     return entries;
 }
 
+format::OutputOptions reportInputs(const ReportOptions& o) {
+    format::OutputOptions inputs{.replace = false, .inputs = {o.path}, .inputParts = {}};
+    if (!o.benchPath.empty()) inputs.inputs.push_back(o.benchPath);
+    std::string dem = o.demPath, rivers = o.riversPath;
+    format::Reader reader;
+    std::string ignored;
+    if (o.rivers && (dem.empty() || rivers.empty()) && reader.open(o.path, ignored)) {
+        // The inputs compareRivers takes from the build info (rivercompare.cpp).
+        const nlohmann::json info =
+            nlohmann::json::parse(reader.header().buildInfo, nullptr, false);
+        const IngestOptions in = ingestOptionsFromInfo(info);
+        if (dem.empty()) dem = in.demPath;
+        if (rivers.empty()) rivers = in.riversPath;
+        const auto table = info.is_object() ? info.find("bai_table") : info.end();
+        if (info.is_object() && table != info.end() && table->is_string() &&
+            !table->get<std::string>().empty())
+            inputs.inputs.push_back(table->get<std::string>());
+    }
+    addInputFiles(inputs, dem, rivers);  // every file of each (ingest.h)
+    return inputs;
+}
+
 bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& error) {
     summary = {};
     const auto say = [&](const std::string& s) {
@@ -322,9 +344,7 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
     };
     // The folder is written as a temporary folder beside it and moved into place at the end
     // (AtomicFile::openFolder): an existing non-empty folder is refused now and stays untouched.
-    format::OutputOptions output;
-    output.inputs = {o.path};
-    addInputFiles(output, o.demPath, o.riversPath);  // every file of each (ingest.h)
+    const format::OutputOptions output = reportInputs(o);
     if (!format::checkOutputPath(o.outDir, output, true, error)) return false;
     if (o.imageSize < 16 || o.imageSize > 16384) {
         error = "image size must be in 16..16384";

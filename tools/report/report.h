@@ -59,6 +59,7 @@
 #include <string>
 #include <vector>
 
+#include "atomicfile.h"
 #include "camera.h"
 #include "device.h"
 #include "rivers.h"
@@ -134,6 +135,13 @@ struct ReportSummary {
 // report.json lists (their first path component); none when it holds no readable report.json.
 // What `report --overwrite` may replace (cli/outputopts.h ReplacedFolder).
 std::set<std::string> earlierReportEntries(const std::string& folder);
+
+// Every file the report of `options` reads, for the output checks (format::OutputOptions, never
+// replaced; a replaced folder may not hold one): the .ulod file, the camera path, and the DEM and
+// rivers with every file GDAL reads for them (ingest.h addInputFiles): --dem / --rivers, else,
+// when the river comparison runs, those the file's build info names, and its BAI table. A file
+// that cannot be opened contributes its path alone (runReport then reports the error).
+format::OutputOptions reportInputs(const ReportOptions& options);
 
 // Writes everything into a temporary folder beside outDir and renames it into place at the end:
 // on failure nothing is left (outDir untouched). False with a message naming the file.
