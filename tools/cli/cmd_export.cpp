@@ -202,10 +202,11 @@ void addExportCommand(CLI::App& app, int& exitCode) {
         ->check(CLI::IsMember({"max", "paper"}));
     CLI::Option* out = addOutputOptions(sub, c->output, "output .glb", false);
     CLI::Option* tiles = sub->add_option("--3dtiles", c->tilesDir,
-                                         "write the whole model as a 3D Tiles 1.1 tileset into "
-                                         "this new folder (tileset.json + "
-                                         "tiles/*.glb; the stored levels as chains of tiles, "
-                                         "refine REPLACE, on the WGS84 globe)")
+                                         "write the whole model as a 3D Tiles 1.1 tileset "
+                                         "(tileset.json + tiles/*.glb; the stored levels as "
+                                         "chains of tiles, refine REPLACE, on the WGS84 globe) "
+                                         "into this folder: a missing or empty one, or an "
+                                         "earlier tileset with --overwrite")
                              ->check(notStdout("export"));
     out->excludes(tiles);
     tiles->excludes(out)->excludes(camera)->excludes(hLim);
