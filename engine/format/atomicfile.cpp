@@ -36,6 +36,20 @@ std::string nameOf(const std::string& path) {
     return slash == std::string::npos ? path : path.substr(slash + 1);
 }
 
+// Names made beside an output (PATH.tmp-<pid>-<hex>, PATH.old-<pid>) add at most 22 bytes;
+// a name longer than this is cut to it there, so that an output whose own name is as long as
+// the file system allows (255 bytes) can still be written (it failed with "cannot create a
+// temporary file beside it: File name too long" until 2026-12-03).
+constexpr std::size_t kBesideNameBytes = 255 - 32;
+
+std::string shortName(const std::string& name) {
+    if (name.size() <= kBesideNameBytes) return name;
+    std::size_t n = kBesideNameBytes;
+    while (n > 0 && (static_cast<unsigned char>(name[n]) & 0xC0) == 0x80)
+        --n;  // not inside a UTF-8 character
+    return name.substr(0, n);
+}
+
 std::string kindOf(mode_t mode) {
     if (S_ISDIR(mode)) return "a directory";
     if (S_ISFIFO(mode)) return "a FIFO (named pipe)";
@@ -124,7 +138,7 @@ void disarmSignalCleanup(int& slot) {
 
 // "PATH.tmp-<pid>-": the prefix of every temporary of PATH written by process `pid`.
 std::string tempPrefix(const std::string& name) {
-    return name + ".tmp-";
+    return shortName(name) + ".tmp-";
 }
 
 // Removes the temporaries of `path` whose writer is no longer running. Names that do not parse
@@ -211,6 +225,12 @@ void syncFolder(const std::string& folder) {
 }
 
 }  // namespace
+
+std::string besideName(const std::string& path, const std::string& tag) {
+    const std::size_t slash = path.find_last_of('/');
+    const std::size_t start = slash == std::string::npos ? 0 : slash + 1;
+    return path.substr(0, start) + shortName(path.substr(start)) + tag;
+}
 
 bool checkInputFile(const std::string& path, bool folderAllowed, std::string& why) {
     struct stat st {};
@@ -490,7 +510,7 @@ bool AtomicFileSet::commit(std::string& error) {
         Moved m{file->path(), ""};
         struct stat st {};
         if (::lstat(m.path.c_str(), &st) == 0) {
-            m.aside = m.path + ".old-" + std::to_string(::getpid());
+            m.aside = besideName(m.path, ".old-" + std::to_string(::getpid()));
             if (::rename(m.path.c_str(), m.aside.c_str()) != 0) {
                 error =
                     m.path + ": cannot move the old file aside to " + m.aside + ": " + errnoText();

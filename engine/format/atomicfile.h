@@ -2,7 +2,8 @@
 // The one place every command that writes or reads a file goes through: the .ulod Writer, PNG
 // and JSON captures, the glTF export, CSV / JSON outputs, the report folder, the synthetic data.
 //
-// AtomicFile writes PATH through a temporary PATH.tmp-<pid>-<random> in the same folder:
+// AtomicFile writes PATH through a temporary PATH.tmp-<pid>-<random> in the same folder (a name
+// longer than 223 bytes cut to that: besideName):
 // - open() refuses, before anything is written:
 //   * a PATH that is the same file (device + inode, so hard links too) as one of
 //     OutputOptions::inputs, also when replacing: `export m.ulod -o m.ulod` must not destroy m;
@@ -105,6 +106,10 @@ private:
     bool folder_ = false, unsynced_ = false;
     std::uint64_t offset_ = 0, bytes_ = 0;
 };
+
+// `path` with `tag` (at most 22 bytes: ".old-<pid>") appended to its name, the name first cut to
+// 223 bytes (at a UTF-8 character), so that the result is a valid name wherever `path` is.
+std::string besideName(const std::string& path, const std::string& tag);
 
 // Several files that replace their old versions together or not at all (capture's frames with
 // --overwrite): add() writes each file to its temporary (AtomicFile; nothing at PATH changes);

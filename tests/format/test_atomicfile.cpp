@@ -63,6 +63,43 @@ TEST(AtomicFile, AppearsOnlyAtCommitThroughAPidNamedTemporary) {
     EXPECT_EQ(names(dir), std::set<std::string>{"out.bin"});
 }
 
+// An output whose name is as long as a name may be (255 bytes) is written: the temporary and
+// the aside names beside it are cut (besideName); they were the name plus ".tmp-...", which the
+// file system refused ("File name too long").
+TEST(AtomicFile, NameOfTheLongestLengthWritten) {
+    TempDir dir("longname");
+    // 254 bytes ending inside a run of two-byte characters: the cut keeps whole characters.
+    std::string name(200, 'n');
+    while (name.size() < 250)
+        name += "\xc3\xa9";  // é
+    name += ".bin";
+    ASSERT_EQ(name.size(), 254u);
+    const std::string path = dir.write(name, "old");
+    std::string error;
+    AtomicFile file;
+    ASSERT_TRUE(file.open(path, kReplace, error)) << error;
+    const std::string temp = fs::path(file.tempPath()).filename().string();
+    EXPECT_LE(temp.size(), 255u);
+    // Byte 223 is the second byte of an é: the cut is before that é.
+    EXPECT_EQ(temp.rfind(name.substr(0, 222) + ".tmp-", 0), 0u) << temp;
+    ASSERT_TRUE(file.write("new", error)) << error;
+    ASSERT_TRUE(file.commit(error)) << error;
+    EXPECT_EQ(slurp(path), "new");
+    // The set's old file moved aside under a cut name and removed after the commit.
+    AtomicFileSet set;
+    ASSERT_TRUE(set.add(path, "newer", kReplace, error)) << error;
+    ASSERT_TRUE(set.commit(error)) << error;
+    EXPECT_EQ(slurp(path), "newer");
+    EXPECT_EQ(names(dir), std::set<std::string>{name});
+    const std::string aside = besideName(path, ".old-4194304");
+    EXPECT_LE(fs::path(aside).filename().string().size(), 255u);
+    EXPECT_EQ(aside.rfind(dir.path, 0), 0u);
+    // Inside a two-byte character at byte 223: cut before it.
+    EXPECT_EQ(besideName("a/" + std::string(222, 'x') + "\xc3\xa9" + std::string(40, 'y'), ".t"),
+              "a/" + std::string(222, 'x') + ".t");
+    EXPECT_EQ(besideName("short", ".t"), "short.t");
+}
+
 TEST(AtomicFile, AbandonedLeavesTheOldFileAndNoTemporary) {
     TempDir dir("abandon");
     const std::string path = dir.write("out.bin", "old");

@@ -159,7 +159,7 @@ bool ReplacedFolder::moveAside(const std::string& path, const format::OutputOpti
     std::string p = path;
     while (p.size() > 1 && p.back() == '/')
         p.pop_back();
-    const std::string aside = p + ".old-" + std::to_string(::getpid());
+    const std::string aside = format::besideName(p, ".old-" + std::to_string(::getpid()));
     // Armed first: a Ctrl-C at any time from here on puts the old folder back (before the move,
     // the rename back finds nothing to move).
     signalSlot_ = format::renameOnSignal(aside, p);
