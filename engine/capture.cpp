@@ -94,11 +94,11 @@ nlohmann::json frameJson(const CaptureOptions& options, const Camera& c, const C
         {"annotated", f.annotated},
         {"annotation", annotation},
         {"pixels", options.scene.pixels},
-        {"metric", metric == format::kMetricPaper ? "paper" : "max"},
+        {"metric", format::metricName(metric)},
         {"distance", nearest ? "nearest" : "centre"},
-        {"edge_factor", nearest ? frustumEdgeFactor(c.fovDegrees * kDegree,
-                                                    double(options.width) / options.height)
-                                : 1.0},
+        {"edge_factor",
+         nearest ? frustumEdgeFactor(c.fovDegrees * kDegree, double(options.width) / options.height)
+                 : 1.0},
         {"blocks", blocks},
         {"totals",
          {{"blocks_in_file", f.stats.blocks},

@@ -410,20 +410,12 @@ bool StreamingScene::open(const Device& device, const std::string& path,
     if (!s.reader.open(path, error)) return false;
     s.workers = std::make_unique<WorkerPool>(options.threads);
     const format::Header& header = s.reader.header();
-    s.metric = header.defaultMetric;
-    if (options.metric == "max")
-        s.metric = format::kMetricMax;
-    else if (options.metric == "paper")
-        s.metric = format::kMetricPaper;
-    else if (!options.metric.empty()) {
+    std::uint32_t requested = 0;
+    if (!format::metricOfName(options.metric, requested)) {
         error = "unknown metric '" + options.metric + "' (max or paper)";
         return false;
     }
-    if (!(header.metrics & s.metric)) {
-        error = path + ": the file has no '" +
-                (s.metric == format::kMetricPaper ? "paper" : "max") + "' error metric";
-        return false;
-    }
+    if (!format::resolveMetric(header, path, requested, s.metric, error)) return false;
 
     // Every entry's box, levels and outline flag come from the directory (format version 5); the
     // roots' coarse geometry is read now (readGeometry validates the whole block: checksum,

@@ -92,13 +92,7 @@ bool openModel(const std::string& path, std::uint32_t requestedMetric, Model& m,
     if (!m.reader.open(path, error)) return false;
     const format::Header& h = m.reader.header();
     const std::vector<format::BlockInfo>& infos = m.reader.blocks();
-    m.metric = requestedMetric != 0 ? requestedMetric : h.defaultMetric;
-    if ((h.metrics & m.metric) == 0 ||
-        (m.metric != format::kMetricMax && m.metric != format::kMetricPaper)) {
-        error = "'" + path + "': the file does not store the " +
-                std::string(m.metric == format::kMetricPaper ? "paper" : "max") + " error metric";
-        return false;
-    }
+    if (!format::resolveMetric(h, path, requestedMetric, m.metric, error)) return false;
     if (infos.empty()) {
         error = "'" + path + "': the file has no blocks";
         return false;

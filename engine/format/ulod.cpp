@@ -231,6 +231,35 @@ BlockCounts compactCounts(const BlockHeader& h) {
 // Built blocks expand about 10-40 times.
 constexpr std::uint64_t kMaxExpansion = 1024;
 
+}  // namespace
+
+const char* metricName(std::uint32_t metric) {
+    return metric == kMetricPaper ? "paper" : "max";
+}
+
+bool metricOfName(const std::string& name, std::uint32_t& metric) {
+    metric = 0;
+    if (name == "max") metric = kMetricMax;
+    if (name == "paper") metric = kMetricPaper;
+    return metric != 0 || name.empty();
+}
+
+bool resolveMetric(const Header& header, const std::string& path, std::uint32_t requested,
+                   std::uint32_t& metric, std::string& error) {
+    metric = requested == 0 ? header.defaultMetric : requested;
+    if (metric != kMetricMax && metric != kMetricPaper) {
+        error = path + ": unknown error metric " + std::to_string(metric);
+        return false;
+    }
+    if ((header.metrics & metric) == 0) {
+        error = path + ": the file has no '" + metricName(metric) + "' error metric";
+        return false;
+    }
+    return true;
+}
+
+namespace {
+
 bool metricsValid(std::uint32_t metrics, std::uint32_t defaultMetric, std::string& error) {
     const std::uint32_t all = kMetricMax | kMetricPaper;
     if (metrics == 0 || (metrics & ~all) != 0) {

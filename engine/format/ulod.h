@@ -37,6 +37,18 @@ inline constexpr std::uint32_t kMaxTreeLevel = 31;
 // Metrics present (bit mask) and the default one.
 enum Metric : std::uint32_t { kMetricMax = 1, kMetricPaper = 2 };
 
+// "max" or "paper" (the option value, the JSON and the messages).
+const char* metricName(std::uint32_t metric);
+// The metric of a name: kMetricMax, kMetricPaper, 0 for "" (the file's default); false for
+// anything else.
+bool metricOfName(const std::string& name, std::uint32_t& metric);
+struct Header;
+// The metric a reader of the file `path` uses: `requested`, or the file's default for 0. False
+// with "PATH: the file has no 'paper' error metric" when the file does not store it (or
+// `requested` is no metric). One rule for the engine, stats, export and report.
+bool resolveMetric(const Header& header, const std::string& path, std::uint32_t requested,
+                   std::uint32_t& metric, std::string& error);
+
 // Vertex flags.
 inline constexpr std::uint32_t kVertexRiver = 1;   // a river point
 inline constexpr std::uint32_t kVertexLocked = 2;  // never deleted (border, river end, junction)

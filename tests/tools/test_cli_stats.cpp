@@ -291,6 +291,38 @@ TEST_F(StatsTest, DefaultsAreThePaperDistances) {
     }
 }
 
+// A metric the file does not store: every command that chooses levels refuses it with the same
+// message naming the file (one rule, format::resolveMetric) and writes nothing; the file's own
+// metric is taken when --metric is not given.
+TEST_F(StatsTest, MetricTheFileLacksRefusedByEveryCommand) {
+    BuildOptions bo;
+    bo.demPath = (dir / "dem.tif").string();
+    bo.riversPath = (dir / "rivers.geojson").string();
+    bo.outPath = (dir / "max_only.ulod").string();
+    bo.threads = 2;
+    BuildSummary summary;
+    std::string error;
+    ASSERT_TRUE(runBuild(bo, summary, error)) << error;
+    const std::string file = q(bo.outPath), out = (dir / "metric_out").string();
+    for (const std::string& command :
+         {"stats " + file, "stats " + file + " --error 5", "export " + file + " -o " + q(out),
+          "export " + file + " --3dtiles " + q(out),
+          "report " + file + " -o " + q(out) + " --no-rivers --bench-frames 0",
+          "capture " + file + " -o " + q(out) + " --size 16x16"}) {
+        SCOPED_TRACE(command);
+        const Result r = run(command + " -q --metric paper");
+        EXPECT_EQ(r.code, 1) << r.out << r.err;
+        EXPECT_NE(r.err.find(bo.outPath + ": the file has no 'paper' error metric"),
+                  std::string::npos)
+            << r.err;
+        EXPECT_FALSE(fs::exists(out));
+    }
+    const Result ok = run("stats " + file + " --distance 1km --csv");
+    EXPECT_EQ(ok.code, 0) << ok.err;
+    const Result both = run("stats " + q(model) + " --distance 1km --metric paper --csv");
+    EXPECT_EQ(both.code, 0) << both.err;
+}
+
 TEST_F(StatsTest, UsageErrorsExitTwo) {
     for (const char* bad :
          {"--distance 0km", "--distance -5km", "--distance 10furlongs", "--distance km",

@@ -57,8 +57,7 @@ int runTileset(ExportCli& c) {
     t.tileRatio = c.tileRatio;
     t.compress = c.o.encoding.compress;
     t.threads = c.threads;
-    if (c.metric == "paper") t.metric = format::kMetricPaper;
-    if (c.metric == "max") t.metric = format::kMetricMax;
+    t.metric = metricOf(c.metric);
     // The folder rule of outputopts.h: an existing non-empty folder only with --overwrite, and
     // then the old one stays until the new one is in place.
     const OutputFlags folder{c.tilesDir, c.output.overwrite};
@@ -133,9 +132,7 @@ int run(ExportCli& c) {
     } else {
         s.hLim = c.hLim;
     }
-    s.metric = 0;
-    if (c.metric == "paper") s.metric = format::kMetricPaper;
-    if (c.metric == "max") s.metric = format::kMetricMax;
+    s.metric = metricOf(c.metric);
     c.o.outPath = c.output.path;
     c.o.overwrite = c.output.overwrite;
     Progress progress("export", !c.quiet, "blocks", 0);
@@ -198,8 +195,7 @@ void addExportCommand(CLI::App& app, int& exitCode) {
     sub->add_flag("--no-refine", c->noRefine,
                   "with --camera: every block at a stored level instead of the leaves refined "
                   "for the view from their deletion records (as the engine draws them)");
-    sub->add_option("--metric", c->metric, "error metric (default: the file's)")
-        ->check(CLI::IsMember({"max", "paper"}));
+    addMetricOption(*sub, c->metric);
     CLI::Option* out = addOutputOptions(sub, c->output, "output .glb", false);
     CLI::Option* tiles = sub->add_option("--3dtiles", c->tilesDir,
                                          "write the whole model as a 3D Tiles 1.1 tileset "

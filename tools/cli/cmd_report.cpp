@@ -36,9 +36,7 @@ struct ReportCli {
 int run(ReportCli& c) {
     c.o.stats.distances = listLengths(c.distances);
     c.o.stats.pixels = listNumbers(c.pixels);
-    c.o.stats.metric = 0;
-    if (c.metric == "paper") c.o.stats.metric = format::kMetricPaper;
-    if (c.metric == "max") c.o.stats.metric = format::kMetricMax;
+    c.o.stats.metric = metricOf(c.metric);
     c.o.budgets.clear();
     for (double b : listNumbers(c.budgets))
         c.o.budgets.push_back(b / 100.0);
@@ -95,8 +93,7 @@ void addReportCommand(CLI::App& app, int& exitCode) {
         ->check(fovRange());
     sub->add_option("--height", c->o.stats.heightPixels, "viewport height in pixels (default 1080)")
         ->check(numberIn(1.0, 1e9));
-    sub->add_option("--metric", c->metric, "error metric (default: the file's default)")
-        ->check(CLI::IsMember({"max", "paper"}));
+    addMetricOption(*sub, c->metric);
     sub->add_option("--dem", c->o.demPath, "DEM for the river comparison (default: the build's)");
     sub->add_option("--rivers", c->o.riversPath,
                     "rivers for the river comparison (default: the build's)");

@@ -53,9 +53,8 @@ void printText(const StatsTable& t, const std::string& path) {
     std::printf(
         "%s: %s metric; %u x %u blocks; corner (%u,%u), edge (%u,%u), middle (%u,%u); "
         "%s points at full resolution\n",
-        path.c_str(), t.metric == format::kMetricPaper ? "paper" : "max", t.blocksX, t.blocksY,
-        t.cornerCol, t.cornerRow, t.edgeCol, t.edgeRow, t.middleCol, t.middleRow,
-        grouped(t.fullPoints).c_str());
+        path.c_str(), format::metricName(t.metric), t.blocksX, t.blocksY, t.cornerCol, t.cornerRow,
+        t.edgeCol, t.edgeRow, t.middleCol, t.middleRow, grouped(t.fullPoints).c_str());
     // The column headers of the paper's Tables 2 and 3.
     const char* header[] = {"View distance (km)",
                             "The tolerance of screen projection error (Pixel)",
@@ -100,21 +99,12 @@ void printCsv(const StatsTable& t) {
     std::fputs(statsCsv(t).c_str(), stdout);
 }
 
-std::uint32_t metricOf(const std::string& name) {
-    if (name == "paper") return format::kMetricPaper;
-    if (name == "max") return format::kMetricMax;
-    return 0;  // the file's default
-}
-
-const char* metricName(std::uint32_t metric) {
-    return metric == format::kMetricPaper ? "paper" : "max";
-}
-
 void printErrorText(const ErrorStatsTable& t, const std::string& path) {
-    std::printf("%s: %s metric; %zu blocks, %zu tree nodes; %s points, %s triangles at full "
-                "resolution\n",
-                path.c_str(), metricName(t.metric), t.blocks, t.nodes, grouped(t.fullPoints).c_str(),
-                grouped(t.fullTriangles).c_str());
+    std::printf(
+        "%s: %s metric; %zu blocks, %zu tree nodes; %s points, %s triangles at full "
+        "resolution\n",
+        path.c_str(), format::metricName(t.metric), t.blocks, t.nodes,
+        grouped(t.fullPoints).c_str(), grouped(t.fullTriangles).c_str());
     std::vector<std::vector<std::string>> cells = {
         {"error (m)", "exact points", "exact triangles", "level points", "level triangles",
          "drawn nodes"}};
@@ -148,7 +138,7 @@ void printErrorJson(const ErrorStatsTable& t, const std::string& path) {
                         {"nodes", r.nodes}});
     }
     const nlohmann::json out = {{"file", path},
-                                {"metric", metricName(t.metric)},
+                                {"metric", format::metricName(t.metric)},
                                 {"blocks", t.blocks},
                                 {"tree_nodes", t.nodes},
                                 {"full_points", t.fullPoints},
@@ -218,8 +208,7 @@ void addStatsCommand(CLI::App& app, int& exitCode) {
         ->check(fovRange());
     sub->add_option("--height", c->height, "viewport height in pixels (default 1080)")
         ->check(numberIn(1.0, 1e9));
-    sub->add_option("--metric", c->metric, "error metric (default: the file's default)")
-        ->check(CLI::IsMember({"max", "paper"}));
+    addMetricOption(*sub, c->metric);
     CLI::Option* csv = sub->add_flag("--csv", c->csv, "CSV output (header row, '.' decimals)");
     CLI::Option* errors =
         sub->add_option("--error", c->errors,

@@ -79,6 +79,21 @@ CLI::Option* addCameraOption(CLI::App& sub, std::string& text, const std::string
             positionOnly ? "X,Y,Z[,YAW,PITCH]" : "X,Y,Z,YAW,PITCH"));
 }
 
+CLI::Option* addMetricOption(CLI::App& sub, std::string& metric) {
+    return sub
+        .add_option("--metric", metric,
+                    "error metric: max (a bound of the distance to every original point) or "
+                    "paper (the paper's mean nearest-point error); default: the file's, as "
+                    "built (`build --metric`)")
+        ->check(CLI::IsMember({"max", "paper"}));
+}
+
+std::uint32_t metricOf(const std::string& metric) {
+    std::uint32_t code = 0;
+    format::metricOfName(metric, code);
+    return code;
+}
+
 CLI::Validator fovRange() {
     return numberIn(0, 180, Bound::Open, Bound::Open);
 }
@@ -102,8 +117,7 @@ void EngineCli::add(CLI::App& sub, const std::string& defaultSize) {
     sub.add_option("--size", size, "image size WxH (default " + defaultSize + ")");
     sub.add_option("--pixels", pixels, "screen-space error tolerance P in pixels (default 1)")
         ->check(positive());
-    sub.add_option("--metric", metric, "error metric: max (a bound, default) or paper")
-        ->check(CLI::IsMember({"max", "paper"}));
+    addMetricOption(sub, metric);
     sub.add_option("--distance", distance,
                    "S for h_lim: nearest (nearest point of the block's box, made safe for the "
                    "whole view so that the P-pixel bound holds; default) or centre (the paper's "

@@ -46,6 +46,14 @@ CLI::Option* addCameraOption(CLI::App& sub, std::string& text, const std::string
 bool parseCamera(const std::string& text, bool positionOnly, engine::Camera& camera,
                  bool& hasDirection, std::string& error);
 
+// --metric max|paper of the commands that choose levels (capture, view, bench, stats, export,
+// report): the error metric h_s is read in; without it, the file's default (`build --metric`).
+// One definition (capture, view and bench called max the default, which it is only for files
+// built with it).
+CLI::Option* addMetricOption(CLI::App& sub, std::string& metric);
+// The format::Metric of a value the option accepted; 0 (the file's default) when not given.
+std::uint32_t metricOf(const std::string& metric);
+
 // --fov of capture, export, stats and report: degrees in (0, 180), the range engine::validCamera
 // accepts. One definition so that the commands agree.
 CLI::Validator fovRange();

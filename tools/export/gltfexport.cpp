@@ -122,8 +122,7 @@ bool exportGltf(const ExportOptions& options, ExportSummary& summary, std::strin
         "gltf (x, y, z) = (X - origin[0], Z, -(Y - origin[1])) for a world point (X east, Y "
         "north, Z up) of crs_wkt, metres"));
     assetExtras["source"] = Value(validUtf8(options.path));
-    assetExtras["metric"] =
-        Value(std::string(metric == format::kMetricPaper ? "paper" : "max"));
+    assetExtras["metric"] = Value(std::string(format::metricName(metric)));
     Value::Object sel;
     const SelectionOptions& so = options.selection;
     if (so.useCamera) {

@@ -42,16 +42,8 @@ ExportedBlock selectLevel(const format::Block& block, std::size_t index,
 
 bool resolveMetric(const format::Reader& reader, const SelectionOptions& options,
                    std::uint32_t& metric, std::string& error) {
-    metric = options.metric == 0 ? reader.header().defaultMetric : options.metric;
-    if (metric != format::kMetricMax && metric != format::kMetricPaper) {
-        error = "unknown error metric";
+    if (!format::resolveMetric(reader.header(), reader.path(), options.metric, metric, error))
         return false;
-    }
-    if (!(reader.header().metrics & metric)) {
-        error = reader.path() + ": the file has no '" +
-                (metric == format::kMetricPaper ? "paper" : "max") + "' error metric";
-        return false;
-    }
     if (options.useCamera) {
         for (double v : options.eye) {
             if (!std::isfinite(v)) {

@@ -628,7 +628,7 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
         {"extras",
          {{"source", validUtf8(options.path)},
           {"crs_wkt", validUtf8(options.sourceSrs.empty() ? header.crsWkt : options.sourceSrs)},
-          {"metric", metric == format::kMetricPaper ? "paper" : "max"},
+          {"metric", format::metricName(metric)},
           {"tile_ratio", options.tileRatio},
           {"origin_longitude_degrees", geo.longitude()},
           {"origin_latitude_degrees", geo.latitude()},

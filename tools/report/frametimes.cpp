@@ -72,9 +72,7 @@ bool measureFrameTimes(const ReportOptions& o, FrameTimes& out, std::string& err
     b.width = o.benchWidth;
     b.height = o.benchHeight;
     b.scene.pixels = o.stats.pixels.empty() ? 1.0 : o.stats.pixels.front();
-    b.scene.metric = o.stats.metric == format::kMetricPaper ? "paper"
-                     : o.stats.metric == format::kMetricMax ? "max"
-                                                            : "";
+    b.scene.metric = o.stats.metric == 0 ? "" : format::metricName(o.stats.metric);
     b.device = o.device;
     b.spirvDir = o.spirvDir;
     b.perFrame = true;

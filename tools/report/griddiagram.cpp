@@ -70,12 +70,8 @@ bool renderGrid(const std::string& path, const StatsOptions& stats, double dista
     format::Reader reader;
     if (!reader.open(path, error)) return false;
     const format::Header& h = reader.header();
-    const std::uint32_t metric = stats.metric == 0 ? h.defaultMetric : stats.metric;
-    if (!(h.metrics & metric)) {
-        error = path + ": the file has no '" +
-                (metric == format::kMetricPaper ? "paper" : "max") + "' error metric";
-        return false;
-    }
+    std::uint32_t metric = 0;
+    if (!format::resolveMetric(h, path, stats.metric, metric, error)) return false;
     const double pixels = stats.pixels.empty() ? 1.0 : stats.pixels.front();
     const engine::ViewSpec view = statsView(h, stats, distance, pixels);  // as `stats` counts
 

@@ -44,10 +44,9 @@ bool writeText(const fs::path& dir, const std::string& name, const std::string& 
 std::string tablesMd(const StatsTable& t, const std::string& path) {
     std::ostringstream s;
     s << "# Tables 2 / 3: " << path << "\n\n"
-      << "Metric: " << (t.metric == format::kMetricPaper ? "paper" : "max") << "; " << t.blocksX
-      << " x " << t.blocksY << " blocks; corner (" << t.cornerCol << "," << t.cornerRow
-      << "), edge (" << t.edgeCol << "," << t.edgeRow << "), middle (" << t.middleCol << ","
-      << t.middleRow << "); " << t.fullPoints
+      << "Metric: " << format::metricName(t.metric) << "; " << t.blocksX << " x " << t.blocksY
+      << " blocks; corner (" << t.cornerCol << "," << t.cornerRow << "), edge (" << t.edgeCol << ","
+      << t.edgeRow << "), middle (" << t.middleCol << "," << t.middleRow << "); " << t.fullPoints
       << " points at full resolution. Definitions: preprocess/stats.h (same as `unilod "
          "stats`).\n\n"
       << "Counts are those of the cut of the view through the block hierarchy, each drawn node "
@@ -431,7 +430,7 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
 
     nlohmann::json j;
     j["source"] = o.path;
-    j["metric"] = summary.table.metric == format::kMetricPaper ? "paper" : "max";
+    j["metric"] = format::metricName(summary.table.metric);
     j["grids"] = nlohmann::json::array();
     for (const GridDiagram& g : summary.grids) {
         j["grids"].push_back({{"distance_m", g.distance},
