@@ -49,6 +49,27 @@ std::string format(const char* fmt, double v) {
     return buf;
 }
 
+// The rows of `cells` (the first one the header) as aligned columns two spaces apart: numbers
+// right-aligned, the header's first cell left-aligned; no trailing spaces.
+void printColumns(const std::vector<std::vector<std::string>>& cells) {
+    std::vector<std::size_t> width(cells[0].size(), 0);
+    for (const auto& row : cells) {
+        for (std::size_t c = 0; c < row.size(); ++c)
+            width[c] = std::max(width[c], row[c].size());
+    }
+    for (const auto& row : cells) {
+        std::string line;
+        for (std::size_t c = 0; c < row.size(); ++c) {
+            const std::string pad(width[c] - row[c].size(), ' ');
+            line += c == 0 && &row == &cells[0] ? row[c] + pad : pad + row[c];
+            if (c + 1 < row.size()) line += "  ";
+        }
+        while (!line.empty() && line.back() == ' ')
+            line.pop_back();
+        std::printf("%s\n", line.c_str());
+    }
+}
+
 void printText(const StatsTable& t, const std::string& path) {
     std::printf(
         "%s: %s metric; %u x %u blocks; corner (%u,%u), edge (%u,%u), middle (%u,%u); "
@@ -76,23 +97,7 @@ void printText(const StatsTable& t, const std::string& path) {
         cells.push_back({"", "", format("%.2f (corner)", r.hCorner), "", "", "", "", ""});
         cells.push_back({"", "", format("%.2f (middle)", r.hMiddle), "", "", "", "", ""});
     }
-    std::vector<std::size_t> width(cells[0].size(), 0);
-    for (const auto& row : cells) {
-        for (std::size_t c = 0; c < row.size(); ++c)
-            width[c] = std::max(width[c], row[c].size());
-    }
-    for (const auto& row : cells) {
-        std::string line;
-        for (std::size_t c = 0; c < row.size(); ++c) {
-            // Text columns left-aligned, numbers right-aligned.
-            const std::string pad(width[c] - row[c].size(), ' ');
-            line += c == 0 && &row == &cells[0] ? row[c] + pad : pad + row[c];
-            if (c + 1 < row.size()) line += "  ";
-        }
-        while (!line.empty() && line.back() == ' ')
-            line.pop_back();
-        std::printf("%s\n", line.c_str());
-    }
+    printColumns(cells);
 }
 
 void printCsv(const StatsTable& t) {
@@ -112,19 +117,7 @@ void printErrorText(const ErrorStatsTable& t, const std::string& path) {
         cells.push_back({format("%g", r.error), grouped(r.exactPoints), grouped(r.exactTriangles),
                          grouped(r.levelPoints), grouped(r.levelTriangles), grouped(r.nodes)});
     }
-    std::vector<std::size_t> width(cells[0].size(), 0);
-    for (const auto& row : cells) {
-        for (std::size_t c = 0; c < row.size(); ++c)
-            width[c] = std::max(width[c], row[c].size());
-    }
-    for (const auto& row : cells) {
-        std::string line;
-        for (std::size_t c = 0; c < row.size(); ++c) {
-            line += std::string(width[c] - row[c].size(), ' ') + row[c];
-            if (c + 1 < row.size()) line += "  ";
-        }
-        std::printf("%s\n", line.c_str());
-    }
+    printColumns(cells);
 }
 
 void printErrorJson(const ErrorStatsTable& t, const std::string& path) {
