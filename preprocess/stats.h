@@ -31,6 +31,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -45,6 +46,14 @@ struct StatsOptions {
     double fovDegrees = 60.0;      // vertical field of view α
     double heightPixels = 1080.0;  // viewport height H
     std::uint32_t metric = 0;      // format::kMetricMax / kMetricPaper; 0 = the file's default
+};
+
+// How computeStats and computeErrorStats read the blocks their cuts draw: one block a task on
+// `threads` threads (0: every core, at most engine::WorkerPool::kMaxThreads; the tables are the
+// same for any number); `progress(done, total)` blocks read, from one thread at a time.
+struct StatsReading {
+    std::size_t threads = 0;
+    std::function<void(std::size_t, std::size_t)> progress;
 };
 
 struct StatsRow {
@@ -82,7 +91,7 @@ bool parseDistance(const std::string& text, double& metres);
 // Returns false with `error` naming the file and the problem: unreadable or invalid file, a
 // metric the file does not store, options out of range.
 bool computeStats(const std::string& path, const StatsOptions& options, StatsTable& table,
-                  std::string& error);
+                  std::string& error, const StatsReading& reading = {});
 
 // --- Uniform model-error thresholds (`unilod stats --error`): the same tolerance e (metres) for
 // every block, no viewpoint. Per e, summed over the nodes of the cut for h_lim = e (border vertices counted in every block
@@ -111,6 +120,7 @@ struct ErrorStatsTable {
 // (format::kMetricMax / kMetricPaper; 0 = the file's default). Returns false with `error`
 // naming the file and the problem, like computeStats.
 bool computeErrorStats(const std::string& path, const std::vector<double>& errors,
-                       std::uint32_t metric, ErrorStatsTable& table, std::string& error);
+                       std::uint32_t metric, ErrorStatsTable& table, std::string& error,
+                       const StatsReading& reading = {});
 
 }  // namespace unilod

@@ -20,6 +20,7 @@
 #include "cut.h"
 #include "lod.h"
 #include "pngread.h"
+#include "report.h"
 #include "stats.h"
 #include "testutil.h"
 #include "tools/cliutil.h"
@@ -341,6 +342,33 @@ TEST_F(ReportTest, CurvesMatchTheFile) {
         ++polylines;
     EXPECT_EQ(polylines, 4u);
     EXPECT_NE(svg.find("Retention"), std::string::npos);
+}
+
+// The curve's blocks are read on threads: the same curve, bit for bit, for any number, and every
+// block counted once.
+TEST_F(ReportTest, CurveTheSameOnAnyNumberOfThreads) {
+    std::vector<report::CurvePoint> one, many;
+    bool hasMax = false, hasPaper = false;
+    std::string error;
+    ASSERT_TRUE(report::computeCurve(model, one, hasMax, hasPaper, error, {1, {}})) << error;
+    for (std::size_t threads : {2u, 3u, 0u}) {
+        std::vector<std::size_t> counts;
+        StatsReading reading{threads, [&](std::size_t done, std::size_t total) {
+                                 EXPECT_EQ(total, infos.size());
+                                 counts.push_back(done);
+                             }};
+        ASSERT_TRUE(report::computeCurve(model, many, hasMax, hasPaper, error, reading)) << error;
+        ASSERT_EQ(many.size(), one.size());
+        for (std::size_t i = 0; i < one.size(); ++i) {
+            EXPECT_EQ(many[i].maxOfMax, one[i].maxOfMax) << i;
+            EXPECT_EQ(many[i].meanOfMax, one[i].meanOfMax) << i;
+            EXPECT_EQ(many[i].maxOfPaper, one[i].maxOfPaper) << i;
+            EXPECT_EQ(many[i].meanOfPaper, one[i].meanOfPaper) << i;
+        }
+        ASSERT_EQ(counts.size(), infos.size() + 1);  // 0, then one per block
+        for (std::size_t i = 0; i < counts.size(); ++i)
+            EXPECT_EQ(counts[i], i);
+    }
 }
 
 TEST_F(ReportTest, RiverComparison) {

@@ -323,6 +323,30 @@ TEST_F(StatsTest, MetricTheFileLacksRefusedByEveryCommand) {
     EXPECT_EQ(both.code, 0) << both.err;
 }
 
+// The blocks are read on --threads threads with a progress line on stderr (silent and on one
+// thread until 2026-12-03); the tables are the same for any number of threads, and -q silences
+// the progress.
+TEST_F(StatsTest, BlocksReadOnThreadsWithProgress) {
+    for (const std::string& table : {std::string(" --error 0,2,20"), std::string(" --csv")}) {
+        SCOPED_TRACE(table);
+        const Result one = run("stats " + q(model) + table + " --threads 1");
+        ASSERT_EQ(one.code, 0) << one.err;
+        EXPECT_NE(one.err.find("stats: reading blocks"), std::string::npos) << one.err;
+        // The fixture's flat grid (paper metric: no tree) draws every block at any distance and
+        // error: every block read, and counted.
+        EXPECT_NE(one.err.find("/" + std::to_string(blocks.size()) + "  100 %"), std::string::npos)
+            << one.err;
+        for (const char* threads : {"2", "5", "0"}) {
+            const Result many = run("stats " + q(model) + table + " --threads " + threads);
+            EXPECT_EQ(many.code, 0) << many.err;
+            EXPECT_EQ(many.out, one.out) << threads;
+        }
+        const Result quiet = run("stats " + q(model) + table + " -q");
+        EXPECT_EQ(quiet.out, one.out);
+        EXPECT_EQ(quiet.err, "");
+    }
+}
+
 TEST_F(StatsTest, UsageErrorsExitTwo) {
     for (const char* bad :
          {"--distance 0km", "--distance -5km", "--distance 10furlongs", "--distance km",

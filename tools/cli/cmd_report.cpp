@@ -99,7 +99,8 @@ void addReportCommand(CLI::App& app, int& exitCode) {
                     "rivers for the river comparison (default: the build's)");
     sub->add_flag("--no-rivers", c->noRivers, "skip the BAI vs plain 3D_DP river comparison");
     sub->add_option("--threads", c->o.threads,
-                    "river comparison: blocks ranked at once (default 0: every core, at most " +
+                    "blocks read (tables) and ranked (river comparison) at once (default 0: every "
+                    "core, at most " +
                         std::to_string(engine::WorkerPool::kMaxThreads) +
                         "); the report is the same for any number")
         ->transform(integerIn(0, engine::WorkerPool::kMaxThreads));

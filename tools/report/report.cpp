@@ -367,9 +367,12 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
     const std::string buildInfo = reader.header().buildInfo;
 
     say("tables 2/3");
-    if (!computeStats(o.path, o.stats, summary.table, error)) return false;
+    if (!computeStats(o.path, o.stats, summary.table, error, {o.threads, o.progressCount}))
+        return false;
     say("error vs retention curves");
-    if (!computeCurve(o.path, summary.curve, summary.hasMax, summary.hasPaper, error)) return false;
+    if (!computeCurve(o.path, summary.curve, summary.hasMax, summary.hasPaper, error,
+                      {o.threads, o.progressCount}))
+        return false;
     if (o.rivers) {
         say("rivers, BAI vs no BAI: reading the DEM and the rivers");
         if (!compareRivers(o, buildInfo, summary.rivers, error)) return false;

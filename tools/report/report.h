@@ -81,7 +81,8 @@ struct ReportOptions {
     std::string benchPath;  // camera path JSON (engine/capture.h); empty: a generated fly-over
     engine::DeviceOptions device;  // the benchmark's Vulkan device and validation
     std::string spirvDir;
-    std::size_t threads = 0;  // river comparison: blocks ranked at once (0: every core, <= 16)
+    std::size_t threads =
+        0;  // tables: blocks read, river comparison: ranked at once (0: every core, <= 16)
     std::function<void(const std::string&)> progress;         // one line per stage
     // Within a counted stage (the river comparison's blocks): done of total; called from one
     // thread at a time.
@@ -161,9 +162,11 @@ double directedHausdorff(const std::vector<XY>& a, const std::vector<XY>& b, int
 // Symmetric: max of both directions.
 double hausdorff2D(const std::vector<XY>& a, const std::vector<XY>& b, int samples = 64);
 
-// Error-vs-retention curve of one file (definitions above), 100 points.
+// Error-vs-retention curve of one file (definitions above), 100 points. The blocks are read on
+// `reading.threads` threads (the curve is the same for any number), `reading.progress` counting
+// them (stats.h StatsReading).
 bool computeCurve(const std::string& path, std::vector<CurvePoint>& curve, bool& hasMax,
-                  bool& hasPaper, std::string& error);
+                  bool& hasPaper, std::string& error, const StatsReading& reading = {});
 
 // Renders one grid diagram (RGBA8, size x size, title band on top) and counts what it drew.
 bool renderGrid(const std::string& path, const StatsOptions& stats, double distance,
