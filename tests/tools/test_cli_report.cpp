@@ -108,6 +108,65 @@ TEST_F(ReportTest, WritesEveryFile) {
         << "only the model and the report folder (no temporary folder left)";
 }
 
+TEST_F(ReportTest, OverwriteReplacesOnlyTheReportsOwnFiles) {
+    ASSERT_EQ(result.code, 0) << result.err;
+    // Every file of a whole report (rivers, grids, frame times) is its own: --overwrite may
+    // replace it (a file runReport writes under a name isReportFileName lacks would fail here,
+    // and an assertion in the sanitizer build).
+    const auto own = report::reportForeignPart(out);
+    std::size_t entries = 0;
+    for (const auto& e : fs::directory_iterator(out)) {
+        EXPECT_EQ(own(e), "") << e.path();
+        ++entries;
+    }
+    EXPECT_EQ(entries, 14u);
+    for (const char* name : {"grid_5km.png", "grid_0.25km.png", "grid_1e+06km.png", "tables.csv"})
+        EXPECT_TRUE(report::isReportFileName(name)) << name;
+    for (const char* name : {"grid_km.png", "grid_/../km.png", "notes.txt", "report", "..", ""})
+        EXPECT_FALSE(report::isReportFileName(name)) << name;
+
+    // A report.json placed by hand (or edited) does not make other files the report's: until
+    // 2026-12-08 a folder whose report.json listed "notes.txt" or "photos" lost them to
+    // `report --overwrite`.
+    const fs::path folder = fs::path(dir->file("handmade"));
+    fs::create_directories(folder / "photos");
+    fs::create_directories(folder / "tables.csv");  // a report's name, but a folder
+    std::ofstream(folder / "notes.txt") << "mine";
+    std::ofstream(folder / "photos" / "a.jpg") << "jpg";
+    std::ofstream(folder / "grid.csv") << "a report's file";
+    std::ofstream(folder / "report.json")
+        << R"({"source": "m.ulod", "files": ["notes.txt", "photos", "tables.csv", "grid.csv"]})";
+    std::set<std::string> foreign;
+    const auto handmade = report::reportForeignPart(folder.string());
+    for (const auto& e : fs::directory_iterator(folder)) {
+        const std::string name = handmade(e);
+        if (!name.empty()) foreign.insert(name);
+    }
+    EXPECT_EQ(foreign, (std::set<std::string>{"notes.txt", "photos", "tables.csv"}));
+    // Without a report.json of runReport's shape nothing is the report's, report.md included.
+    std::ofstream(folder / "report.json") << R"({"files": ["grid.csv"]})";
+    std::ofstream(folder / "report.md") << "# mine";
+    const auto noReport = report::reportForeignPart(folder.string());
+    EXPECT_EQ(noReport(fs::directory_entry(folder / "grid.csv")), "grid.csv");
+    EXPECT_EQ(noReport(fs::directory_entry(folder / "report.md")), "report.md");
+    // The command: refused, naming the file, nothing removed.
+    std::ofstream(folder / "report.json") << R"({"source": "m.ulod", "files": ["notes.txt"]})";
+    fs::remove_all(folder / "photos");
+    fs::remove_all(folder / "tables.csv");
+    const auto r = runCli("report -q " + q(model) + " -o " + q(folder.string()) +
+                              " --overwrite --no-rivers --distance 100km --image-size 64 "
+                              "--bench-frames 0",
+                          "ASAN_OPTIONS=detect_leaks=0");
+    EXPECT_EQ(r.code, 1);
+    // grid.csv is a report's name, but this report.json does not list it.
+    EXPECT_NE(r.err.find("holds 'grid.csv', 'notes.txt', not of a report: refusing to replace "
+                         "the folder"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(slurp((folder / "notes.txt").string()), "mine");
+    EXPECT_EQ(slurp((folder / "grid.csv").string()), "a report's file");
+}
+
 TEST_F(ReportTest, TablesEqualStats) {
     ASSERT_EQ(result.code, 0) << result.err;
     const auto stats = runCli("stats " + q(model) + " --csv --distance " + kDistances);

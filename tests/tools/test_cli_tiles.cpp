@@ -489,6 +489,30 @@ TEST_F(TilesTest, ErrorsLeaveNoFolder) {
     EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_TRUE(fs::exists(again + "/tileset.json"));
     EXPECT_FALSE(fs::exists(again + "/tiles/old.glb"));  // replaced whole
+    // Only a tileset of unilod's: a tiles/ folder holding other files, or another tool's
+    // tileset.json, is refused by name and left as it was (both were replaced until 2026-12-08).
+    std::ofstream(again + "/tiles/notes.txt") << "mine";
+    r = runCli("export -q " + q(model) + " --3dtiles " + q(again) + " --overwrite");
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find(again + ": holds 'tiles/notes.txt', not of a 3D Tiles tileset"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(test::slurp(again + "/tiles/notes.txt"), "mine");
+    fs::remove(again + "/tiles/notes.txt");
+    const std::string own = test::slurp(again + "/tileset.json");
+    json other = json::parse(own);
+    other["asset"]["generator"] = "another tool";
+    std::ofstream(again + "/tileset.json", std::ios::trunc) << other.dump();
+    r = runCli("export -q " + q(model) + " --3dtiles " + q(again) + " --overwrite");
+    EXPECT_EQ(r.code, 1);
+    EXPECT_NE(r.err.find(again + ": holds 'tileset.json', not of a 3D Tiles tileset"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(json::parse(test::slurp(again + "/tileset.json"))["asset"]["generator"],
+              "another tool");
+    std::ofstream(again + "/tileset.json", std::ios::trunc) << own;
+    r = runCli("export -q " + q(model) + " --3dtiles " + q(again) + " --overwrite");
+    EXPECT_EQ(r.code, 0) << r.err;
     r = runCli("export -q " + q(model) + " --3dtiles " + q(out) + " --s-srs NOT_A_CRS");
     EXPECT_EQ(r.code, 1);
     EXPECT_NE(r.err.find("NOT_A_CRS"), std::string::npos) << r.err;

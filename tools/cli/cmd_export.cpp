@@ -66,7 +66,7 @@ int runTileset(ExportCli& c) {
     if (!checkOutput(folder, OutputKind::Folder, error) ||
         (folder.overwrite &&
          !old.moveAside(folder.path, {.replace = false, .inputs = {c.o.path}, .inputParts = {}},
-                        exporter::kTilesetEntries, "a 3D Tiles tileset", error))) {
+                        exporter::tilesetForeignPart, "a 3D Tiles tileset", error))) {
         std::fprintf(stderr, "unilod export: error: %s\n", error.c_str());
         return 1;
     }

@@ -47,7 +47,7 @@ int run(ReportCli& c) {
     if (!checkOutput(c.output, OutputKind::Folder, error) ||
         (c.output.overwrite &&
          !old.moveAside(c.output.path, report::reportInputs(c.o),
-                        report::earlierReportEntries(c.output.path), "a report", error))) {
+                        report::reportForeignPart(c.output.path), "a report", error))) {
         std::fprintf(stderr, "unilod report: error: %s\n", error.c_str());
         return 1;
     }

@@ -109,7 +109,7 @@ ReplacedFolder::~ReplacedFolder() {
 }
 
 bool ReplacedFolder::moveAside(const std::string& path, const format::OutputOptions& inputs,
-                               const std::set<std::string>& earlier, const std::string& what,
+                               const ForeignPart& foreign, const std::string& what,
                                std::string& error) {
     struct stat st {};
     std::error_code ec;
@@ -136,21 +136,22 @@ bool ReplacedFolder::moveAside(const std::string& path, const format::OutputOpti
         }
     }
     // Only an earlier output of the command is replaced: every entry one it writes.
-    std::vector<std::string> foreign;
+    std::vector<std::string> foreignNames;
     for (const auto& entry : std::filesystem::directory_iterator(path, ec)) {
-        const std::string name = entry.path().filename().string();
-        if (earlier.count(name) == 0) foreign.push_back(name);
+        std::string name = foreign(entry);
+        if (!name.empty()) foreignNames.push_back(std::move(name));
     }
     if (ec) {
         error = path + ": cannot list the folder: " + ec.message();
         return false;
     }
-    if (!foreign.empty()) {
-        std::sort(foreign.begin(), foreign.end());
+    if (!foreignNames.empty()) {
+        std::sort(foreignNames.begin(), foreignNames.end());
         std::string names;
-        for (std::size_t i = 0; i < foreign.size() && i < 3; ++i)
-            names += (i == 0 ? "'" : ", '") + foreign[i] + "'";
-        if (foreign.size() > 3) names += " and " + std::to_string(foreign.size() - 3) + " more";
+        for (std::size_t i = 0; i < foreignNames.size() && i < 3; ++i)
+            names += (i == 0 ? "'" : ", '") + foreignNames[i] + "'";
+        if (foreignNames.size() > 3)
+            names += " and " + std::to_string(foreignNames.size() - 3) + " more";
         error = path + ": holds " + names + ", not of " + what +
                 ": refusing to replace the folder (--overwrite replaces " + what +
                 " written before; give a new or empty folder)";

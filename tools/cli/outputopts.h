@@ -20,7 +20,8 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
-#include <set>
+#include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -86,15 +87,22 @@ public:
     ReplacedFolder(const ReplacedFolder&) = delete;
     ReplacedFolder& operator=(const ReplacedFolder&) = delete;
 
+    // What of an existing folder is an earlier output of the command: for an entry of the
+    // folder, "" when the command wrote it, else the name to show (the entry's, or a part of it:
+    // "tiles/notes.txt"). Defined beside each writer (report.h reportForeignPart, tiles3d.h
+    // tilesetForeignPart), which knows its own names and marks.
+    using ForeignPart = std::function<std::string(const std::filesystem::directory_entry&)>;
+
     // Moves `path` aside when it is a non-empty folder. False with `error` when it cannot, when
     // one of `inputs` (the command's input files and their parts) is inside it (replacing the
-    // folder would remove the input), or when it holds an entry that `earlier` (the names the
-    // command's earlier output holds) does not list: --overwrite replaces an earlier output, never
-    // a folder of other files (`report m.ulod -o ~/Documents --overwrite` removed every document
-    // until 2026-12-03). `what` names that output in the message ("a report").
+    // folder would remove the input), or when `foreign` names any part of it: --overwrite
+    // replaces an earlier output, never a folder of other files (`report m.ulod -o ~/Documents
+    // --overwrite` removed every document until 2026-12-03; a report.json placed by hand that
+    // listed other files, or another tool's tileset.json beside a tiles/ folder, made them
+    // count as the output's until 2026-12-08). `what` names that output in the message ("a
+    // report").
     bool moveAside(const std::string& path, const format::OutputOptions& inputs,
-                   const std::set<std::string>& earlier, const std::string& what,
-                   std::string& error);
+                   const ForeignPart& foreign, const std::string& what, std::string& error);
     void keep();  // the new folder is in place: remove the old one
 
 private:

@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -622,7 +623,7 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
                                        header.maxZ - header.minZ);
     json tileset = {
         {"asset",
-         {{"version", "1.1"}, {"generator", "unilod export --3dtiles"}, {"tilesetVersion", "1"}}},
+         {{"version", "1.1"}, {"generator", kTilesetGenerator}, {"tilesetVersion", "1"}}},
         {"geometricError", std::max(diagonal, rootError)},
         {"root", std::move(root)},
         {"extras",
@@ -661,6 +662,34 @@ bool exportTileset(const TilesetOptions& options, TilesetSummary& summary, std::
     summary.longitude = geo.longitude();
     summary.latitude = geo.latitude();
     return folder.commit(error);
+}
+
+std::string tilesetForeignPart(const std::filesystem::directory_entry& entry) {
+    namespace fs = std::filesystem;
+    const std::string name = entry.path().filename().string();
+    std::error_code ec;
+    if (entry.is_symlink(ec)) return name;
+    if (name == "tileset.json" && entry.is_regular_file(ec)) {
+        std::ifstream in(entry.path(), std::ios::binary);
+        const json j = json::parse(in, nullptr, false);
+        const bool ours = j.is_object() && j.contains("asset") && j["asset"].is_object() &&
+                          j["asset"].contains("generator") &&
+                          j["asset"]["generator"] == kTilesetGenerator;
+        return ours ? "" : name;
+    }
+    if (name == "tiles" && entry.is_directory(ec)) {
+        std::vector<std::string> other;
+        for (const fs::directory_entry& tile : fs::directory_iterator(entry.path(), ec)) {
+            const std::string t = tile.path().filename().string();
+            std::error_code te;
+            const bool glb = t.size() > 4 && t.compare(t.size() - 4, 4, ".glb") == 0;
+            if (!glb || tile.is_symlink(te) || !tile.is_regular_file(te)) other.push_back(t);
+        }
+        if (ec) return name;  // unreadable: not known to be ours
+        if (other.empty()) return "";
+        return "tiles/" + *std::min_element(other.begin(), other.end());
+    }
+    return name;
 }
 
 }  // namespace unilod::exporter

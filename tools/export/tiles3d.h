@@ -49,7 +49,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
-#include <set>
+#include <filesystem>
 #include <string>
 
 namespace unilod::exporter {
@@ -82,9 +82,15 @@ struct TilesetSummary {
     std::size_t floatTiles = 0;       // --compress: tiles too large for 16-bit positions
 };
 
-// What a tileset folder holds: tileset.json and the tiles/ folder of the tiles' .glb files (what
-// `export --3dtiles --overwrite` may replace).
-inline const std::set<std::string> kTilesetEntries{"tileset.json", "tiles"};
+// The asset.generator of every tileset.json exportTileset writes: its mark on the folder.
+inline const std::string kTilesetGenerator = "unilod export --3dtiles";
+
+// What `export --3dtiles --overwrite` may replace (cli/outputopts.h ReplacedFolder): for an
+// entry of a folder, "" when an earlier export wrote it, else the name to show. A tileset folder
+// holds tileset.json (a regular file whose asset.generator is kTilesetGenerator: another tool's
+// tileset is not replaced) and tiles/ (a folder, not a link, of regular .glb files only: its
+// first other entry is named, as "tiles/NAME").
+std::string tilesetForeignPart(const std::filesystem::directory_entry& entry);
 
 // False with a message naming the file on a data error (no CRS and no --s-srs, a CRS GDAL cannot
 // transform to WGS84, an unreadable block); no output folder is left then.

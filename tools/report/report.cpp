@@ -2,11 +2,13 @@
 #include "report.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 
 #include "ingest.h"
@@ -33,6 +35,7 @@ const format::OutputOptions kInTempFolder{.replace = true, .inputs = {}, .inputP
 
 bool writeText(const fs::path& dir, const std::string& name, const std::string& text,
                ReportSummary& summary, std::string& error) {
+    assert(isReportFileName(name));  // what --overwrite may replace (reportForeignPart)
     if (!format::writeFileAtomically((dir / name).string(), text, kInTempFolder, error)) {
         return false;
     }
@@ -297,21 +300,46 @@ std::string gridName(double distance) {
 
 }  // namespace
 
-std::set<std::string> earlierReportEntries(const std::string& folder) {
+bool isReportFileName(const std::string& name) {
+    static const std::set<std::string> kNames{
+        "report.json", "report.md",   "tables.csv",    "tables.md",     "curves.csv",
+        "curves.svg",  "rivers.csv",  "rivers.md",     "grid.csv",      "frametime.png",
+        "frametime.csv"};
+    if (kNames.count(name) != 0) return true;
+    // gridName: "grid_" + a %g number + "km.png".
+    const std::string head = "grid_", tail = "km.png";
+    if (name.size() <= head.size() + tail.size() || name.rfind(head, 0) != 0 ||
+        name.compare(name.size() - tail.size(), tail.size(), tail) != 0)
+        return false;
+    const std::string number = name.substr(head.size(), name.size() - head.size() - tail.size());
+    return number.find_first_not_of("0123456789.e+-") == std::string::npos;
+}
+
+std::function<std::string(const fs::directory_entry&)> reportForeignPart(
+    const std::string& folder) {
+    std::set<std::string> ours;
     // A regular file of a report's size only (a FIFO would block the read).
-    const std::string path = folder + "/report.json";
+    const fs::path path = fs::path(folder) / "report.json";
     std::error_code ec;
-    if (!fs::is_regular_file(path, ec) || fs::file_size(path, ec) > (16u << 20) || ec) return {};
-    std::ifstream in(path, std::ios::binary);
-    const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
-    if (!j.is_object() || !j.contains("files") || !j["files"].is_array()) return {};
-    std::set<std::string> entries{"report.json", "report.md"};
-    for (const nlohmann::json& f : j["files"]) {
-        if (!f.is_string()) continue;
-        const std::string name = f.get<std::string>();
-        entries.insert(name.substr(0, name.find('/')));
+    if (fs::is_regular_file(fs::symlink_status(path, ec)) &&
+        fs::file_size(path, ec) <= (16u << 20) && !ec) {
+        std::ifstream in(path, std::ios::binary);
+        const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+        if (j.is_object() && j.contains("source") && j["source"].is_string() &&
+            j.contains("files") && j["files"].is_array()) {
+            ours = {"report.json", "report.md"};
+            for (const nlohmann::json& f : j["files"])
+                if (f.is_string() && isReportFileName(f.get<std::string>()))
+                    ours.insert(f.get<std::string>());
+        }
     }
-    return entries;
+    return [ours = std::move(ours)](const fs::directory_entry& entry) -> std::string {
+        std::string name = entry.path().filename().string();
+        std::error_code e;
+        if (ours.count(name) != 0 && entry.is_regular_file(e) && !entry.is_symlink(e))
+            return "";
+        return name;
+    };
 }
 
 format::OutputOptions reportInputs(const ReportOptions& o) {
@@ -398,6 +426,7 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
         if (!format::writePng((temp / g.file).string(), o.imageSize, o.imageSize, rgba,
                               kInTempFolder, error))
             return false;
+        assert(isReportFileName(g.file));
         summary.files.push_back(g.file);
         summary.grids.push_back(g);
     }
@@ -427,6 +456,7 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
         if (!format::writePng((temp / "frametime.png").string(), kPlotWidth, kPlotHeight, rgba,
                               kInTempFolder, error))
             return false;
+        assert(isReportFileName("frametime.png"));
         summary.files.push_back("frametime.png");
         if (!writeText(temp, "frametime.csv", frameTimesCsv(ft), summary, error)) return false;
     }

@@ -54,8 +54,8 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
 #include <functional>
-#include <set>
 #include <string>
 #include <vector>
 
@@ -132,10 +132,19 @@ struct ReportSummary {
     std::vector<std::string> files;  // written, relative to outDir
 };
 
-// The entries of `folder` an earlier report wrote: report.json, report.md and the files its
-// report.json lists (their first path component); none when it holds no readable report.json.
-// What `report --overwrite` may replace (cli/outputopts.h ReplacedFolder).
-std::set<std::string> earlierReportEntries(const std::string& folder);
+// Whether a report writes a file of this name (runReport writes no other): report.json,
+// report.md, tables.csv / .md, curves.csv / .svg, rivers.csv / .md, grid.csv,
+// frametime.png / .csv, grid_<km>km.png.
+bool isReportFileName(const std::string& name);
+
+// What `report --overwrite` may replace in `folder` (cli/outputopts.h ReplacedFolder): for an
+// entry of the folder, "" when an earlier report wrote it, else its name. An earlier report is
+// a readable report.json of runReport's (its "source" and "files"); its entries are report.json,
+// report.md and the files it lists, each a regular file (not a link, not a folder) whose name
+// is one a report writes (isReportFileName): a report.json placed by hand that lists other
+// files does not make them the report's. Without such a report.json every entry is foreign.
+std::function<std::string(const std::filesystem::directory_entry&)> reportForeignPart(
+    const std::string& folder);
 
 // Every file the report of `options` reads, for the output checks (format::OutputOptions, never
 // replaced; a replaced folder may not hold one): the .ulod file, the camera path, and the DEM and
