@@ -669,7 +669,11 @@ std::string tilesetForeignPart(const std::filesystem::directory_entry& entry) {
     const std::string name = entry.path().filename().string();
     std::error_code ec;
     if (entry.is_symlink(ec)) return name;
+    // A regular file of a tileset's size only (a FIFO would block the read; the largest model's
+    // tileset.json is some MB, a file of GBs would be parsed whole).
+    constexpr std::uintmax_t kMaxTilesetBytes = std::uintmax_t(256) << 20;
     if (name == "tileset.json" && entry.is_regular_file(ec)) {
+        if (entry.file_size(ec) > kMaxTilesetBytes || ec) return name;
         std::ifstream in(entry.path(), std::ios::binary);
         const json j = json::parse(in, nullptr, false);
         const bool ours = j.is_object() && j.contains("asset") && j["asset"].is_object() &&
