@@ -48,8 +48,8 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <functional>
 #include <filesystem>
+#include <functional>
 #include <string>
 
 namespace unilod::exporter {
