@@ -472,46 +472,44 @@ TEST_F(TilesTest, ErrorsLeaveNoFolder) {
     // --overwrite replaces an earlier tileset, never a folder holding anything else (here a
     // stray file: it was removed with the folder until 2026-12-03).
     const std::string again = dir->file("again");
+    const std::string overwrite =
+        "export -q " + q(model) + " --3dtiles " + q(again) + " --overwrite";
+    // --overwrite refused, naming `part`: exit 1.
+    const auto expectRefused = [&](const std::string& part) {
+        const auto refused = runCli(overwrite);
+        EXPECT_EQ(refused.code, 1);
+        EXPECT_NE(refused.err.find(again + ": holds '" + part + "', not of a 3D Tiles tileset"),
+                  std::string::npos)
+            << refused.err;
+    };
     fs::create_directory(again);
     std::ofstream(again + "/stray.txt") << "old";
-    r = runCli("export -q " + q(model) + " --3dtiles " + q(again) + " --overwrite");
-    EXPECT_EQ(r.code, 1);
-    EXPECT_NE(r.err.find(again + ": holds 'stray.txt', not of a 3D Tiles tileset"),
-              std::string::npos)
-        << r.err;
+    expectRefused("stray.txt");
     EXPECT_EQ(test::slurp(again + "/stray.txt"), "old");
     EXPECT_FALSE(fs::exists(again + "/tileset.json"));
     fs::remove(again + "/stray.txt");
     r = runCli("export -q " + q(model) + " --3dtiles " + q(again));
     EXPECT_EQ(r.code, 0) << r.err;
     std::ofstream(again + "/tiles/old.glb") << "old";  // a tile of the earlier tileset
-    r = runCli("export -q " + q(model) + " --3dtiles " + q(again) + " --overwrite");
+    r = runCli(overwrite);
     EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_TRUE(fs::exists(again + "/tileset.json"));
     EXPECT_FALSE(fs::exists(again + "/tiles/old.glb"));  // replaced whole
     // Only a tileset of unilod's: a tiles/ folder holding other files, or another tool's
     // tileset.json, is refused by name and left as it was (both were replaced until 2026-12-08).
     std::ofstream(again + "/tiles/notes.txt") << "mine";
-    r = runCli("export -q " + q(model) + " --3dtiles " + q(again) + " --overwrite");
-    EXPECT_EQ(r.code, 1);
-    EXPECT_NE(r.err.find(again + ": holds 'tiles/notes.txt', not of a 3D Tiles tileset"),
-              std::string::npos)
-        << r.err;
+    expectRefused("tiles/notes.txt");
     EXPECT_EQ(test::slurp(again + "/tiles/notes.txt"), "mine");
     fs::remove(again + "/tiles/notes.txt");
     const std::string own = test::slurp(again + "/tileset.json");
     json other = json::parse(own);
     other["asset"]["generator"] = "another tool";
     std::ofstream(again + "/tileset.json", std::ios::trunc) << other.dump();
-    r = runCli("export -q " + q(model) + " --3dtiles " + q(again) + " --overwrite");
-    EXPECT_EQ(r.code, 1);
-    EXPECT_NE(r.err.find(again + ": holds 'tileset.json', not of a 3D Tiles tileset"),
-              std::string::npos)
-        << r.err;
+    expectRefused("tileset.json");
     EXPECT_EQ(json::parse(test::slurp(again + "/tileset.json"))["asset"]["generator"],
               "another tool");
     std::ofstream(again + "/tileset.json", std::ios::trunc) << own;
-    r = runCli("export -q " + q(model) + " --3dtiles " + q(again) + " --overwrite");
+    r = runCli(overwrite);
     EXPECT_EQ(r.code, 0) << r.err;
     r = runCli("export -q " + q(model) + " --3dtiles " + q(out) + " --s-srs NOT_A_CRS");
     EXPECT_EQ(r.code, 1);
