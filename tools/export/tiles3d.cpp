@@ -683,11 +683,12 @@ std::string tilesetForeignPart(const std::filesystem::directory_entry& entry) {
     }
     if (name == "tiles" && entry.is_directory(ec)) {
         std::vector<std::string> other;
-        for (const fs::directory_entry& tile : fs::directory_iterator(entry.path(), ec)) {
-            const std::string t = tile.path().filename().string();
+        // Advanced with an error code: the range-for's increment throws on a read error.
+        for (fs::directory_iterator it(entry.path(), ec), end; !ec && it != end; it.increment(ec)) {
+            const std::string t = it->path().filename().string();
             std::error_code te;
             const bool glb = t.size() > 4 && t.compare(t.size() - 4, 4, ".glb") == 0;
-            if (!glb || tile.is_symlink(te) || !tile.is_regular_file(te)) other.push_back(t);
+            if (!glb || it->is_symlink(te) || !it->is_regular_file(te)) other.push_back(t);
         }
         if (ec) return name;  // unreadable: not known to be ours
         if (other.empty()) return "";
