@@ -137,8 +137,10 @@ bool ReplacedFolder::moveAside(const std::string& path, const format::OutputOpti
     }
     // Only an earlier output of the command is replaced: every entry one it writes.
     std::vector<std::string> foreignNames;
-    for (const auto& entry : std::filesystem::directory_iterator(path, ec)) {
-        std::string name = foreign(entry);
+    // Advanced with an error code: the range-for's increment throws on a read error.
+    for (std::filesystem::directory_iterator it(path, ec), end; !ec && it != end;
+         it.increment(ec)) {
+        std::string name = foreign(*it);
         if (!name.empty()) foreignNames.push_back(std::move(name));
     }
     if (ec) {
