@@ -33,13 +33,19 @@ std::string fmtU(std::uint64_t v) { return std::to_string(v); }
 // Inside the report's temporary folder (runReport): nothing else writes there.
 const format::OutputOptions kInTempFolder{.replace = true, .inputs = {}, .inputParts = {}};
 
+// Lists a file written into the report (report.json's "files"): only names isReportFileName
+// knows, what --overwrite may replace (reportForeignPart).
+void recordFile(ReportSummary& summary, const std::string& name) {
+    assert(isReportFileName(name));
+    summary.files.push_back(name);
+}
+
 bool writeText(const fs::path& dir, const std::string& name, const std::string& text,
                ReportSummary& summary, std::string& error) {
-    assert(isReportFileName(name));  // what --overwrite may replace (reportForeignPart)
     if (!format::writeFileAtomically((dir / name).string(), text, kInTempFolder, error)) {
         return false;
     }
-    summary.files.push_back(name);
+    recordFile(summary, name);
     return true;
 }
 
@@ -426,8 +432,7 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
         if (!format::writePng((temp / g.file).string(), o.imageSize, o.imageSize, rgba,
                               kInTempFolder, error))
             return false;
-        assert(isReportFileName(g.file));
-        summary.files.push_back(g.file);
+        recordFile(summary, g.file);
         summary.grids.push_back(g);
     }
 
@@ -456,8 +461,7 @@ bool runReport(const ReportOptions& o, ReportSummary& summary, std::string& erro
         if (!format::writePng((temp / "frametime.png").string(), kPlotWidth, kPlotHeight, rgba,
                               kInTempFolder, error))
             return false;
-        assert(isReportFileName("frametime.png"));
-        summary.files.push_back("frametime.png");
+        recordFile(summary, "frametime.png");
         if (!writeText(temp, "frametime.csv", frameTimesCsv(ft), summary, error)) return false;
     }
 
