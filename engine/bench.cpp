@@ -435,7 +435,9 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
             closeRenderer(r);
             if (!ok) return false;
         }
-        roundRatios.push_back(ratiosOf(medianOf(lod.frameMs), medianOf(resident.frameMs),
+        // A resident run made only for bare's draw lists is not reported: nor is its ratio.
+        const double residentMs = has("resident") ? medianOf(resident.frameMs) : 0.0;
+        roundRatios.push_back(ratiosOf(medianOf(lod.frameMs), residentMs,
                                        medianOf(bare.frameMs), medianOf(full.frameMs),
                                        medianOf(tin.frameMs)));
         pool(pooled[0], lod), pool(pooled[1], resident), pool(pooled[2], bare),
@@ -453,7 +455,8 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
                 " Vulkan validation message(s) (first: " + messages.front() + ")";
         return false;
     }
-    nlohmann::json ratios = ratiosOf(medianOf(pooled[0].frameMs), medianOf(pooled[1].frameMs),
+    nlohmann::json ratios = ratiosOf(medianOf(pooled[0].frameMs),
+                                     has("resident") ? medianOf(pooled[1].frameMs) : 0.0,
                                      medianOf(pooled[2].frameMs), medianOf(pooled[3].frameMs),
                                      medianOf(pooled[4].frameMs));
     out = {

@@ -566,6 +566,18 @@ TEST_F(Streaming, BenchRoundsPoolTheirFrames) {
         EXPECT_EQ(j["runs"][run]["warmup_frames"].get<int>(), 3) << run;
     }
     EXPECT_FALSE(j["runs"].contains("bare"));
+    // bare replays a resident run's draws; without `resident` in --runs that run is neither
+    // reported nor in a ratio.
+    const auto b = runCli("bench " + q(file_) +
+                          " --frames 2 --size 160x90 --runs lod,bare --rounds 2 --warmup 1 "
+                          "--warmup-ms 0 --json -");
+    ASSERT_EQ(b.code, 0) << b.err;
+    const nlohmann::json jb = nlohmann::json::parse(b.out);
+    EXPECT_FALSE(jb["runs"].contains("resident"));
+    EXPECT_TRUE(jb["ratios_of_median_frame_ms"].contains("lod_over_bare"));
+    EXPECT_FALSE(jb["ratios_of_median_frame_ms"].contains("resident_over_bare"));
+    for (const nlohmann::json& round : jb["round_ratios"])
+        EXPECT_FALSE(round.contains("resident_over_bare"));
     const auto bad = runCli("bench " + q(file_) + " --rounds 0");
     EXPECT_NE(bad.code, 0);
     EXPECT_NE(bad.err.find("--rounds"), std::string::npos) << bad.err;
