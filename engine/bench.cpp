@@ -371,6 +371,16 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
         return true;
     };
 
+    // The ratios of the runs reported (those --runs names): a resident run made only for
+    // bare's draw lists is not reported, nor is its ratio.
+    auto reportedRatios = [&](const RunData& lod, const RunData& resident, const RunData& bare,
+                              const RunData& full, const RunData& tin) {
+        auto ms = [&](const char* name, const RunData& r) {
+            return has(name) ? medianOf(r.frameMs) : 0.0;
+        };
+        return ratiosOf(ms("lod", lod), ms("resident", resident), ms("bare", bare),
+                        ms("full", full), ms("tin", tin));
+    };
     // Rounds (BenchOptions::rounds): the runs in the same order each round, pooled per run;
     // each round's own ratios are kept too.
     RunData pooled[5];  // lod, resident, bare, full, tin
@@ -435,11 +445,7 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
             closeRenderer(r);
             if (!ok) return false;
         }
-        // A resident run made only for bare's draw lists is not reported: nor is its ratio.
-        const double residentMs = has("resident") ? medianOf(resident.frameMs) : 0.0;
-        roundRatios.push_back(ratiosOf(medianOf(lod.frameMs), residentMs,
-                                       medianOf(bare.frameMs), medianOf(full.frameMs),
-                                       medianOf(tin.frameMs)));
+        roundRatios.push_back(reportedRatios(lod, resident, bare, full, tin));
         pool(pooled[0], lod), pool(pooled[1], resident), pool(pooled[2], bare),
             pool(pooled[3], full), pool(pooled[4], tin);
     }
@@ -455,10 +461,8 @@ bool runBench(const BenchOptions& o, nlohmann::json& out, std::string& error) {
                 " Vulkan validation message(s) (first: " + messages.front() + ")";
         return false;
     }
-    nlohmann::json ratios = ratiosOf(medianOf(pooled[0].frameMs),
-                                     has("resident") ? medianOf(pooled[1].frameMs) : 0.0,
-                                     medianOf(pooled[2].frameMs), medianOf(pooled[3].frameMs),
-                                     medianOf(pooled[4].frameMs));
+    nlohmann::json ratios =
+        reportedRatios(pooled[0], pooled[1], pooled[2], pooled[3], pooled[4]);
     out = {
         {"file", o.path},
         {"device", deviceName},
