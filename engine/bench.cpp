@@ -83,6 +83,34 @@ nlohmann::json ratiosOf(double lod, double resident, double bare, double full, d
     return ratios;
 }
 
+// A run's frame cost against its triangles drawn, least squares over its frames (a + b x): what
+// a triangle costs on this device, comparable between runs (our cut against the best known
+// method's meshes) where a ratio of medians moves with a noisy machine (MEASURED.md, forty-third
+// session). GPU time where every frame has it, else frame time; null with fewer than 3 frames or
+// one triangle count.
+nlohmann::json triangleCostFit(const RunData& r) {
+    const bool gpu = !r.gpuMs.empty() && r.gpuMs.size() == r.stats.size();
+    const std::vector<double>& ms = gpu ? r.gpuMs : r.frameMs;
+    const std::size_t n = std::min(ms.size(), r.stats.size());
+    if (n < 3) return nullptr;
+    double mx = 0, my = 0;
+    for (std::size_t i = 0; i < n; ++i)
+        mx += double(r.stats[i].triangles), my += ms[i];
+    mx /= double(n), my /= double(n);
+    double sxx = 0, sxy = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+        const double dx = double(r.stats[i].triangles) - mx;
+        sxx += dx * dx;
+        sxy += dx * (ms[i] - my);
+    }
+    if (!(sxx > 0)) return nullptr;
+    const double slope = sxy / sxx;
+    return {{"of", gpu ? "gpu_ms" : "frame_ms"},
+            {"intercept_ms", my - slope * mx},
+            {"ms_per_1000_triangles", slope * 1000.0},
+            {"frames", n}};
+}
+
 nlohmann::json runJson(const RunData& r, bool perFrame) {
     std::vector<double> triangles, resident, fallback, visible, refineMs, refined;
     std::uint64_t uploaded = 0, gpuUsed = 0, evictions = 0;
@@ -122,6 +150,7 @@ nlohmann::json runJson(const RunData& r, bool perFrame) {
         {"gpu_bytes_used_max", gpuUsed},
         {"gpu_budget", r.stats.empty() ? 0 : r.stats.back().gpuBudget},
         {"evictions", evictions},
+        {"triangle_cost_fit", triangleCostFit(r)},
     };
     if (!r.stats.empty()) {
         // The loader thread's reads during the run (compact blocks decode there, not in a frame).

@@ -467,6 +467,23 @@ TEST_F(Streaming, BenchEmitsEveryField) {
         for (const char* k : {"median", "p95", "p99"})
             EXPECT_GT(x["frame_ms"][k].get<double>(), 0.0) << run << " " << k;
         EXPECT_GT(x["triangles"]["mean"].get<double>(), 0.0) << run;
+        // The triangle cost fit: a least-squares line through the frames, so it passes through
+        // their means; null only where every frame drew the same number of triangles.
+        ASSERT_TRUE(x.contains("triangle_cost_fit")) << run;
+        const nlohmann::json& fit = x["triangle_cost_fit"];
+        if (x["triangles"]["min"].get<double>() < x["triangles"]["max"].get<double>()) {
+            ASSERT_TRUE(fit.is_object()) << run << " " << fit.dump();
+            EXPECT_EQ(fit["frames"].get<int>(), 10) << run;
+            const std::string of = fit["of"].get<std::string>();
+            ASSERT_TRUE(of == "gpu_ms" || of == "frame_ms") << of;
+            EXPECT_NEAR(fit["intercept_ms"].get<double>() +
+                            fit["ms_per_1000_triangles"].get<double>() *
+                                x["triangles"]["mean"].get<double>() / 1000.0,
+                        x[of]["mean"].get<double>(), 1e-6 * (1 + x[of]["mean"].get<double>()))
+                << run << " " << fit.dump();
+        } else {
+            EXPECT_TRUE(fit.is_null()) << run << " " << fit.dump();
+        }
         // The renderer's open; bare replays the resident run's draws in its renderer.
         if (std::string(run) == "bare")
             EXPECT_EQ(x["open_seconds"].get<double>(), 0.0);
